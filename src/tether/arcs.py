@@ -1,0 +1,386 @@
+"""Exact free orientation arcs of the rod at target points (``math.md`` §6), and the rod test.
+
+For a target ``p`` and rod length ``lss``, the rod at orientation ``a`` is the segment from ``p``
+to ``p + lss (cos a, sin a)``. Each edge ``Ei`` seen from its free side blocks the closed interval
+of orientations under which the disc of radius ``lss`` about ``p`` meets the edge; the free arcs
+are the gaps of the union of those intervals, each end labelled with the feature that bounds it:
+``E<i>`` (the observer end touches edge ``i``) or ``V<j>`` (the rod grazes reflex vertex ``j``).
+
+Feature codes: internally, edge ``i`` has code ``i`` and vertex ``j`` has code ``n + j``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from tether.environment import Environment
+from tether.errors import InvalidParameterError, OutsideFreeSpaceError
+from tether.tolerances import ANGLE_TOL
+
+TWO_PI = 2.0 * math.pi
+_GROUP = 16.0  # > 3*pi: offsets separating points' angle ranges in the merge
+
+
+def check_lss(lss: Any) -> float:
+    """Return ``lss`` as a float, or raise :class:`InvalidParameterError` if not finite and > 0."""
+    try:
+        val = float(lss)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"lss must be a number, got {lss!r}") from None
+    if not math.isfinite(val) or val <= 0:
+        raise InvalidParameterError(f"lss must be a finite length > 0, got {lss!r}")
+    return val
+
+
+def feature_name(env: Environment, code: int) -> str:
+    """Name of a feature code: ``E<i>`` for ``code < n``, else ``V<code - n>``."""
+    code = int(code)
+    return f"E{code}" if code < env.n else f"V{code - env.n}"
+
+
+def feature_code(env: Environment, name: str) -> int:
+    """Inverse of :func:`feature_name`."""
+    k = int(name[1:])
+    return k if name[0] == "E" else env.n + k
+
+
+@dataclass(frozen=True)
+class Arc:
+    """One free arc of orientations, CCW from ``start`` to ``end`` (radians in [0, 2pi))."""
+
+    start: float
+    end: float
+    start_feature: str
+    end_feature: str
+
+    @property
+    def length(self) -> float:
+        """Angular length in radians, in (0, 2pi)."""
+        return (self.end - self.start) % TWO_PI
+
+    def contains(self, a: float, tol: float = ANGLE_TOL) -> bool:
+        """Whether orientation ``a`` (radians) lies in the closed arc, up to ``tol``."""
+        return (a - self.start + tol) % TWO_PI <= self.length + 2 * tol
+
+    def to_dict(self) -> dict:
+        return {
+            "start": self.start,
+            "end": self.end,
+            "start_feature": self.start_feature,
+            "end_feature": self.end_feature,
+        }
+
+
+@dataclass(frozen=True)
+class FreeArcs:
+    """The free orientations at one target point.
+
+    ``full`` means no obstacle is within reach (the rod turns freely, ``arcs`` is empty); an
+    empty ``arcs`` with ``full`` false means no orientation is free.
+    """
+
+    point: tuple[float, float]
+    lss: float
+    full: bool
+    arcs: tuple[Arc, ...]
+
+    @property
+    def empty(self) -> bool:
+        """Whether no orientation is free."""
+        return not self.full and not self.arcs
+
+    @property
+    def structure(self) -> frozenset[tuple[str, str]] | str:
+        """The labelled structure: the set of ``(start_feature, end_feature)`` pairs, or
+        ``"FULL"`` / ``"EMPTY"``."""
+        if self.full:
+            return "FULL"
+        if not self.arcs:
+            return "EMPTY"
+        return frozenset((a.start_feature, a.end_feature) for a in self.arcs)
+
+    def contains(self, a: float) -> bool:
+        """Whether orientation ``a`` (radians) is free, up to the angle tolerance."""
+        return self.full or any(arc.contains(a) for arc in self.arcs)
+
+    def to_dict(self) -> dict:
+        return {
+            "point": list(self.point),
+            "lss": self.lss,
+            "full": self.full,
+            "arcs": [a.to_dict() for a in self.arcs],
+        }
+
+
+@dataclass(frozen=True)
+class ArcTable:
+    """Free arcs of many points at once, as flat arrays (the vectorized form).
+
+    Row ``k`` is an arc of point ``point[k]``: CCW from ``start[k]`` to ``end[k]`` (radians in
+    [0, 2pi)), bounded by features ``start_code[k]`` and ``end_code[k]``. Rows are sorted by point,
+    then by start. ``full[i]`` says point ``i`` has no obstacle within reach.
+    """
+
+    point: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    start_code: np.ndarray
+    end_code: np.ndarray
+    full: np.ndarray
+
+    def rows_of(self, i: int) -> slice:
+        """Rows of point ``i``."""
+        lo, hi = np.searchsorted(self.point, [i, i + 1])
+        return slice(int(lo), int(hi))
+
+
+def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str, np.ndarray]:
+    """Blocked orientation intervals ``B_i(p)`` for all edges within reach of each point.
+
+    Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
+    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in [0, pi)), ``cw_code`` and
+    ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    """
+    A, B, tag_a, tag_b = env.oriented_edges
+    pidx, eidx = env.edge_index(lss).query(pts)
+    p = pts[pidx]
+    a, d = A[eidx], B[eidx] - A[eidx]
+    w = a - p
+    dd = np.einsum("ij,ij->i", d, d)
+    side = d[:, 0] * (-w[:, 1]) - d[:, 1] * (-w[:, 0])  # cross(d, p - a): > 0 on the free side
+    b = np.einsum("ij,ij->i", d, w)
+    c = np.einsum("ij,ij->i", w, w) - lss * lss
+    disc = b * b - dd * c
+    ok = (side > env.length_tol * np.sqrt(dd)) & (disc > 0)
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    r1 = (-b - sq) / dd
+    r2 = (-b + sq) / dd
+    t1 = np.maximum(r1, 0.0)
+    t2 = np.minimum(r2, 1.0)
+    ok &= t1 < t2
+    k = np.flatnonzero(ok)
+    p1 = w[k] + t1[k, None] * d[k]
+    p2 = w[k] + t2[k, None] * d[k]
+    start = np.mod(np.arctan2(p1[:, 1], p1[:, 0]), TWO_PI)
+    length = np.arctan2(p1[:, 0] * p2[:, 1] - p1[:, 1] * p2[:, 0], np.einsum("ij,ij->i", p1, p2))
+    e = eidx[k]
+    return {
+        "point": pidx[k],
+        "edge": e,
+        "start": start,
+        "length": np.maximum(length, 0.0),
+        "cw_code": np.where(r1[k] <= 0, env.n + tag_a[e], e),
+        "ccw_code": np.where(r2[k] >= 1, env.n + tag_b[e], e),
+    }
+
+
+def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
+    """Free arcs = gaps of the union of the blocked intervals on each point's circle."""
+    order = np.lexsort((iv["start"], iv["point"]))
+    pt = iv["point"][order]
+    S = iv["start"][order]
+    E = S + iv["length"][order]
+    cw = iv["cw_code"][order]
+    ccw = iv["ccw_code"][order]
+    m = len(S)
+    full = np.ones(npts, dtype=bool)
+    full[pt] = False
+    if m == 0:
+        z = np.zeros(0)
+        zi = np.zeros(0, dtype=np.int64)
+        return ArcTable(zi, z, z, zi, zi, full)
+    # running arg-max of the interval ends within each point's run; the offset only separates
+    # the runs for the comparison, the values themselves are taken unshifted
+    key = E + pt * _GROUP
+    arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
+    M = E[arg]
+    new_run = np.r_[True, pt[1:] != pt[:-1]]
+    last = np.r_[new_run[1:], True]
+    first_of = np.flatnonzero(new_run)
+    last_of = np.flatnonzero(last)
+    grp = np.cumsum(new_run) - 1
+    # candidate gaps: after every row, to the next row's start (the last row: around the circle)
+    nxt = np.arange(1, m + 1)
+    nxt[last_of] = first_of
+    g_start = M.copy()
+    g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
+    s_code = ccw[arg]
+    e_code = cw[nxt]
+    # the largest end may wrap past 2pi and cover the beginning of the circle up to W
+    W = (M[last_of] - TWO_PI)[grp]
+    s_code = np.where(g_start < W, ccw[arg[last_of]][grp], s_code)
+    g_start = np.maximum(g_start, W)
+    k = np.flatnonzero(g_end - g_start > ANGLE_TOL)  # rows inside a component leave no gap
+    start = np.mod(g_start[k], TWO_PI)
+    end = np.mod(g_end[k], TWO_PI)
+    o = np.lexsort((start, pt[k]))
+    return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+
+
+def _as_points(points: Any) -> np.ndarray:
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim == 1:
+        pts = pts.reshape(1, -1)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise InvalidParameterError("points must have shape (m, 2)")
+    if not np.all(np.isfinite(pts)):
+        raise InvalidParameterError("points must be finite")
+    return pts
+
+
+def check_inside(env: Environment, pts: np.ndarray) -> None:
+    """Raise :class:`OutsideFreeSpaceError` unless every point is strictly inside the free
+    space (farther than the length tolerance from the boundary)."""
+    inside = env.contains(pts[:, 0], pts[:, 1])
+    inside &= env.boundary_distance(pts[:, 0], pts[:, 1]) > env.length_tol
+    if not np.all(inside):
+        i = int(np.flatnonzero(~inside)[0])
+        x, y = pts[i]
+        where = "on the boundary of" if env.contains(x, y) else "outside"
+        raise OutsideFreeSpaceError(f"target point ({x:.6g}, {y:.6g}) is {where} the free space")
+
+
+def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True) -> ArcTable:
+    """Exact free arcs at many target points, vectorized.
+
+    Parameters
+    ----------
+    env : Environment
+    points : array_like, shape (m, 2)
+        Target points strictly inside the free space, map units.
+    lss : float
+        Rod length, map units, > 0.
+    check : bool
+        Verify that every point is strictly inside the free space (skip only for points known
+        to be inside).
+
+    Returns
+    -------
+    ArcTable
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``lss`` is not a finite positive number or points are malformed.
+    OutsideFreeSpaceError
+        If a point is outside the free space or on its boundary.
+    """
+    lss = check_lss(lss)
+    pts = _as_points(points)
+    if check:
+        check_inside(env, pts)
+    return _merge(blocked_intervals(env, pts, lss), len(pts))
+
+
+def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:
+    """Exact free arcs at one target point; see :func:`free_arcs_many`.
+
+    Returns
+    -------
+    FreeArcs
+        The arcs sorted by start angle, each end labelled ``E<i>`` or ``V<j>``.
+    """
+    table = free_arcs_many(env, point, lss)
+    return table_entry(env, table, 0, tuple(map(float, _as_points(point)[0])), check_lss(lss))
+
+
+def table_entry(env: Environment, table: ArcTable, i: int, point: tuple[float, float],
+                lss: float) -> FreeArcs:
+    """The :class:`FreeArcs` of point ``i`` of an :class:`ArcTable`."""
+    rows = table.rows_of(i)
+    arcs = tuple(
+        Arc(float(s), float(e), feature_name(env, sc), feature_name(env, ec))
+        for s, e, sc, ec in zip(table.start[rows], table.end[rows],
+                                table.start_code[rows], table.end_code[rows], strict=True)
+    )
+    return FreeArcs(point, lss, bool(table.full[i]), arcs)
+
+
+# ---------------------------------------------------------------------- rod test
+def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> np.ndarray:
+    """Whether each rod ``[p, p + lss u(a)]`` lies in the closed free space (vectorized).
+
+    This test is independent of the arc computation: it intersects the rod segment with the
+    edges (a transversal crossing of an edge's interior before the tip blocks) and checks, at
+    every vertex the rod passes through or ends on, that the rod stays in the vertex's free cone.
+    Contact (tip on an edge, rod grazing a vertex) is free. Rods closer than the length tolerance
+    to a vertex count as passing through it.
+
+    Parameters
+    ----------
+    points : array_like, shape (m, 2)
+        Target points, map units. Points outside the closed free space give ``False``.
+    angles : array_like, shape (m,)
+        Rod orientations, radians.
+    lss : float
+        Rod length, map units.
+
+    Returns
+    -------
+    ndarray of bool, shape (m,)
+    """
+    lss = check_lss(lss)
+    pts = _as_points(points)
+    ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+    tol = env.length_tol
+    free = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool).copy()
+    A, B, tag_a, _ = env.oriented_edges
+    pidx, eidx = env.edge_index(lss).query(pts)
+    # cheap rejection first: an edge with both ends strictly on one side of the rod's line can
+    # neither cross it nor put its start vertex on it
+    ux, uy = np.cos(ang), np.sin(ang)
+    ux, uy = ux[pidx], uy[pidx]
+    px, py = pts[pidx, 0], pts[pidx, 1]
+    wx, wy = A[eidx, 0] - px, A[eidx, 1] - py
+    ca = ux * wy - uy * wx
+    cb = ux * (B[eidx, 1] - py) - uy * (B[eidx, 0] - px)
+    k = np.flatnonzero(~(((ca > tol) & (cb > tol)) | ((ca < -tol) & (cb < -tol))))
+    pidx, eidx, ca = pidx[k], eidx[k], ca[k]
+    u = np.column_stack((ux[k], uy[k]))
+    w = np.column_stack((wx[k], wy[k]))
+    e = B[eidx] - A[eidx]
+    # 1. transversal crossing of the open edge strictly before the tip
+    den = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
+    s_num = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]  # distance along the rod = s_num / den
+    elen = np.sqrt(np.einsum("ij,ij->i", e, e))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = s_num / den
+        t = -ca / den  # position on the edge
+    cross = (np.abs(den) > 1e-15) & (s > -tol) & (s < lss - tol)
+    cross &= (t * elen > tol) & ((1 - t) * elen > tol)
+    # 2. the rod through (or ending at) vertex A = start of this oriented edge
+    along = np.einsum("ij,ij->i", w, u)
+    at_v = (np.abs(ca) <= tol) & (along > tol) & (along <= lss + tol)
+    through = at_v & (along < lss - tol)
+    v = tag_a[eidx]
+    bad_v = at_v & ~_in_cone(env, v, -u)
+    bad_v |= through & ~_in_cone(env, v, u)
+    blocked = cross | bad_v
+    free[pidx[blocked]] = False
+    return free
+
+
+def _in_cone(env: Environment, v: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Whether unit directions ``x`` lie in the closed free cone at vertices ``v``."""
+    d_out, d_in = env.cone
+    do, di = d_out[v], d_in[v]
+    tol = ANGLE_TOL
+
+    def cr(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
+
+    turn = cr(do, di)
+    convex_in = (cr(do, x) >= -tol) & (cr(x, di) >= -tol)
+    reflex_in = ~((cr(di, x) > tol) & (cr(x, do) > tol))
+    straight_in = cr(do, x) >= -tol
+    return np.where(turn > tol, convex_in, np.where(turn < -tol, reflex_in, straight_in))
+
+
+def rod_is_free(env: Environment, point: Any, angle: float, lss: float) -> bool:
+    """Whether the rod from ``point`` at orientation ``angle`` (radians), of length ``lss``
+    (map units), lies in the closed free space. See :func:`rod_is_free_many`."""
+    return bool(rod_is_free_many(env, point, [angle], lss)[0])

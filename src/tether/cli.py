@@ -1,0 +1,147 @@
+"""The ``tether`` command. Thin: parses arguments, calls the library, prints.
+
+Every user error (bad map, bad parameter, target outside the free space) is printed as one line
+``tether: error: ...`` on stderr with exit status 2; no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from importlib import resources
+from pathlib import Path
+
+from tether.errors import TetherError
+
+EXIT_USAGE = 2
+
+
+def example_path(name: str) -> Path:
+    """Path of a bundled example map (``rectangle``, ``gallery``, ...)."""
+    return Path(str(resources.files("tether") / "examples" / f"{name}.json"))
+
+
+def _print_json(obj: object) -> None:
+    json.dump(obj, sys.stdout, indent=1, allow_nan=False)
+    sys.stdout.write("\n")
+
+
+def _deg(a: float) -> str:
+    return f"{math.degrees(a):7.2f}°"
+
+
+# ---------------------------------------------------------------------- commands
+def cmd_info(args: argparse.Namespace) -> int:
+    from tether.environment import load_map
+
+    env = load_map(args.map)
+    info = env.summary()
+    if args.json:
+        _print_json(info)
+        return 0
+    x0, y0, x1, y1 = info["bounding_box"]
+    print(f"map {info['name']!r}: {info['vertices']} vertices, {info['edges']} edges, "
+          f"{info['holes']} holes")
+    print(f"area {info['area']:.6g}, bounding box [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]")
+    reflex = info["reflex_vertices"]
+    print(f"reflex vertices ({len(reflex)}): {' '.join(reflex) if reflex else '-'}")
+    return 0
+
+
+def format_arcs(fa) -> str:
+    """Human-readable lines for a :class:`tether.arcs.FreeArcs`."""
+    head = f"at ({fa.point[0]:g}, {fa.point[1]:g}), lss {fa.lss:g}: "
+    if fa.full:
+        return head + "the rod turns freely (no obstacle within reach)"
+    if fa.empty:
+        return head + "no free orientation"
+    lines = [head + f"{len(fa.arcs)} free arc(s)"]
+    for a in fa.arcs:
+        lines.append(f"  [{a.start_feature:>4} -> {a.end_feature:<4}]  {_deg(a.start)} .. "
+                     f"{_deg(a.end)}  ({math.degrees(a.length):.2f}° wide)")
+    return "\n".join(lines)
+
+
+def cmd_arcs(args: argparse.Namespace) -> int:
+    from tether.arcs import free_arcs
+    from tether.environment import load_map
+
+    env = load_map(args.map)
+    fa = free_arcs(env, args.at, args.lss)
+    if args.json:
+        _print_json(fa.to_dict())
+    else:
+        print(format_arcs(fa))
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from tether.arcs import free_arcs
+    from tether.environment import load_map
+
+    env = load_map(example_path("gallery"))
+    info = env.summary()
+    print(f"== tether demo: the bundled map {info['name']!r} ==")
+    print(f"{info['vertices']} vertices, {info['holes']} holes, area {info['area']:.4g}, "
+          f"reflex: {' '.join(info['reflex_vertices'])}")
+    lss = 2.0
+    print(f"\nFree rod orientations (exact arcs) at a few target points, lss = {lss:g}:")
+    for p in [(2.0, 2.0), (9.0, 1.5), (7.4, 6.3), (14.0, 9.0)]:
+        print(format_arcs(free_arcs(env, p, lss)))
+    return 0
+
+
+# ---------------------------------------------------------------------- parser
+def _positive_float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="tether",
+        description="Keep a moving target in sight at a fixed distance inside a polygonal map.",
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def add(name: str, fn: Callable, help_: str) -> argparse.ArgumentParser:
+        sp = sub.add_parser(name, help=help_, description=help_)
+        sp.set_defaults(func=fn)
+        return sp
+
+    sp = add("demo", cmd_demo, "run the whole pipeline on the bundled examples")
+    sp.add_argument("--out", default="tether-demo", help="folder for the demo's figures")
+
+    sp = add("info", cmd_info, "summarize a map: vertices, edges, reflex vertices, area")
+    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("--json", action="store_true", help="print JSON")
+
+    sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
+    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("--lss", type=_positive_float, required=True, help="rod length (map units)")
+    sp.add_argument("--at", nargs=2, type=_positive_float, required=True, metavar=("X", "Y"),
+                    help="target point")
+    sp.add_argument("--json", action="store_true", help="print JSON")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``tether`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except TetherError as exc:
+        print(f"tether: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,22 @@
+"""Exception types of tether.
+
+Every error a user can cause (a bad map, a bad parameter, a target outside the free space)
+is raised as a subclass of :class:`TetherError`; the CLI prints its message on one line and
+exits with status 2.
+"""
+
+
+class TetherError(Exception):
+    """Base class of every error tether raises on purpose."""
+
+
+class InvalidMapError(TetherError, ValueError):
+    """The map file or polygon is malformed or geometrically invalid."""
+
+
+class InvalidParameterError(TetherError, ValueError):
+    """A numeric parameter is out of range or not finite (e.g. ``lss <= 0``, ``vo <= vt``)."""
+
+
+class OutsideFreeSpaceError(TetherError, ValueError):
+    """A target point lies outside the free space or on its boundary."""

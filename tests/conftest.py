@@ -1,0 +1,78 @@
+"""Shared maps and strategies for the tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import strategies as st
+
+from tether import Environment
+
+SQUARE_HOLE = Environment([[0, 0], [12, 0], [12, 12], [0, 12]], ([[4, 4], [4, 6], [6, 6], [6, 4]],),
+                          "square_hole")
+CONVEX = Environment([[0, 0], [10, 0], [13, 5], [8, 9], [1, 7]], (), "convex")
+L_SHAPE = Environment([[0, 0], [10, 0], [10, 4], [4, 4], [4, 10], [0, 10]], (), "L")
+
+
+def star(n: int = 7, r_out: float = 5.0, r_in: float = 2.2) -> np.ndarray:
+    t = np.linspace(0, 2 * math.pi, 2 * n, endpoint=False)
+    r = np.where(np.arange(2 * n) % 2 == 0, r_out, r_in)
+    return np.column_stack((r * np.cos(t), r * np.sin(t)))
+
+
+STAR_HOLE = Environment(star(), ([[-0.5, -0.5], [-0.5, 0.5], [0.5, 0.5], [0.5, -0.5]],),
+                        "star_hole")
+GENERIC = Environment(
+    [[0, 0], [9.3, 0.4], [11.1, 6.2], [7.4, 5.1], [6.2, 10.3], [0.6, 8.8], [2.1, 4.4]],
+    ([[3.1, 2.2], [4.9, 1.7], [4.2, 3.6]], [[8.0, 1.8], [9.1, 2.3], [8.7, 3.5], [7.6, 3.0]]),
+    "generic",
+)
+MAPS = [CONVEX, L_SHAPE, SQUARE_HOLE, STAR_HOLE, GENERIC]
+
+
+@pytest.fixture(params=MAPS, ids=lambda e: e.name)
+def any_map(request) -> Environment:
+    return request.param
+
+
+def interior_points(env: Environment, m: int, seed: int, margin: float = 1e-6) -> np.ndarray:
+    """``m`` uniform random points of the free space, farther than ``margin`` from its boundary."""
+    rng = np.random.default_rng(seed)
+    x0, y0, x1, y1 = env.bounds
+    out = np.zeros((0, 2))
+    while len(out) < m:
+        pts = rng.uniform([x0, y0], [x1, y1], size=(4 * m, 2))
+        ok = env.contains(pts[:, 0], pts[:, 1])
+        ok &= env.boundary_distance(pts[:, 0], pts[:, 1]) > margin
+        out = np.vstack((out, pts[ok]))
+    return out[:m]
+
+
+@st.composite
+def random_maps(draw) -> Environment:
+    """Random star-shaped boundary (always simple) with up to two convex holes inside it."""
+    k = draw(st.integers(4, 12))
+    gaps = draw(st.lists(st.floats(0.2, 1.0), min_size=k, max_size=k))
+    t = np.cumsum(gaps)
+    t = 2 * math.pi * t / t[-1]
+    r = np.array(draw(st.lists(st.floats(3.0, 10.0), min_size=k, max_size=k)))
+    boundary = np.column_stack((r * np.cos(t), r * np.sin(t)))
+    outer = Environment(boundary)
+    holes: list[np.ndarray] = []
+    for _ in range(draw(st.integers(0, 2))):
+        cx, cy = draw(st.floats(-2, 2)), draw(st.floats(-2, 2))
+        rad = draw(st.floats(0.3, 1.2))
+        m = draw(st.integers(3, 6))
+        rot = draw(st.floats(0, 2 * math.pi))
+        a = rot + np.linspace(0, 2 * math.pi, m, endpoint=False)
+        hole = np.column_stack((cx + rad * np.cos(a), cy + rad * np.sin(a)))
+        from shapely.geometry import Polygon
+
+        hp = Polygon(hole)
+        if outer.polygon.buffer(-0.05).contains(hp) and all(
+            hp.distance(Polygon(h)) > 0.05 for h in holes
+        ):
+            holes.append(hole)
+    return Environment(boundary, tuple(holes), "random")

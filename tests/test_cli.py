@@ -1,0 +1,60 @@
+"""The ``tether`` command: output shapes, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from tether.cli import example_path, main
+
+
+def run_json(capsys, argv):
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_info_json(capsys):
+    info = run_json(capsys, ["info", str(example_path("gallery")), "--json"])
+    assert info["vertices"] == 14 and info["holes"] == 2
+    assert info["area"] == pytest.approx(16 * 9 + 8 * 3 - 2 * 2 - 1 * 4)
+    assert "V4" in info["reflex_vertices"]
+
+
+def test_arcs_json_shape(capsys):
+    out = run_json(capsys, ["arcs", str(example_path("gallery")), "--lss", "2", "--at", "9",
+                            "1.5", "--json"])
+    assert out["point"] == [9.0, 1.5] and out["lss"] == 2.0 and out["full"] is False
+    (arc,) = out["arcs"]
+    assert arc["start_feature"] == "E0" and arc["end_feature"] == "E0"
+    # facing the floor at height 1.5 with a rod of 2: blocked span is 2*acos(1.5/2) wide
+    blocked = 2 * math.acos(0.75)
+    assert (arc["end"] - arc["start"]) % (2 * math.pi) == pytest.approx(2 * math.pi - blocked)
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["arcs", "GALLERY", "--lss", "0", "--at", "1", "1"], "lss must be a finite length > 0"),
+    (["arcs", "GALLERY", "--lss", "nan", "--at", "1", "1"], "lss must be a finite length > 0"),
+    (["arcs", "GALLERY", "--lss", "2", "--at", "6", "5"], "outside the free space"),
+    (["arcs", "GALLERY", "--lss", "2", "--at", "0", "3"], "on the boundary"),
+])
+def test_user_errors_exit_2_with_one_line(capsys, argv, message):
+    argv = [str(example_path("gallery")) if a == "GALLERY" else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tether: error: ") and err.count("\n") == 1 and message in err
+
+
+def test_demo_runs(capsys):
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "gallery" in out and "free arc" in out
+
+
+def test_console_script_usage_error_is_status_2():
+    proc = subprocess.run([sys.executable, "-m", "tether.cli", "arcs"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
