@@ -58,3 +58,40 @@ def test_console_script_usage_error_is_status_2():
     proc = subprocess.run([sys.executable, "-m", "tether.cli", "arcs"], capture_output=True,
                           text=True)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
+
+
+def test_bound_json(capsys):
+    out = run_json(capsys, ["bound", "--vt", "1", "--vo", "2", "--lss", "1", "--from", "0",
+                            "--to", str(math.pi / 2), "--json"])
+    assert set(out) == {"rotation_time", "distance_bound", "worst_case_time",
+                        "worst_case_distance"}
+    assert out["rotation_time"] == pytest.approx(1.31164147289295, abs=1e-12)
+    assert out["worst_case_time"] == pytest.approx(math.pi / 2)
+    assert out["distance_bound"] <= out["worst_case_distance"]
+
+
+@pytest.mark.parametrize("argv", [
+    ["bound", "--vt", "2", "--vo", "2", "--lss", "1", "--from", "0", "--to", "1"],
+    ["bound", "--vt", "1", "--vo", "2", "--lss", "0", "--from", "0", "--to", "1"],
+    ["bound", "--vt", "1", "--vo", "2", "--lss", "1", "--from", "nan", "--to", "1"],
+    ["plot-motion", "rotation", "--vt", "3", "--out", "never.png"],
+])
+def test_bound_errors(capsys, argv, tmp_path):
+    assert main(argv) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not (tmp_path / "never.png").exists()
+
+
+@pytest.mark.parametrize("kind", ["tractrix", "rotation", "wall", "vertex"])
+def test_plot_motion_writes_a_png(tmp_path, kind):
+    out = tmp_path / f"{kind}.png"
+    assert main(["plot-motion", kind, "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(tmp_path.glob("*.part*"))
+
+
+def test_bound_plot(tmp_path, capsys):
+    out = tmp_path / "b.png"
+    assert main(["bound", "--vt", "1", "--vo", "2", "--lss", "1", "--from", "0", "--to", "2",
+                 "--plot", str(out)]) == 0
+    assert out.stat().st_size > 1000
