@@ -350,8 +350,11 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     with np.errstate(divide="ignore", invalid="ignore"):
         s = s_num / den
         t = -ca / den  # position on the edge
-    cross = (np.abs(den) > 1e-15) & (s > -tol) & (s < lss - tol)
-    cross &= (t * elen > tol) & ((1 - t) * elen > tol)
+    inside_edge = (np.abs(den) > 1e-15) & (t * elen > tol) & ((1 - t) * elen > tol)
+    # a crossing at the target itself (a target within tol of the edge) blocks only if the rod
+    # heads into the obstacle (u·n < 0, i.e. den > 0); farther along, any crossing blocks
+    at_start = (np.abs(s) <= tol) & (den > 0)
+    cross = inside_edge & (((s > tol) & (s < lss - tol)) | at_start)
     # 2. the rod through (or ending at) vertex A = start of this oriented edge
     along = np.einsum("ij,ij->i", w, u)
     at_v = (np.abs(ca) <= tol) & (along > tol) & (along <= lss + tol)

@@ -1,0 +1,435 @@
+"""Critical curves (``math.md`` §7): exact parametric objects and their polyline approximation.
+
+The labelled free-arc structure of a target point changes only across these curves. Each is
+the locus of target points ``q`` whose *event rod* ``[q, q + lss u(a*)]`` touches features in a
+special way:
+
+====  ===============================  ===================================  ================
+kind  curve                            parameter                            event rod
+====  ===============================  ===================================  ================
+A     offset of edge ``Ei`` at lss     ``s`` in (0, 1) along the edge       tip on ``Ei``
+B     circle of radius lss about V_j   ``φ`` in [0, 2π), direction from V_j tip at ``V_j``
+C     extension of an edge through a   ``t`` in (0, lss], distance from V_j along the edge,
+      reflex vertex V_j                                                     grazes ``V_j``
+D     line through reflex V1, V2       ``t`` in (0, lss - |V1V2|], beyond   grazes both
+      (|V1V2| < lss), beyond V1        V1
+E     conchoid: pole reflex V_j, base  ``s`` along ``Ei`` where |V_j-Q|<lss grazes ``V_j``,
+      edge ``Ei``                                                           tip on ``Ei``
+====  ===============================  ===================================  ================
+
+A point of a candidate curve is critical iff its event rod is semi-free (in the closed free
+space). tether samples each candidate densely, keeps the runs of semi-free samples, pins each
+run's ends by bisection and then lets them overshoot by a small margin (an end of a critical
+part lies on another curve; overshooting only adds a dangling bit, undershooting would leave a
+gap between two regions). Including non-critical bits is harmless: faces with equal structure
+are merged later.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tether.arcs import rod_is_free_many
+from tether.environment import Environment
+from tether.tolerances import REL_CURVE_TOL
+
+KINDS = ("A", "B", "C", "D", "E")
+KIND_NAMES = {
+    "A": "edge offset",
+    "B": "vertex circle",
+    "C": "edge extension",
+    "D": "two reflex vertices",
+    "E": "conchoid",
+}
+_SAMPLES_PER_LSS = 96  # semi-free test samples per rod length of curve (at least 24 a curve)
+_BISECTIONS = 30
+
+
+@dataclass(frozen=True, eq=False)
+class Family:
+    """All candidate curves of one kind, as arrays (vectorized evaluation).
+
+    ``p`` and ``d`` hold per-curve points and vectors whose meaning depends on the kind (see
+    :meth:`points`); ``lo``/``hi`` the parameter domain; ``features`` the defining features.
+    """
+
+    kind: str
+    lss: float
+    p: np.ndarray
+    d: np.ndarray
+    w: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    features: list[tuple[str, ...]]
+
+    def __len__(self) -> int:
+        return len(self.lo)
+
+    def points(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Points ``q(t)`` of curves ``c`` (arrays of equal length), map units."""
+        L = self.lss
+        if self.kind == "A":  # p = A + L n, d = B - A
+            return self.p[c] + t[:, None] * self.d[c]
+        if self.kind == "B":  # p = vertex
+            return self.p[c] + L * np.column_stack((np.cos(t), np.sin(t)))
+        if self.kind in "CD":  # p = ray origin (vertex), d = unit direction away from it
+            return self.p[c] + t[:, None] * self.d[c]
+        # E: p = pole, w = edge start, d = edge vector
+        Q = self.w[c] + t[:, None] * self.d[c]
+        r = self.p[c] - Q
+        return Q + L * r / np.linalg.norm(r, axis=1)[:, None]
+
+    def rod_angles(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Orientations ``a*`` of the event rods at ``q(t)``, radians."""
+        if self.kind == "A":  # toward the edge: -n
+            n = self.w[c]
+            return np.arctan2(-n[:, 1], -n[:, 0])
+        if self.kind == "B":
+            return t + math.pi
+        if self.kind in "CD":
+            d = self.d[c]
+            return np.arctan2(-d[:, 1], -d[:, 0])
+        Q = self.w[c] + t[:, None] * self.d[c]
+        r = Q - self.p[c]
+        return np.arctan2(r[:, 1], r[:, 0])
+
+    def length_scale(self, c: np.ndarray) -> np.ndarray:
+        """Rough length of each curve's domain, map units (for sample counts)."""
+        span = self.hi[c] - self.lo[c]
+        if self.kind == "A":
+            return span * np.linalg.norm(self.d[c], axis=1)
+        if self.kind == "B":
+            return span * self.lss
+        if self.kind in "CD":
+            return span
+        return np.full(len(c), 2.0 * self.lss)
+
+
+@dataclass(frozen=True, eq=False)
+class Curve:
+    """One candidate critical curve and its critical part.
+
+    ``intervals`` are the parameter intervals where the event rod is semi-free (slightly
+    overshooting, see the module notes); ``polylines`` approximate the curve over each interval
+    within ``tol`` map units.
+    """
+
+    id: int
+    kind: str
+    features: tuple[str, ...]
+    domain: tuple[float, float]
+    intervals: tuple[tuple[float, float], ...]
+    polylines: tuple[np.ndarray, ...] = field(repr=False)
+    params: tuple[np.ndarray, ...] = field(repr=False)
+    family: Family = field(repr=False)
+    index: int = field(repr=False)
+
+    @property
+    def name(self) -> str:
+        """E.g. ``"C(V6,E5)"``."""
+        return f"{self.kind}({','.join(self.features)})"
+
+    def point(self, t: float) -> np.ndarray:
+        """Exact point at parameter ``t``."""
+        return self.family.points(np.array([self.index]), np.array([float(t)]))[0]
+
+    def rod_angle(self, t: float) -> float:
+        """Exact event rod orientation at parameter ``t``, radians."""
+        return float(self.family.rod_angles(np.array([self.index]), np.array([float(t)]))[0])
+
+    def project(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """Nearest point of the critical part to ``q``: ``(t, point, unit normal)``, exact."""
+        from scipy.optimize import minimize_scalar
+
+        fam, c = self.family, self.index
+        if self.kind in "ACD":  # a straight line: q(t) = p + t d
+            d = fam.d[c]
+            t = float((q - fam.p[c]) @ d / (d @ d))
+            n = np.array([-d[1], d[0]]) / math.hypot(d[0], d[1])
+            return t, fam.p[c] + t * d, n
+        if self.kind == "B":
+            r = q - fam.p[c]
+            t = math.atan2(r[1], r[0])
+            u = np.array([math.cos(t), math.sin(t)])
+            return t, fam.p[c] + fam.lss * u, u
+        best = None
+        for ts, pts in zip(self.params, self.polylines, strict=True):
+            k = int(np.argmin(np.hypot(*(pts - q).T)))
+            lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, len(ts) - 1)]
+            if hi > lo:
+                res = minimize_scalar(lambda t: float(np.sum((self.point(t) - q) ** 2)),
+                                      bounds=(lo, hi), method="bounded",
+                                      options={"xatol": 1e-14 * max(1.0, abs(hi))})
+                t = float(res.x)
+            else:
+                t = float(ts[k])
+            d = float(np.hypot(*(self.point(t) - q)))
+            if best is None or d < best[0]:
+                best = (d, t)
+        t = best[1]
+        h = 1e-7 * max(1.0, abs(t))
+        tangent = self.point(t + h) - self.point(t - h)
+        while np.hypot(*tangent) == 0 and h < 1e-2:
+            h *= 10
+            tangent = self.point(t + h) - self.point(t - h)
+        tangent /= max(np.hypot(*tangent), 1e-300)
+        return t, self.point(t), np.array([-tangent[1], tangent[0]])
+
+    def to_dict(self) -> dict:
+        return {
+            "id": self.id,
+            "type": self.kind,
+            "type_name": KIND_NAMES[self.kind],
+            "features": list(self.features),
+            "domain": list(self.domain),
+            "critical_intervals": [list(iv) for iv in self.intervals],
+        }
+
+
+# ---------------------------------------------------------------------- candidates
+def _family_a(env: Environment, L: float) -> Family:
+    A, B, _, _ = env.oriented_edges
+    n = env.free_normals
+    m = env.n
+    return Family("A", L, A + L * n, B - A, n, np.zeros(m), np.ones(m),
+                  [(f"E{i}",) for i in range(m)])
+
+
+def _family_b(env: Environment, L: float) -> Family:
+    m = env.n
+    z = np.zeros((m, 2))
+    return Family("B", L, env.vertices.copy(), z, z, np.zeros(m), np.full(m, 2 * math.pi),
+                  [(f"V{j}",) for j in range(m)])
+
+
+def _family_c(env: Environment, L: float) -> Family:
+    V = env.vertices
+    p, d, feats = [], [], []
+    for j in env.reflex_indices:
+        for k, edge in ((env.next_vertex[j], j), (env.prev_vertex[j], env.prev_vertex[j])):
+            u = V[j] - V[k]
+            p.append(V[j])
+            d.append(u / np.linalg.norm(u))
+            feats.append((f"V{j}", f"E{edge}"))
+    m = len(p)
+    p_ = np.array(p).reshape(m, 2)
+    d_ = np.array(d).reshape(m, 2)
+    return Family("C", L, p_, d_, np.zeros((m, 2)), np.zeros(m), np.full(m, L), feats)
+
+
+def _family_d(env: Environment, L: float) -> Family:
+    V = env.vertices
+    R = env.reflex_indices
+    p, d, hi, feats = [], [], [], []
+    if len(R) > 1:
+        diff = V[R][:, None, :] - V[R][None, :, :]
+        dist = np.linalg.norm(diff, axis=2)
+        i1, i2 = np.nonzero((dist < L) & (dist > 0))
+        for a, b in zip(i1, i2, strict=True):
+            v1, v2 = R[a], R[b]
+            if env.next_vertex[v1] == v2 or env.next_vertex[v2] == v1:
+                continue  # adjacent: that line is an edge, its extension is type C
+            p.append(V[v1])
+            d.append(diff[a, b] / dist[a, b])
+            hi.append(L - dist[a, b])
+            feats.append((f"V{v1}", f"V{v2}"))
+    m = len(p)
+    return Family("D", L, np.array(p).reshape(m, 2), np.array(d).reshape(m, 2),
+                  np.zeros((m, 2)), np.zeros(m), np.array(hi, dtype=float), feats)
+
+
+def _family_e(env: Environment, L: float) -> Family:
+    A, B, tag_a, tag_b = env.oriented_edges
+    R = env.reflex_indices
+    V = env.vertices
+    p, w, d, lo, hi, feats = [], [], [], [], [], []
+    if len(R):
+        pidx, eidx = env.edge_index(L).query(V[R])
+        for k, i in zip(pidx, eidx, strict=True):
+            j = R[k]
+            if j in (tag_a[i], tag_b[i]):
+                continue
+            a, e = A[i], B[i] - A[i]
+            rel = V[j] - a
+            if e[0] * rel[1] - e[1] * rel[0] <= env.length_tol * np.linalg.norm(e):
+                continue  # pole not strictly on the free side of the base edge
+            # |V - (a + s e)| < L  <=>  s in (r1, r2)
+            ee = e @ e
+            b = e @ rel
+            disc = b * b - ee * (rel @ rel - L * L)
+            if disc <= 0:
+                continue
+            sq = math.sqrt(disc)
+            s0, s1 = max(0.0, (b - sq) / ee), min(1.0, (b + sq) / ee)
+            if s1 - s0 <= 1e-12:
+                continue
+            p.append(V[j])
+            w.append(a)
+            d.append(e)
+            lo.append(s0)
+            hi.append(s1)
+            feats.append((f"V{j}", f"E{i}"))
+    m = len(p)
+    return Family("E", L, np.array(p).reshape(m, 2), np.array(d).reshape(m, 2),
+                  np.array(w).reshape(m, 2), np.array(lo, dtype=float),
+                  np.array(hi, dtype=float), feats)
+
+
+def candidate_families(env: Environment, lss: float) -> list[Family]:
+    """All candidate curves of the five kinds for rod length ``lss`` (map units)."""
+    return [_family_a(env, lss), _family_b(env, lss), _family_c(env, lss),
+            _family_d(env, lss), _family_e(env, lss)]
+
+
+# ---------------------------------------------------------------------- critical parts
+def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float, float]]]:
+    """Parameter intervals of each curve where its event rod is semi-free."""
+    m = len(fam)
+    out: list[list[tuple[float, float]]] = [[] for _ in range(m)]
+    if m == 0:
+        return out
+    L = fam.lss
+    cidx = np.arange(m)
+    counts = np.maximum(24, np.ceil(fam.length_scale(cidx) / L * _SAMPLES_PER_LSS)).astype(int)
+    c = np.repeat(cidx, counts)
+    first = np.cumsum(counts) - counts
+    k = np.arange(len(c)) - np.repeat(first, counts)
+    frac = k / np.repeat(counts - 1, counts)
+    t = fam.lo[c] + frac * (fam.hi[c] - fam.lo[c])
+    if fam.kind in "CDE":  # open ends at the vertex / domain ends: sample just inside
+        eps = 1e-9 * (fam.hi[c] - fam.lo[c])
+        t = np.clip(t, fam.lo[c] + eps, fam.hi[c] - eps)
+    free = rod_is_free_many(env, fam.points(c, t), fam.rod_angles(c, t), L)
+    # transitions between consecutive samples of the same curve: pin them by bisection
+    same = c[1:] == c[:-1]
+    trans = np.flatnonzero(same & (free[1:] != free[:-1]))
+    ta, tb = t[trans].copy(), t[trans + 1].copy()
+    fa = free[trans]
+    ct = c[trans]
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (ta + tb)
+        fm = rod_is_free_many(env, fam.points(ct, mid), fam.rod_angles(ct, mid), L)
+        move_a = fm == fa
+        ta = np.where(move_a, mid, ta)
+        tb = np.where(move_a, tb, mid)
+    edge_t = np.where(fa, ta, tb)  # the last free parameter at each transition
+    # walk each curve's samples and cut runs of free samples
+    bounds = {int(i): float(v) for i, v in zip(trans, edge_t, strict=True)}
+    run_start = None
+    for r in range(len(c)):
+        cr = int(c[r])
+        if r == first[cr]:
+            run_start = None
+        if free[r] and run_start is None:
+            run_start = fam.lo[cr] if r == first[cr] else bounds[r - 1]
+        last_of_curve = r == first[cr] + counts[cr] - 1
+        if run_start is not None and (last_of_curve or not free[r + 1]):
+            end = fam.hi[cr] if last_of_curve else bounds[r]
+            out[cr].append((float(run_start), float(end)))
+            run_start = None
+    if fam.kind == "B":  # the circle is closed: join a run through angle 0
+        for ivs in out:
+            if len(ivs) > 1 and ivs[0][0] == fam.lo[0] and ivs[-1][1] == fam.hi[0]:
+                ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
+                ivs.pop()
+    return out
+
+
+def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
+               ) -> tuple[float, float]:
+    """Extend an interval by about ``margin`` map units at ends that are not domain ends
+    where the curve meets the boundary (C and D at the vertex, E at the pole)."""
+    lo, hi = iv
+    if fam.kind == "B":
+        if hi - lo >= 2 * math.pi - 1e-12:
+            return lo, hi
+        dt = margin / fam.lss
+        return lo - dt, hi + dt
+    speed = fam.length_scale(np.array([c]))[0] / max(fam.hi[c] - fam.lo[c], 1e-300)
+    if fam.kind == "E":
+        q = fam.points(np.array([c, c]), np.array([fam.lo[c], fam.hi[c]]))
+        speed = max(speed, np.linalg.norm(q[1] - q[0]) / max(fam.hi[c] - fam.lo[c], 1e-300))
+    dt = margin / max(speed, 1e-300)
+    if fam.kind in "CD":  # t = 0 is the vertex itself, on the boundary: never extend below
+        return max(lo - dt, 0.0), hi + dt
+    if fam.kind == "E":  # never beyond the pole (the curve ends there, on the boundary)
+        lo = lo if lo <= fam.lo[c] and _pole_end(fam, c, fam.lo[c]) else lo - dt
+        hi = hi if hi >= fam.hi[c] and _pole_end(fam, c, fam.hi[c]) else hi + dt
+        return lo, hi
+    return lo - dt, hi + dt
+
+
+def _polyline(fam: Family, c: int, lo: float, hi: float, tol: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters and points along curve ``c`` from ``lo`` to ``hi``, chord deviation below
+    ``tol``."""
+    if fam.kind in "ACD":
+        ts = np.array([lo, hi])
+        return ts, fam.points(np.array([c, c]), ts)
+    if fam.kind == "B":
+        step = math.sqrt(8.0 * tol / fam.lss)
+        n = max(2, math.ceil((hi - lo) / step) + 1)
+        ts = np.linspace(lo, hi, n)
+        return ts, fam.points(np.full(n, c), ts)
+    ts = np.linspace(lo, hi, 17)
+    for _ in range(24):
+        cc = np.full(len(ts), c)
+        pts = fam.points(cc, ts)
+        mid_t = 0.5 * (ts[1:] + ts[:-1])
+        mid = fam.points(cc[1:], mid_t)
+        a, b = pts[:-1], pts[1:]
+        ab = b - a
+        lab = np.maximum(np.linalg.norm(ab, axis=1), 1e-300)
+        dev = np.abs(ab[:, 0] * (mid[:, 1] - a[:, 1]) - ab[:, 1] * (mid[:, 0] - a[:, 0])) / lab
+        split = dev > tol
+        if not split.any():
+            break
+        ts = np.sort(np.concatenate((ts, mid_t[split])))
+    pts = fam.points(np.full(len(ts), c), ts)
+    if fam.kind == "E" and hi == fam.hi[c] and _pole_end(fam, c, hi):
+        pts[-1] = fam.p[c]
+    if fam.kind == "E" and lo == fam.lo[c] and _pole_end(fam, c, lo):
+        pts[0] = fam.p[c]
+    return ts, pts
+
+
+def _pole_end(fam: Family, c: int, t: float) -> bool:
+    """Whether a conchoid's domain end ``t`` is where it reaches its pole (|V - Q| = lss)."""
+    Q = fam.w[c] + t * fam.d[c]
+    return abs(np.linalg.norm(fam.p[c] - Q) - fam.lss) <= 1e-9 * fam.lss
+
+
+def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
+                    ) -> list[Curve]:
+    """All candidate curves with a critical part, each with its polylines.
+
+    Parameters
+    ----------
+    env : Environment
+    lss : float
+        Rod length, map units.
+    rel_tol : float
+        Polyline approximation tolerance relative to the map diameter.
+
+    Returns
+    -------
+    list of Curve
+        In the order A, B, C, D, E, then by feature; curves with no critical part are dropped.
+    """
+    tol = rel_tol * env.diameter
+    margin = 20 * tol
+    curves: list[Curve] = []
+    for fam in candidate_families(env, lss):
+        for c, ivs in enumerate(_critical_intervals(env, fam)):
+            if not ivs:
+                continue
+            ivs = [_overshoot(fam, c, iv, margin) for iv in ivs]
+            drawn = [_polyline(fam, c, lo, hi, tol) for lo, hi in ivs]
+            curves.append(Curve(len(curves), fam.kind, fam.features[c],
+                                (float(fam.lo[c]), float(fam.hi[c])),
+                                tuple((float(a), float(b)) for a, b in ivs),
+                                tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
+    return curves

@@ -1,0 +1,653 @@
+"""The cell decomposition (``math.md`` §8): regions, cells and boundary pieces, point location.
+
+Regions are the maximal connected open sets of target positions over which the labelled
+free-arc structure stays the same. They are computed from the arrangement of the critical
+curves, never from a grid: the curves' polylines and the map's rings are noded and polygonized
+(shapely) into faces; each face's structure is evaluated exactly at a point well inside it;
+faces adjacent across a curve piece with equal structure are merged. Sampling is how
+:func:`check` verifies the result.
+
+Tolerances: curves are drawn within ``curve_tol = REL_CURVE_TOL * diameter`` of their exact
+shape. A face whose inscribed circle is smaller than ``2 * curve_tol`` is below that resolution:
+it gets no structure of its own and joins the neighbour it shares most boundary with.
+A target passing exactly through an arrangement vertex is not modelled (``math.md`` §8).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, MultiLineString, Polygon
+
+from tether.arcs import (
+    TWO_PI,
+    ArcTable,
+    check_lss,
+    feature_code,
+    feature_name,
+    free_arcs_many,
+)
+from tether.curves import KIND_NAMES, Curve, critical_curves
+from tether.environment import Environment
+from tether.tolerances import REL_CURVE_TOL
+
+Structure = Any  # frozenset of (start_code, end_code) pairs, or "FULL" / "EMPTY"
+FREE = "*"  # feature name of both ends of the single cell of a FULL region
+
+
+def structures(env: Environment, table: ArcTable, npts: int) -> list[Structure]:
+    """Structure key of each point of an :class:`ArcTable`: a frozenset of
+    ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``."""
+    out: list[Structure] = ["EMPTY"] * npts
+    for i in np.flatnonzero(table.full):
+        out[i] = "FULL"
+    groups: dict[int, list] = {}
+    for p, s, e in zip(table.point.tolist(), table.start_code.tolist(), table.end_code.tolist(),
+                       strict=True):
+        groups.setdefault(p, []).append((s, e))
+    for p, pairs in groups.items():
+        out[p] = frozenset(pairs)
+    return out
+
+
+def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
+    """The cells' ``(start_feature, end_feature)`` names of a structure, sorted."""
+    if s == "FULL":
+        return [(FREE, FREE)]
+    if s == "EMPTY":
+        return []
+    return sorted((feature_name(env, a), feature_name(env, b)) for a, b in s)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A connected component of free rod orientations above a region: ``(R, start, end)``."""
+
+    id: str
+    region: int
+    start_feature: str
+    end_feature: str
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "region": f"R{self.region}",
+                "start_feature": self.start_feature, "end_feature": self.end_feature}
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """A noncritical region: polygon, area, a representative interior point, its structure."""
+
+    id: int
+    polygon: Any = field(repr=False)
+    area: float
+    point: tuple[float, float]
+    structure: Structure = field(repr=False)
+    cells: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        return f"R{self.id}"
+
+    def to_dict(self) -> dict:
+        return {"id": self.name, "area": self.area, "point": list(self.point),
+                "cells": list(self.cells)}
+
+
+@dataclass(frozen=True, eq=False)
+class Piece:
+    """A maximal stretch of critical curve separating two regions (``math.md`` §8).
+
+    ``sample`` is a point of the piece, ``normal`` the unit normal there pointing into
+    ``regions[0]``, ``eps`` an offset small enough that ``sample ± eps * normal`` lie in the two
+    regions (and on the right sides of the exact curve).
+    """
+
+    id: int
+    regions: tuple[int, int]
+    curves: tuple[int, ...]
+    kind: str
+    features: tuple[str, ...]
+    geometry: Any = field(repr=False)
+    sample: tuple[float, float]
+    normal: tuple[float, float]
+    eps: float
+
+    @property
+    def name(self) -> str:
+        return f"P{self.id}"
+
+    @property
+    def length(self) -> float:
+        return float(self.geometry.length)
+
+    def to_dict(self) -> dict:
+        return {"id": self.name, "regions": [f"R{r}" for r in self.regions],
+                "type": self.kind, "features": list(self.features), "length": self.length,
+                "point": list(self.sample)}
+
+
+@dataclass(frozen=True, eq=False)
+class Decomposition:
+    """The result of :func:`decompose`: curves, regions, cells, pieces and point location."""
+
+    env: Environment = field(repr=False)
+    lss: float
+    curves: tuple[Curve, ...] = field(repr=False)
+    regions: tuple[Region, ...] = field(repr=False)
+    cells: tuple[Cell, ...] = field(repr=False)
+    pieces: tuple[Piece, ...] = field(repr=False)
+    curve_tol: float
+    unresolved_pieces: int = 0  # boundary stretches below resolution (see _make_pieces)
+
+    def __repr__(self) -> str:
+        return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
+                f"curves={len(self.curves)}, regions={len(self.regions)}, "
+                f"cells={len(self.cells)}, pieces={len(self.pieces)})")
+
+    @property
+    def counts(self) -> dict:
+        return {"curves": len(self.curves), "regions": len(self.regions),
+                "cells": len(self.cells), "pieces": len(self.pieces)}
+
+    def cell(self, cell_id: str) -> Cell:
+        """The cell named ``cell_id`` (e.g. ``"(R1,E1,E2)"``)."""
+        return self._cell_by_id[cell_id]
+
+    @property
+    def _cell_by_id(self) -> dict[str, Cell]:
+        d = self.__dict__.get("_cells_by_id")
+        if d is None:
+            d = {c.id: c for c in self.cells}
+            self.__dict__["_cells_by_id"] = d
+        return d
+
+    @property
+    def _tree(self) -> shapely.STRtree:
+        t = self.__dict__.get("_region_tree")
+        if t is None:
+            t = shapely.STRtree([r.polygon for r in self.regions])
+            self.__dict__["_region_tree"] = t
+        return t
+
+    def region_at(self, points: Any) -> np.ndarray:
+        """Index of the region containing each point (``-1`` outside every region: outside the
+        free space, or on a region boundary). Vectorized over points of shape (m, 2)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full(len(pts), -1)
+        pi, ri = self._tree.query(shapely.points(pts), predicate="within")
+        out[pi] = ri
+        return out
+
+    def cell_at(self, points: Any, angles: Any) -> list[str | None]:
+        """The cell containing each rod configuration ``(x, y, a)``: the region's cell whose
+        labels match the exact free arc containing ``a`` (``None`` if the rod is not free or
+        the point is on a region boundary)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+        reg = self.region_at(pts)
+        table = free_arcs_many(self.env, pts, self.lss, check=False)
+        out: list[str | None] = [None] * len(pts)
+        for i in range(len(pts)):
+            if reg[i] < 0:
+                continue
+            region = self.regions[reg[i]]
+            if table.full[i]:
+                out[i] = region.cells[0] if region.structure == "FULL" else None
+                continue
+            rows = table.rows_of(i)
+            for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],
+                                    table.end_code[rows], strict=True):
+                if (ang[i] - s) % TWO_PI <= (e - s) % TWO_PI:
+                    cid = cell_name(region.id, feature_name(self.env, sc),
+                                    feature_name(self.env, ec))
+                    out[i] = cid if cid in self._cell_by_id else None
+                    break
+        return out
+
+    def to_dict(self) -> dict:
+        return {
+            "map": self.env.name,
+            "lss": self.lss,
+            "curve_tolerance": self.curve_tol,
+            "unresolved_pieces": self.unresolved_pieces,
+            "counts": {k: v for k, v in self.counts.items() if k != "curves"},
+            "regions": [r.to_dict() for r in self.regions],
+            "cells": [c.to_dict() for c in self.cells],
+            "pieces": [p.to_dict() for p in self.pieces],
+            "curves": [c.to_dict() for c in self.curves],
+        }
+
+    def plot(self, ax: Any = None, **kw: Any) -> list:
+        """Draw the decomposition (see :func:`tether.plot.plot_decomposition`)."""
+        from tether.plot import plot_decomposition
+
+        return plot_decomposition(self, ax, **kw)
+
+
+def cell_name(region: int, start: str, end: str) -> str:
+    """The paper's cell name, e.g. ``(R1,E1,E2)``."""
+    return f"(R{region},{start},{end})"
+
+
+# ---------------------------------------------------------------------- arrangement
+class _UnionFind:
+    def __init__(self, n: int) -> None:
+        self.parent = list(range(n))
+
+    def find(self, a: int) -> int:
+        p = self.parent
+        while p[a] != a:
+            p[a] = p[p[a]]
+            a = p[a]
+        return a
+
+    def union(self, a: int, b: int) -> None:
+        ra, rb = self.find(a), self.find(b)
+        if ra != rb:
+            self.parent[max(ra, rb)] = min(ra, rb)
+
+
+def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """An integer id per undirected segment ``a[k]-b[k]``, equal for equal coordinates."""
+    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
+    lo = np.where(swap[:, None], b, a)
+    hi = np.where(swap[:, None], a, b)
+    key = np.ascontiguousarray(np.column_stack((lo, hi)))
+    _, inv = np.unique(key.view(np.dtype((np.void, key.dtype.itemsize * 4))).ravel(),
+                       return_inverse=True)
+    return inv.ravel()
+
+
+def _ring_segments(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All segments of the rings of polygons (or of linestrings): (a, b, owner index)."""
+    rings = shapely.get_rings(geoms, return_index=True) if len(geoms) and \
+        shapely.get_type_id(geoms[0]) == 3 else (geoms, np.arange(len(geoms)))
+    lines, owner = rings
+    coords, idx = shapely.get_coordinates(lines, return_index=True)
+    same = idx[1:] == idx[:-1]
+    k = np.flatnonzero(same)
+    return coords[k], coords[k + 1], owner[idx[k]]
+
+
+@dataclass
+class _Arrangement:
+    parts: np.ndarray  # noded linestrings
+    part_faces: np.ndarray  # (nparts, 2) face ids, -1 for none
+    part_sources: list[tuple[int, ...]]  # curve ids (-1 = wall) of each part
+    faces: np.ndarray  # polygons
+
+
+def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
+    lines = [LineString(np.vstack((r, r[:1]))) for r in env.rings]
+    source = [-1] * len(lines)
+    for c in curves:
+        for p in c.polylines:
+            if len(p) >= 2 and np.ptp(p, axis=0).max() > 0:
+                lines.append(LineString(p))
+                source.append(c.id)
+    noded = shapely.node(MultiLineString(lines))
+    parts = shapely.get_parts(noded)
+    faces = shapely.get_parts(shapely.polygonize(parts))
+    # which faces lie on the two sides of each part: match the part's longest segment with the
+    # faces' ring segments (polygonize keeps the noded coordinates exactly)
+    pa, pb, powner = _ring_segments(parts)
+    seg_len = np.hypot(*(pb - pa).T)
+    order = np.lexsort((-seg_len, powner))
+    first = np.r_[True, powner[order][1:] != powner[order][:-1]]
+    longest = order[first]  # index of the longest segment of each part
+    fa, fb, fowner = _ring_segments(faces)
+    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
+    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
+    part_faces = np.full((len(parts), 2), -1)
+    slot = {}
+    for sid, f in zip(face_ids.tolist(), fowner.tolist(), strict=True):
+        slot.setdefault(sid, []).append(f)
+    for k, sid in enumerate(part_ids.tolist()):
+        fs = slot.get(sid, [])
+        part_faces[powner[longest[k]], : len(fs[:2])] = fs[:2]
+    # which input lines each part came from
+    tree = shapely.STRtree(lines)
+    mid = shapely.points(0.5 * (pa[longest] + pb[longest]))
+    qi, li = tree.query(mid, predicate="dwithin", distance=max(1e-3 * tol, 1e-12))
+    src: list[set] = [set() for _ in range(len(parts))]
+    for q, line in zip(qi.tolist(), li.tolist(), strict=True):
+        src[powner[longest[q]]].add(source[line])
+    return _Arrangement(parts, part_faces, [tuple(sorted(s)) for s in src], faces)
+
+
+def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """A point well inside each face and its distance to the face's boundary."""
+    pts = shapely.get_coordinates(shapely.point_on_surface(faces))
+    clear = shapely.distance(shapely.boundary(faces), shapely.points(pts))
+    thin = np.flatnonzero(clear < 4 * tol)
+    if len(thin):
+        circ = shapely.maximum_inscribed_circle(faces[thin], tolerance=0.1 * tol)
+        c = shapely.get_coordinates(circ)[::2]
+        r = shapely.length(circ)
+        better = r > clear[thin]
+        pts[thin[better]] = c[better]
+        clear[thin[better]] = r[better]
+    return pts, clear
+
+
+def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
+              progress: Any = None) -> Decomposition:
+    """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
+
+    Parameters
+    ----------
+    env : Environment
+    lss : float
+        Rod length, map units, > 0.
+    rel_tol : float
+        Curve approximation tolerance relative to the map diameter.
+    progress : callable, optional
+        Called as ``progress(stage_name, fraction_done)``.
+
+    Returns
+    -------
+    Decomposition
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``lss`` is not a finite positive number.
+    """
+    lss = check_lss(lss)
+    tol = rel_tol * env.diameter
+    report = progress or (lambda stage, frac: None)
+    report("critical curves", 0.0)
+    curves = critical_curves(env, lss, rel_tol)
+    report("arrangement", 0.3)
+    arr = _arrangement(env, curves, tol)
+    report("face structures", 0.5)
+    pts, clear = _face_points(arr.faces, tol)
+    inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
+    inside &= np.asarray(env.boundary_distance(pts[:, 0], pts[:, 1]) > 0)
+    # a face belongs to the free space iff its interior point does (faces inside holes, or
+    # between an overshooting curve end and an obstacle, are dropped)
+    keep = np.flatnonzero(inside)
+    resolved = clear[keep] >= 2 * tol
+    face_struct: dict[int, Structure] = {}
+    ok = keep[resolved]
+    table = free_arcs_many(env, pts[ok], lss, check=False)
+    for f, s in zip(ok.tolist(), structures(env, table, len(ok)), strict=True):
+        face_struct[f] = s
+    report("regions", 0.7)
+    uf = _UnionFind(len(arr.faces))
+    kept = set(keep.tolist())
+    adjacent = [(int(a), int(b), k) for k, (a, b) in enumerate(arr.part_faces)
+                if a >= 0 and b >= 0 and a != b and a in kept and b in kept]
+    for a, b, _ in adjacent:
+        if a in face_struct and b in face_struct and face_struct[a] == face_struct[b]:
+            uf.union(a, b)
+    # sub-resolution faces join the neighbour they share most boundary with
+    unresolved = [int(f) for f in keep[~resolved]]
+    plen = shapely.length(arr.parts)
+    for _ in range(4):
+        if not unresolved:
+            break
+        best: dict[int, tuple[float, int]] = {}
+        for a, b, k in adjacent:
+            for f, g in ((a, b), (b, a)):
+                if f in unresolved and g in face_struct or (
+                        f in unresolved and uf.find(g) != uf.find(f) and g not in unresolved):
+                    if plen[k] > best.get(f, (-1.0, -1))[0]:
+                        best[f] = (float(plen[k]), g)
+        for f, (_, g) in best.items():
+            uf.union(f, g)
+            root_struct = face_struct.get(g)
+            if root_struct is not None:
+                face_struct[f] = root_struct
+        unresolved = [f for f in unresolved if f not in face_struct]
+    groups: dict[int, list[int]] = {}
+    for f in keep.tolist():
+        if f in face_struct:
+            groups.setdefault(uf.find(f), []).append(f)
+    regions, face_region = _make_regions(env, arr, groups, face_struct, pts, clear)
+    report("pieces", 0.85)
+    pieces, unresolved_pieces = _make_pieces(env, arr, regions, face_region, curves, tol, lss)
+    cells = tuple(Cell(cid, r.id, *_split_cell(cid)) for r in regions for cid in r.cells)
+    report("done", 1.0)
+    return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                         unresolved_pieces)
+
+
+def _split_cell(cid: str) -> tuple[str, str]:
+    _, s, e = cid.strip("()").split(",")
+    return s, e
+
+
+def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],
+                  face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
+                  ) -> tuple[list[Region], dict[int, int]]:
+    """Regions from groups of faces, numbered by representative point (x, then y)."""
+    drafts = []
+    for faces in groups.values():
+        best = max(faces, key=lambda f: clear[f])
+        poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
+        area = float(sum(arr.faces[f].area for f in faces))
+        drafts.append((tuple(np.round(pts[best], 9)), faces, poly, area, face_struct[best]))
+    drafts.sort(key=lambda d: d[0])
+    regions, face_region = [], {}
+    for rid, (pt, faces, poly, area, st) in enumerate(drafts):
+        names = structure_names(env, st)
+        cells = tuple(cell_name(rid, s, e) for s, e in names)
+        if isinstance(poly, Polygon) or poly.geom_type == "MultiPolygon":
+            shapely.prepare(poly)
+        regions.append(Region(rid, poly, area, (float(pt[0]), float(pt[1])), st, cells))
+        for f in faces:
+            face_region[f] = rid
+    return regions, face_region
+
+
+def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region],
+                 face_region: dict[int, int], curves: list[Curve], tol: float, lss: float
+                 ) -> tuple[list[Piece], int]:
+    """Group the arrangement parts separating two regions into pieces: chains of parts that
+    meet end to end and share a source curve. Returns the pieces and the number of chains
+    dropped as below resolution (no point of theirs is clear of other curves by ``4 tol``:
+    artefacts of the polyline approximation at tangencies, where the exact regions touch
+    at a point only)."""
+    groups: dict[tuple, list[int]] = {}
+    for k, (fa, fb) in enumerate(arr.part_faces):
+        ra, rb = face_region.get(int(fa), -1), face_region.get(int(fb), -1)
+        if ra < 0 or rb < 0 or ra == rb:
+            continue
+        groups.setdefault((min(ra, rb), max(ra, rb)), []).append(k)
+    chains = []
+    for key, ks in groups.items():
+        uf = _UnionFind(len(ks))
+        ends: dict[tuple, list[int]] = {}
+        for i, k in enumerate(ks):
+            c = shapely.get_coordinates(arr.parts[k])
+            for pt in (tuple(c[0]), tuple(c[-1])):
+                for j in ends.setdefault(pt, []):
+                    if set(arr.part_sources[k]) & set(arr.part_sources[ks[j]]):
+                        uf.union(i, j)
+                ends[pt].append(i)
+        comp: dict[int, list[int]] = {}
+        for i, k in enumerate(ks):
+            comp.setdefault(uf.find(i), []).append(k)
+        chains += [(key, sorted(v)) for v in comp.values()]
+    chains.sort(key=lambda kv: (kv[0], kv[1][0]))
+    part_tree = shapely.STRtree(arr.parts)
+    cands = [_crossing_candidates(arr, ks, part_tree, tol, lss) for _, ks in chains]
+    samples = _pick_crossings(env, chains, cands, regions, curves, arr, lss)
+    pieces, dropped = [], 0
+    for ((ra, rb), ks), sample in zip(chains, samples, strict=True):
+        if sample is None:
+            dropped += 1
+            continue
+        srcs = sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
+        q, n, eps = sample
+        kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
+        feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
+        geom = shapely.line_merge(shapely.union_all(arr.parts[ks]))
+        pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
+                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps))
+    return pieces, dropped
+
+
+def _crossing_candidates(arr: _Arrangement, ks: list[int], part_tree: shapely.STRtree,
+                         tol: float, lss: float) -> list[tuple[np.ndarray, float]]:
+    """Candidate crossing points of a chain (midpoints of its longest segments) with their
+    offsets ``eps``, best clearance first; only points clear of other parts by ``4 tol``."""
+    cand_q, cand_part = [], []
+    for k in ks:
+        c = shapely.get_coordinates(arr.parts[k])
+        seg = c[1:] - c[:-1]
+        ln = np.hypot(seg[:, 0], seg[:, 1])
+        for i in np.argsort(-ln)[:6]:
+            if ln[i] > 0:
+                cand_q.append(0.5 * (c[i] + c[i + 1]))
+                cand_part.append(k)
+    if not cand_q:
+        return []
+    Q = np.array(cand_q)
+    reach = max(1e3 * tol, 1e-3 * lss)
+    qi, pj = part_tree.query(shapely.points(Q), predicate="dwithin", distance=reach)
+    clear = np.full(len(Q), reach)
+    mine = np.array(cand_part)
+    other = pj != mine[qi]
+    if other.any():
+        d = shapely.distance(arr.parts[pj[other]], shapely.points(Q[qi[other]]))
+        np.minimum.at(clear, qi[other], d)
+    return [(Q[i], min(0.25 * (clear[i] - tol), max(50 * tol, 1e-4 * lss)))
+            for i in np.argsort(-clear)[:8] if clear[i] >= 4 * tol]
+
+
+def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[Region],
+                    curves: list[Curve], arr: _Arrangement, lss: float) -> list:
+    """For each chain, the first candidate whose two offsets (from the exact curve, along its
+    exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
+    are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
+    (``check`` reports it); a chain with no candidate at all gets ``None``."""
+    out: list = [None] * len(chains)
+    pending = [i for i in range(len(chains)) if cands[i]]
+    first: dict[int, tuple] = {}
+    rnd = 0
+    while pending:
+        trial = []
+        for i in pending:
+            q0, eps = cands[i][rnd]
+            srcs = sorted({s for k in chains[i][1] for s in arr.part_sources[k] if s >= 0})
+            if srcs:
+                _, q, n = min((curves[s].project(q0) for s in srcs),
+                              key=lambda r, q0=q0: float(np.hypot(*(r[1] - q0))))
+            else:
+                q, n = q0, np.array([0.0, 1.0])
+            trial.append((i, q, n, eps))
+            first.setdefault(i, (q, n, eps))
+        both = np.vstack([np.vstack((q + e * n, q - e * n)) for _, q, n, e in trial])
+        st = structures(env, free_arcs_many(env, both, lss, check=False), len(both))
+        still = []
+        for j, (i, q, n, e) in enumerate(trial):
+            ra, rb = (regions[r] for r in chains[i][0])
+            sp, sm = st[2 * j], st[2 * j + 1]
+            if sp == ra.structure and sm == rb.structure:
+                out[i] = (q, n, e)
+            elif sp == rb.structure and sm == ra.structure:
+                out[i] = (q, -n, e)
+            elif rnd + 1 < len(cands[i]):
+                still.append(i)
+            else:
+                out[i] = first[i]
+        pending = still
+        rnd += 1
+    return out
+
+
+# ---------------------------------------------------------------------- verification
+@dataclass(frozen=True)
+class CheckReport:
+    """Result of :func:`check`: sampled points whose exact structure disagrees with their
+    region's, and pieces whose two sides do not show the two regions' structures."""
+
+    samples: int
+    point_disagreements: tuple[dict, ...]
+    piece_disagreements: tuple[dict, ...]
+
+    @property
+    def ok(self) -> bool:
+        return not self.point_disagreements and not self.piece_disagreements
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "samples": self.samples,
+                "point_disagreements": list(self.point_disagreements),
+                "piece_disagreements": list(self.piece_disagreements)}
+
+
+def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
+                      margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Random points inside each region, farther than ``margin`` (default ``10 * curve_tol``)
+    from its boundary. Returns (points, region index of each)."""
+    rng = np.random.default_rng(seed)
+    margin = 10 * dec.curve_tol if margin is None else margin
+    pts, owner = [], []
+    for r in dec.regions:
+        inner = r.polygon.buffer(-margin)
+        if inner.is_empty:
+            continue
+        x0, y0, x1, y1 = inner.bounds
+        got = np.zeros((0, 2))
+        for _ in range(50):
+            cand = rng.uniform([x0, y0], [x1, y1], size=(4 * per_region, 2))
+            cand = cand[shapely.contains_xy(inner, cand[:, 0], cand[:, 1])]
+            got = np.vstack((got, cand))
+            if len(got) >= per_region:
+                break
+        got = got[:per_region]
+        pts.append(got)
+        owner.append(np.full(len(got), r.id))
+    if not pts:
+        return np.zeros((0, 2)), np.zeros(0, dtype=int)
+    return np.vstack(pts), np.concatenate(owner)
+
+
+def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckReport:
+    """Verify a decomposition by sampling: every sampled point's exact structure must equal its
+    region's, and across every piece the two sides must show the two regions' structures."""
+    env = dec.env
+    pts, owner = sample_in_regions(dec, per_region, seed)
+    bad_pts = []
+    if len(pts):
+        st = structures(env, free_arcs_many(env, pts, dec.lss, check=False), len(pts))
+        for p, r, s in zip(pts, owner, st, strict=True):
+            if s != dec.regions[r].structure:
+                bad_pts.append({"region": f"R{r}", "point": [float(p[0]), float(p[1])],
+                                "found": [list(x) for x in structure_names(env, s)],
+                                "expected": list(dec.regions[r].cells)})
+    bad_pieces = []
+    if dec.pieces:
+        q = np.array([p.sample for p in dec.pieces])
+        n = np.array([p.normal for p in dec.pieces])
+        e = np.array([p.eps for p in dec.pieces])[:, None]
+        both = np.vstack((q + e * n, q - e * n))
+        st = structures(env, free_arcs_many(env, both, dec.lss, check=False), len(both))
+        m = len(dec.pieces)
+        for i, p in enumerate(dec.pieces):
+            ra, rb = (dec.regions[r] for r in p.regions)
+            if st[i] != ra.structure or st[m + i] != rb.structure:
+                bad_pieces.append({"piece": p.name, "regions": [ra.name, rb.name],
+                                   "point": list(p.sample)})
+    return CheckReport(len(pts), tuple(bad_pts), tuple(bad_pieces))
+
+
+__all__ = [  # noqa: RUF022
+    "KIND_NAMES",
+    "Cell",
+    "CheckReport",
+    "Decomposition",
+    "Piece",
+    "Region",
+    "cell_name",
+    "check",
+    "decompose",
+    "feature_code",
+    "sample_in_regions",
+    "structures",
+]
