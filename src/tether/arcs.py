@@ -350,7 +350,9 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     with np.errstate(divide="ignore", invalid="ignore"):
         s = s_num / den
         t = -ca / den  # position on the edge
-    inside_edge = (np.abs(den) > 1e-15) & (t * elen > tol) & ((1 - t) * elen > tol)
+    # |den| = |e| sin(angle between rod and edge): rods within ANGLE_TOL of parallel to the
+    # edge run along it (contact), they do not cross it
+    inside_edge = (np.abs(den) > ANGLE_TOL * elen) & (t * elen > tol) & ((1 - t) * elen > tol)
     # a crossing at the target itself (a target within tol of the edge) blocks only if the rod
     # heads into the obstacle (u·n < 0, i.e. den > 0); farther along, any crossing blocks
     at_start = (np.abs(s) <= tol) & (den > 0)

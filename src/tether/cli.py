@@ -135,6 +135,60 @@ def cmd_plot_motion(args: argparse.Namespace) -> int:
     return 0
 
 
+def _decompose(args: argparse.Namespace):
+    from tether.decomposition import decompose
+    from tether.environment import load_map
+    from tether.progress import Progress
+
+    env = load_map(args.map)
+    return decompose(env, args.lss, progress=Progress("decompose"))
+
+
+def cmd_decompose(args: argparse.Namespace) -> int:
+    dec = _decompose(args)
+    if args.plot:
+        from tether.plot import new_axes, plot_decomposition, save
+
+        fig, ax = new_axes(size=(8, 8))
+        plot_decomposition(dec, ax, by_type=args.by_type)
+        save(fig, args.plot)
+    if args.json:
+        _print_json(dec.to_dict())
+        return 0
+    c = dec.counts
+    print(f"map {dec.env.name!r}, lss {dec.lss:g}: {c['curves']} critical curves, "
+          f"{c['regions']} regions, {c['cells']} cells, {c['pieces']} boundary pieces")
+    if dec.unresolved_pieces:
+        print(f"({dec.unresolved_pieces} boundary stretches below the curve tolerance "
+              f"{dec.curve_tol:.2g} were not counted as pieces)")
+    if args.verbose:
+        for r in dec.regions:
+            print(f"  {r.name:>5}  area {r.area:9.4g}  at ({r.point[0]:.4g}, {r.point[1]:.4g})  "
+                  f"{' '.join(r.cells) or '(no free orientation)'}")
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from tether.decomposition import check
+
+    dec = _decompose(args)
+    rep = check(dec, args.samples, args.seed)
+    if args.json:
+        _print_json(rep.to_dict())
+    else:
+        print(f"checked {rep.samples} sampled points in {len(dec.regions)} regions and "
+              f"{len(dec.pieces)} piece crossings: "
+              f"{len(rep.point_disagreements)} point and {len(rep.piece_disagreements)} piece "
+              "disagreements")
+        for d in rep.point_disagreements:
+            print(f"  point ({d['point'][0]:.6g}, {d['point'][1]:.6g}) in {d['region']}: "
+                  f"found {d['found']}, expected {d['expected']}")
+        for d in rep.piece_disagreements:
+            print(f"  piece {d['piece']} between {d['regions'][0]} and {d['regions'][1]} at "
+                  f"({d['point'][0]:.6g}, {d['point'][1]:.6g})")
+    return 0 if rep.ok else 1
+
+
 # ---------------------------------------------------------------------- parser
 def _positive_float(text: str) -> float:
     try:
@@ -169,6 +223,19 @@ def build_parser() -> argparse.ArgumentParser:
                     help="target point")
     sp.add_argument("--json", action="store_true", help="print JSON")
 
+    sp = add("decompose", cmd_decompose, "critical curves, regions, cells and pieces")
+    _map_lss(sp)
+    sp.add_argument("--json", action="store_true", help="print JSON")
+    sp.add_argument("--plot", metavar="FILE", help="draw the decomposition to an image file")
+    sp.add_argument("--by-type", action="store_true", help="colour the curves by type")
+    sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
+
+    sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")
+    _map_lss(sp)
+    sp.add_argument("--samples", type=int, default=20, help="sample points per region")
+    sp.add_argument("--seed", type=int, default=0, help="random seed")
+    sp.add_argument("--json", action="store_true", help="print JSON")
+
     sp = add("bound", cmd_bound, "rotation time and distance bound L of a saturated rotation")
     _speeds(sp, required=True)
     sp.add_argument("--from", dest="theta0", type=_positive_float, required=True, metavar="TH0",
@@ -187,6 +254,11 @@ def build_parser() -> argparse.ArgumentParser:
                     metavar="THF", help="rotation: goal angle θ, radians (default 2π)")
     sp.add_argument("--out", required=True, metavar="FILE", help="image file to write")
     return p
+
+
+def _map_lss(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("--lss", type=_positive_float, required=True, help="rod length (map units)")
 
 
 def _speeds(sp: argparse.ArgumentParser, required: bool) -> None:

@@ -64,6 +64,11 @@ class Family:
     lo: np.ndarray
     hi: np.ndarray
     features: list[tuple[str, ...]]
+    #: per curve, exact special points ``(parameter, point)`` that the polyline must contain as
+    #: vertices: where an edge offset touches a vertex circle tangentially (``V + lss n``). Both
+    #: curves get the very same floating-point coordinates so that the noder joins them there;
+    #: overshooting cannot close a tangential meeting.
+    marks: list[list[tuple[float, np.ndarray]]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.lo)
@@ -190,19 +195,37 @@ class Curve:
 
 
 # ---------------------------------------------------------------------- candidates
+def _tangent_points(env: Environment, L: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each oriented edge, the exact points ``A + L n`` and ``B + L n`` where its offset
+    touches the circles of its end vertices."""
+    A, B, _, _ = env.oriented_edges
+    n = env.free_normals
+    return A + L * n, B + L * n
+
+
 def _family_a(env: Environment, L: float) -> Family:
     A, B, _, _ = env.oriented_edges
     n = env.free_normals
     m = env.n
+    t0, t1 = _tangent_points(env, L)
+    marks = [[(0.0, t0[i]), (1.0, t1[i])] for i in range(m)]
     return Family("A", L, A + L * n, B - A, n, np.zeros(m), np.ones(m),
-                  [(f"E{i}",) for i in range(m)])
+                  [(f"E{i}",) for i in range(m)], marks)
 
 
 def _family_b(env: Environment, L: float) -> Family:
     m = env.n
     z = np.zeros((m, 2))
+    _, _, tag_a, tag_b = env.oriented_edges
+    t0, t1 = _tangent_points(env, L)
+    n = env.free_normals
+    marks: list[list[tuple[float, np.ndarray]]] = [[] for _ in range(m)]
+    for i in range(m):
+        phi = math.atan2(n[i, 1], n[i, 0]) % (2 * math.pi)
+        marks[tag_a[i]].append((phi, t0[i]))
+        marks[tag_b[i]].append((phi, t1[i]))
     return Family("B", L, env.vertices.copy(), z, z, np.zeros(m), np.full(m, 2 * math.pi),
-                  [(f"V{j}",) for j in range(m)])
+                  [(f"V{j}",) for j in range(m)], marks)
 
 
 def _family_c(env: Environment, L: float) -> Family:
@@ -280,8 +303,23 @@ def _family_e(env: Environment, L: float) -> Family:
 
 def candidate_families(env: Environment, lss: float) -> list[Family]:
     """All candidate curves of the five kinds for rod length ``lss`` (map units)."""
-    return [_family_a(env, lss), _family_b(env, lss), _family_c(env, lss),
-            _family_d(env, lss), _family_e(env, lss)]
+    fa, fe = _family_a(env, lss), _family_e(env, lss)
+    _mark_apexes(fa, fe)
+    return [fa, _family_b(env, lss), _family_c(env, lss), _family_d(env, lss), fe]
+
+
+def _mark_apexes(fa: Family, fe: Family) -> None:
+    """A conchoid with base ``Ei`` touches the offset of ``Ei`` tangentially at its apex, where
+    the rod is perpendicular to the edge: mark that point, exactly, on both curves."""
+    fe.marks.extend([] for _ in range(len(fe)))
+    for c, feats in enumerate(fe.features):
+        i = int(feats[1][1:])
+        d = fe.d[c]
+        s = float((fe.p[c] - fe.w[c]) @ d / (d @ d))
+        if fe.lo[c] < s < fe.hi[c]:
+            q = fa.p[i] + s * fa.d[i]
+            fa.marks[i].append((s, q))
+            fe.marks[c].append((s, q))
 
 
 # ---------------------------------------------------------------------- critical parts
@@ -295,10 +333,22 @@ def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float,
     cidx = np.arange(m)
     counts = np.maximum(24, np.ceil(fam.length_scale(cidx) / L * _SAMPLES_PER_LSS)).astype(int)
     c = np.repeat(cidx, counts)
-    first = np.cumsum(counts) - counts
-    k = np.arange(len(c)) - np.repeat(first, counts)
+    k = np.arange(len(c)) - np.repeat(np.cumsum(counts) - counts, counts)
     frac = k / np.repeat(counts - 1, counts)
     t = fam.lo[c] + frac * (fam.hi[c] - fam.lo[c])
+    # samples just either side of every exact breakpoint: freeness is constant between them,
+    # so no free stretch, however short, falls between two samples
+    bc, bt = _breakpoints(env, fam)
+    span = (fam.hi - fam.lo)[bc]
+    extra_c = np.repeat(bc, 4)
+    extra_t = (bt[:, None] + span[:, None] * np.array([-1e-5, -1e-8, 1e-8, 1e-5])).ravel()
+    inside = (extra_t > fam.lo[extra_c]) & (extra_t < fam.hi[extra_c])
+    c = np.concatenate((c, extra_c[inside]))
+    t = np.concatenate((t, extra_t[inside]))
+    order = np.lexsort((t, c))
+    c, t = c[order], t[order]
+    counts = np.bincount(c, minlength=m)
+    first = np.cumsum(counts) - counts
     if fam.kind in "CDE":  # open ends at the vertex / domain ends: sample just inside
         eps = 1e-9 * (fam.hi[c] - fam.lo[c])
         t = np.clip(t, fam.lo[c] + eps, fam.hi[c] - eps)
@@ -338,6 +388,61 @@ def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float,
     return out
 
 
+def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters where a curve's event rod can start or stop being semi-free.
+
+    A, B, E: where the event rod passes through a vertex (the rod sweeps across it); C, D
+    (rods on a fixed line): where the rod's target end or tip crosses an edge. Returns
+    (curve index, parameter) arrays.
+    """
+    V = env.vertices
+    L = fam.lss
+    m = len(fam)
+    if m == 0:
+        return np.zeros(0, int), np.zeros(0)
+    cs, ts = [], []
+    for lo in range(0, m, max(1, 200_000 // max(env.n, 1))):
+        c = np.arange(lo, min(m, lo + max(1, 200_000 // max(env.n, 1))))
+        cc = np.repeat(c, env.n)
+        vk = np.tile(np.arange(env.n), len(c))
+        if fam.kind == "A":  # rod = foot + λ n, foot = A + s d
+            a0 = fam.p[cc] - L * fam.w[cc]
+            rel = V[vk] - a0
+            lam = np.einsum("ij,ij->i", rel, fam.w[cc])
+            d = fam.d[cc]
+            t = np.einsum("ij,ij->i", rel, d) / np.einsum("ij,ij->i", d, d)
+            ok = (lam > 0) & (lam <= L)
+        elif fam.kind == "B":  # rod from V_j + L u(φ) to V_j
+            rel = V[vk] - fam.p[cc]
+            r = np.hypot(rel[:, 0], rel[:, 1])
+            t = np.mod(np.arctan2(rel[:, 1], rel[:, 0]), 2 * math.pi)
+            ok = (r > 0) & (r <= L)
+        elif fam.kind == "E":  # line through V_k and the pole meets the base edge at Q(s)
+            rel = V[vk] - fam.p[cc]
+            a_rel = fam.w[cc] - fam.p[cc]
+            d = fam.d[cc]
+            den = rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
+            ok = (np.abs(den) > 1e-300) & (np.hypot(rel[:, 0], rel[:, 1]) <= 2 * L)
+        else:  # C, D: the line o + τ w crosses edge (V_k, next) at τ; breakpoints τ and τ + L
+            nk = env.next_vertex[vk]
+            e = V[nk] - V[vk]
+            w = fam.d[cc]
+            rel = V[vk] - fam.p[cc]
+            den = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tau = (rel[:, 0] * e[:, 1] - rel[:, 1] * e[:, 0]) / den
+                u = (rel[:, 0] * w[:, 1] - rel[:, 1] * w[:, 0]) / den
+            ok = (np.abs(den) > 1e-300) & (u >= 0) & (u <= 1)
+            cs += [cc[ok], cc[ok]]
+            ts += [tau[ok], tau[ok] + L]
+            continue
+        cs.append(cc[ok])
+        ts.append(t[ok])
+    return np.concatenate(cs), np.concatenate(ts)
+
+
 def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
                ) -> tuple[float, float]:
     """Extend an interval by about ``margin`` map units at ends that are not domain ends
@@ -368,12 +473,12 @@ def _polyline(fam: Family, c: int, lo: float, hi: float, tol: float
     ``tol``."""
     if fam.kind in "ACD":
         ts = np.array([lo, hi])
-        return ts, fam.points(np.array([c, c]), ts)
+        return _with_marks(fam, c, ts, fam.points(np.array([c, c]), ts))
     if fam.kind == "B":
         step = math.sqrt(8.0 * tol / fam.lss)
         n = max(2, math.ceil((hi - lo) / step) + 1)
         ts = np.linspace(lo, hi, n)
-        return ts, fam.points(np.full(n, c), ts)
+        return _with_marks(fam, c, ts, fam.points(np.full(n, c), ts))
     ts = np.linspace(lo, hi, 17)
     for _ in range(24):
         cc = np.full(len(ts), c)
@@ -389,11 +494,36 @@ def _polyline(fam: Family, c: int, lo: float, hi: float, tol: float
             break
         ts = np.sort(np.concatenate((ts, mid_t[split])))
     pts = fam.points(np.full(len(ts), c), ts)
+    ts, pts = _with_marks(fam, c, ts, pts)
     if fam.kind == "E" and hi == fam.hi[c] and _pole_end(fam, c, hi):
         pts[-1] = fam.p[c]
     if fam.kind == "E" and lo == fam.lo[c] and _pole_end(fam, c, lo):
         pts[0] = fam.p[c]
     return ts, pts
+
+
+def _with_marks(fam: Family, c: int, ts: np.ndarray, pts: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Insert the curve's exact marks lying strictly inside ``(ts[0], ts[-1])``."""
+    if not fam.marks:
+        return ts, pts
+    lo, hi = ts[0], ts[-1]
+    add_t, add_p = [], []
+    for t, p in fam.marks[c]:
+        for shift in ((-2 * math.pi, 0.0, 2 * math.pi) if fam.kind == "B" else (0.0,)):
+            if lo < t + shift < hi:
+                add_t.append(t + shift)
+                add_p.append(p)
+    if not add_t:
+        return ts, pts
+    keep = np.ones(len(ts), bool)
+    for t in add_t:  # a mark replaces a sample at the same parameter
+        keep &= np.abs(ts - t) > 1e-15 * max(1.0, abs(t))
+    ts, pts = ts[keep], pts[keep]
+    ts = np.concatenate((ts, add_t))
+    pts = np.vstack((pts, add_p))
+    order = np.argsort(ts, kind="stable")
+    return ts[order], pts[order]
 
 
 def _pole_end(fam: Family, c: int, t: float) -> bool:

@@ -174,3 +174,91 @@ def bound_figure(theta0: float, thetaf: float, vt: float, vo: float, lss: float)
     plot_distance_bound(ax, ratios, vo, lss,
                         mark=(abs(thetaf - theta0), distance_bound(theta0, thetaf, vt, vo, lss)))
     return fig
+
+
+# ---------------------------------------------------------------------- maps and decompositions
+CURVE_COLOURS = {"A": "tab:red", "B": "tab:purple", "C": "tab:green", "D": "tab:brown",
+                 "E": "tab:pink"}
+
+
+def plot_map(env: Any, ax: Any = None, labels: bool = True) -> list:
+    """The free space: obstacles grey, edges black, features labelled ``V<j>``/``E<i>`` as in
+    the paper's figures (reflex vertices marked)."""
+    ax = _ax(ax)
+    x0, y0, x1, y1 = env.bounds
+    pad = 0.04 * env.diameter
+    arts = [ax.fill([x0 - pad, x1 + pad, x1 + pad, x0 - pad],
+                    [y0 - pad, y0 - pad, y1 + pad, y1 + pad], color="0.85", zorder=0)]
+    arts += ax.fill(env.boundary[:, 0], env.boundary[:, 1], color="white", zorder=0)
+    for h in env.holes:
+        arts += ax.fill(h[:, 0], h[:, 1], color="0.85", zorder=0)
+    for ring in env.rings:
+        closed = np.vstack((ring, ring[:1]))
+        arts += ax.plot(closed[:, 0], closed[:, 1], color="k", lw=1.5, zorder=3)
+    if labels and env.n <= 80:
+        V = env.vertices
+        c = V.mean(axis=0)
+        for j, v in enumerate(V):
+            off = v - c
+            off = 0.015 * env.diameter * off / max(np.hypot(*off), 1e-300)
+            arts.append(ax.annotate(f"V{j}", v, xytext=v + off, fontsize=7, color="navy",
+                                    ha="center", va="center", zorder=5))
+        nxt = env.next_vertex
+        for i in range(env.n):
+            mid = 0.5 * (V[i] + V[nxt[i]])
+            arts.append(ax.text(*(mid - 0.02 * env.diameter * env.free_normals[i]), f"E{i}",
+                                fontsize=7, color="darkgreen", ha="center", va="center",
+                                zorder=5))
+        r = env.reflex_indices
+        arts += ax.plot(V[r, 0], V[r, 1], "o", color="navy", ms=3, zorder=4)
+    ax.set_aspect("equal")
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    return arts
+
+
+def plot_decomposition(dec: Any, ax: Any = None, by_type: bool = False, labels: bool = True,
+                       marked_regions: Any = (), tint: bool = True) -> list:
+    """Paper Figs. 6-8: the map, critical curves (red, or coloured by type), regions tinted
+    and labelled ``R<k>``; ``marked_regions`` get a red rectangle around their label."""
+    import matplotlib as mpl
+
+    ax = _ax(ax)
+    arts = plot_map(dec.env, ax, labels=labels)
+    if tint:
+        cmap = mpl.colormaps["Pastel1"]
+        for r in dec.regions:
+            for poly in getattr(r.polygon, "geoms", [r.polygon]):
+                xy = np.asarray(poly.exterior.coords)
+                arts += ax.fill(xy[:, 0], xy[:, 1], color=cmap(r.id % 9), alpha=0.55, lw=0,
+                                zorder=1)
+    for kind in "ABCDE":
+        colour = CURVE_COLOURS[kind] if by_type else "red"
+        first = True
+        for c in dec.curves:
+            if c.kind != kind:
+                continue
+            for p in c.polylines:
+                (line,) = ax.plot(p[:, 0], p[:, 1], color=colour, lw=0.9, zorder=2,
+                                  label=f"{kind}: {_kind_name(kind)}" if by_type and first
+                                  else None)
+                arts.append(line)
+                first = False
+    if labels and len(dec.regions) <= 120:
+        marked = set(marked_regions)
+        for r in dec.regions:
+            box = dict(boxstyle="square,pad=0.15", fc="none", ec="red", lw=1.5) \
+                if r.id in marked else None
+            arts.append(ax.text(*r.point, r.name, fontsize=7, ha="center", va="center",
+                                zorder=6, bbox=box))
+    if by_type:
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set_title(f"{dec.env.name or 'map'}: lss={dec.lss:g}, {len(dec.regions)} regions, "
+                 f"{len(dec.cells)} cells")
+    return arts
+
+
+def _kind_name(kind: str) -> str:
+    from tether.curves import KIND_NAMES
+
+    return KIND_NAMES[kind]
