@@ -80,17 +80,37 @@ def cmd_arcs(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     from tether.arcs import free_arcs
+    from tether.decomposition import decompose
     from tether.environment import load_map
+    from tether.escape import analyze
+    from tether.plot import plot_verdict, save
 
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     env = load_map(example_path("gallery"))
     info = env.summary()
     print(f"== tether demo: the bundled map {info['name']!r} ==")
     print(f"{info['vertices']} vertices, {info['holes']} holes, area {info['area']:.4g}, "
           f"reflex: {' '.join(info['reflex_vertices'])}")
     lss = 2.0
-    print(f"\nFree rod orientations (exact arcs) at a few target points, lss = {lss:g}:")
-    for p in [(2.0, 2.0), (9.0, 1.5), (7.4, 6.3), (14.0, 9.0)]:
+    print(f"\n1. Free rod orientations (exact arcs) at a few target points, lss = {lss:g}:")
+    for p in [(2.0, 2.0), (9.0, 1.5), (7.5, 5.0), (14.0, 9.0)]:
         print(format_arcs(free_arcs(env, p, lss)))
+    print("\n2-3. Decomposition, graph G and existence verdict (paper Section IV):")
+    runs = [("rectangle", 1.0, "paper Fig. 6: 18 regions, 32 cells, no strategy"),
+            ("convex_corner", 1.0, "paper Fig. 7: 6 regions, 6 cells near the corner"),
+            ("nonconvex_corner", 1.0, "paper Fig. 8: 5 regions, 6 cells near the corner"),
+            ("gallery", lss, "a gallery with two pillars")]
+    for name, l, paper in runs:
+        dec = decompose(load_map(example_path(name)), l)
+        verdict = analyze(dec)
+        c = verdict.counts()
+        word = "strategy can exist" if verdict.strategy_exists else "NO strategy"
+        print(f"  {name:<17} lss {l:g}: {c['regions']:>3} regions, {c['cells']:>3} cells, "
+              f"{c['surviving_cells']:>3} survive -> {word}   ({paper})")
+        fig = plot_verdict(verdict)
+        save(fig, out / f"{name}.png")
+    print(f"\nFigures written to {out}/ (one per map: decomposition and graph G).")
     return 0
 
 
@@ -168,6 +188,37 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_analyze(args: argparse.Namespace) -> int:
+    from tether.escape import analyze
+
+    dec = _decompose(args)
+    verdict = analyze(dec)
+    if args.plot:
+        from tether.plot import plot_verdict, save
+
+        save(plot_verdict(verdict), args.plot)
+    if args.json:
+        _print_json(verdict.to_dict())
+        return 0
+    print(format_verdict(verdict))
+    return 0
+
+
+def format_verdict(verdict) -> str:
+    """Human-readable verdict: counts before/after elimination, witness, escape story."""
+    c = verdict.counts()
+    head = "a surveillance strategy CAN exist" if verdict.strategy_exists \
+        else "NO surveillance strategy exists"
+    lines = [f"map {verdict.dec.env.name!r}, lss {verdict.dec.lss:g}: {head}",
+             f"  {c['regions']} regions, {c['cells']} cells, {c['edges']} edges in G; "
+             f"{c['surviving_cells']} cells survive the elimination "
+             f"({len(verdict.eliminated)} eliminated in {verdict.rounds} rounds)"]
+    if verdict.witness_region is not None:
+        lines.append(f"  witness region: R{verdict.witness_region}")
+    lines += ["  " + s for s in verdict.story()]
+    return "\n".join(lines)
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     from tether.decomposition import check
 
@@ -229,6 +280,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--plot", metavar="FILE", help="draw the decomposition to an image file")
     sp.add_argument("--by-type", action="store_true", help="colour the curves by type")
     sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
+
+    sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")
+    _map_lss(sp)
+    sp.add_argument("--json", action="store_true", help="print JSON")
+    sp.add_argument("--plot", metavar="FILE", help="draw the verdict figure to an image file")
 
     sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")
     _map_lss(sp)
