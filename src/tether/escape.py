@@ -104,41 +104,54 @@ def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], tuple[Eliminati
     """
     dec = graph.dec
     region_of = {c.id: c.region for c in dec.cells}
-    alive = {c.id for c in dec.cells}
-    count: dict[tuple[str, int], int] = {}
-    for (cell, piece), ps in graph.partners.items():
-        count[(cell, piece)] = len(ps)
-    out: list[Elimination] = []
+    alive, removed = fixed_point(region_of, graph.pieces_of, graph.partners)
+    out = [Elimination(c, f"R{_other_region(dec, piece, region_of[c])}", f"P{piece}", rnd,
+                       because) for c, piece, rnd, because in removed]
+    return alive, tuple(out)
+
+
+def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]],
+                partners: dict[tuple[str, int], tuple[str, ...]]
+                ) -> tuple[frozenset[str], list[tuple[str, int, int, str | None]]]:
+    """The elimination on abstract data: cells with their regions, the pieces bounding each
+    region, and each (cell, piece)'s partners. A worklist keeps, per (cell, piece), the count
+    of surviving partners; a cell falls when one count reaches 0. Returns the survivors and
+    ``(cell, piece, round, because)`` per removal, in order."""
+    alive = set(region_of)
+    count = {key: len(ps) for key, ps in partners.items()}
     level: list[tuple[str, int, str | None]] = []
     for c in sorted(alive, key=_cell_key):
-        for piece in graph.pieces_of[region_of[c]]:
-            if count[(c, piece)] == 0:
+        for piece in pieces_of[region_of[c]]:
+            if count.get((c, piece), 0) == 0:
                 level.append((c, piece, None))
                 break
-    rnd = 0
     queued = {c for c, _, _ in level}
+    removed: list[tuple[str, int, int, str | None]] = []
+    rnd = 0
     while level:
         rnd += 1
-        nxt: list[tuple[str, int, str | None]] = []
         for c, piece, because in level:
             alive.discard(c)
-            other = _other_region(dec, piece, region_of[c])
-            out.append(Elimination(c, f"R{other}", f"P{piece}", rnd, because))
+            removed.append((c, piece, rnd, because))
+        nxt: list[tuple[str, int, str | None]] = []
         for c, _, _ in level:
-            for key_piece in graph.pieces_of[region_of[c]]:
-                for partner in graph.partners[(c, key_piece)]:
-                    k = (partner, key_piece)
-                    count[k] -= 1
-                    if count[k] == 0 and partner in alive and partner not in queued:
+            for piece in pieces_of[region_of[c]]:
+                for partner in partners.get((c, piece), ()):
+                    key = (partner, piece)
+                    count[key] -= 1
+                    if count[key] == 0 and partner in alive and partner not in queued:
                         queued.add(partner)
-                        nxt.append((partner, key_piece, c))
+                        nxt.append((partner, piece, c))
         level = sorted(nxt, key=lambda t: _cell_key(t[0]))
-    return frozenset(alive), tuple(out)
+    return frozenset(alive), removed
 
 
 def _cell_key(cid: str) -> tuple:
-    r, s, e = cid.strip("()").split(",")
-    return (int(r[1:]), s, e)
+    """Sort key of a cell id ``(R3,E1,V2)``; other ids sort as plain strings after them."""
+    parts = cid.strip("()").split(",")
+    if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
+        return (0, int(parts[0][1:]), parts[1], parts[2])
+    return (1, cid, "", "")
 
 
 def _other_region(dec: Decomposition, piece: int, region: int) -> int:

@@ -250,7 +250,7 @@ def plot_decomposition(dec: Any, ax: Any = None, by_type: bool = False, labels: 
             box = dict(boxstyle="square,pad=0.15", fc="none", ec="red", lw=1.5) \
                 if r.id in marked else None
             arts.append(ax.text(*r.point, r.name, fontsize=7, ha="center", va="center",
-                                zorder=6, bbox=box))
+                                zorder=6, bbox=box, clip_on=True))
     if by_type:
         ax.legend(fontsize=7, loc="upper right")
     ax.set_title(f"{dec.env.name or 'map'}: lss={dec.lss:g}, {len(dec.regions)} regions, "

@@ -1,0 +1,201 @@
+"""Graph G against arcs followed across each piece, the elimination against a naive iteration,
+the all-or-nothing property, and verdicts on maps whose answer is known by reasoning."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import shapely
+from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, random_maps
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tether import Environment, load_map
+from tether.arcs import TWO_PI, feature_name, free_arcs_many
+from tether.cli import example_path, main
+from tether.decomposition import FREE, cell_name, decompose
+from tether.escape import analyze, fixed_point
+from tether.graph import _overlap, build_graph
+
+DECS = [decompose(SQUARE_HOLE, 2.0), decompose(GENERIC, 2.5), decompose(STAR_HOLE, 1.5),
+        decompose(load_map(example_path("rectangle")), 1.0)]
+
+
+def arcs_at(dec, p):
+    t = free_arcs_many(dec.env, [p], dec.lss, check=False)
+    if t.full[0]:
+        return [(0.0, TWO_PI, FREE, FREE)]
+    r = t.rows_of(0)
+    return [(s, e, feature_name(dec.env, a), feature_name(dec.env, b))
+            for s, e, a, b in zip(t.start[r], t.end[r], t.start_code[r], t.end_code[r],
+                                  strict=True)]
+
+
+def followed_pairs(dec, piece, steps=60):
+    """Follow every arc from one side of the piece to the other in small steps: an arc at
+    step k continues into the arcs at step k+1 it overlaps; compose along the way."""
+    q, n, eps = np.array(piece.sample), np.array(piece.normal), piece.eps
+    path = [q + eps * n * (1 - 2 * k / steps) for k in range(steps + 1)]
+    start = arcs_at(dec, path[0])
+    reach = {i: {i} for i in range(len(start))}
+    prev = start
+    for p in path[1:]:
+        cur = arcs_at(dec, p)
+        step = {i: {j for j, b in enumerate(cur) if _overlap(a[0], a[1], b[0], b[1]) > 1e-12}
+                for i, a in enumerate(prev)}
+        reach = {i: set().union(*(step[k] for k in ks)) if ks else set()
+                 for i, ks in reach.items()}
+        prev = cur
+    ra, rb = piece.regions
+    return {(cell_name(ra, *start[i][2:]), cell_name(rb, *prev[j][2:]))
+            for i, js in reach.items() for j in js}
+
+
+@pytest.mark.parametrize("dec", DECS, ids=lambda d: d.env.name)
+def test_graph_edges_equal_arcs_followed_across_each_piece(dec):
+    g = build_graph(dec)
+    edges = {}
+    for a, b, k in g.graph.edges(keys=True):
+        ra = dec.cell(a).region
+        first = a if ra == dec.pieces[k].regions[0] else b
+        edges.setdefault(k, set()).add((first, b if first == a else a))
+    for k, piece in enumerate(dec.pieces):
+        assert followed_pairs(dec, piece) == edges.get(k, set()), piece
+
+
+def naive(region_of, pieces_of, partners):
+    """Synchronous rounds: remove every cell escapable w.r.t. the current set, repeat."""
+    alive = set(region_of)
+    rounds = {}
+    r = 0
+    while True:
+        r += 1
+        fall = {c for c in alive if any(not (set(partners.get((c, p), ())) & alive)
+                                        for p in pieces_of[region_of[c]])}
+        if not fall:
+            return alive, rounds
+        for c in fall:
+            rounds[c] = r
+        alive -= fall
+
+
+def random_graph(rng):
+    nreg = int(rng.integers(2, 9))
+    region_of = {}
+    for r in range(nreg):
+        for k in range(int(rng.integers(0, 4))):
+            region_of[f"(R{r},E{k},E{k})"] = r
+    pieces = [(int(a), int(b)) for a, b in rng.integers(0, nreg, (int(rng.integers(1, 14)), 2))
+              if a != b]
+    pieces_of = {r: tuple(k for k, pr in enumerate(pieces) if r in pr) for r in range(nreg)}
+    partners = {}
+    for k, (a, b) in enumerate(pieces):
+        ca = [c for c, r in region_of.items() if r == a]
+        cb = [c for c, r in region_of.items() if r == b]
+        for c in ca + cb:
+            partners.setdefault((c, k), [])
+        for x in ca:
+            for y in cb:
+                if rng.random() < 0.5:
+                    partners[(x, k)].append(y)
+                    partners[(y, k)].append(x)
+    return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}
+
+
+def test_elimination_equals_naive_iteration_on_random_graphs():
+    rng = np.random.default_rng(0)
+    for _ in range(3000):
+        region_of, pieces_of, partners = random_graph(rng)
+        alive, removed = fixed_point(region_of, pieces_of, partners)
+        alive2, rounds = naive(region_of, pieces_of, partners)
+        assert alive == alive2
+        assert {c: r for c, _, r, _ in removed} == rounds
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(env=random_maps(), lss=st.floats(0.5, 6.0))
+def test_all_or_nothing(env, lss):
+    v = analyze(decompose(env, lss))
+    regions = {v.dec.cell(c).region for c in v.surviving}
+    assert not regions or regions == {r.id for r in v.dec.regions}
+    assert v.strategy_exists == bool(v.surviving)
+    assert (v.witness_region is None) == v.strategy_exists
+
+
+# ---------------------------------------------------------------------- known verdicts
+def test_room_too_small_for_the_rod():
+    """A 1x1 room with a rod of 3: no orientation is free anywhere, so no strategy; the
+    witness is a region without cells."""
+    v = analyze(decompose(Environment([[0, 0], [1, 0], [1, 1], [0, 1]]), 3.0))
+    assert not v.strategy_exists
+    assert v.dec.regions[v.witness_region].cells == ()
+    assert "no rod orientation is free" in v.story()[0]
+
+
+def test_large_convex_room():
+    """In a 20x20 room with a rod of 1 the observer can always put the rod toward the room's
+    middle, away from every wall: the cells doing so survive everywhere."""
+    v = analyze(decompose(Environment([[0, 0], [20, 0], [20, 20], [0, 20]]), 1.0))
+    assert v.strategy_exists and v.witness_region is None
+    assert v.is_safe([[10, 10]], [0.3]) == [True]
+    # the corner-facing arc near a corner closes at the corner's circle: escapable
+    assert v.eliminated and all(e.round == 1 for e in v.eliminated)
+
+
+def test_dead_end_corridor_narrower_than_lss():
+    """A corridor 0.6 wide (rod 1) ending in a dead end: deep inside, the rod can only point
+    back out, so the inward-pointing cells fall, not in round 1 but as the elimination
+    propagates from the dead end; the outward ones survive and a strategy can exist."""
+    env = Environment([[0, 0], [10, 0], [10, 4.7], [14, 4.7], [14, 5.3], [10, 5.3], [10, 10],
+                       [0, 10]])
+    v = analyze(decompose(env, 1.0))
+    assert v.strategy_exists
+    deep = v.dec.regions[v.dec.region_at([[13.9, 5.0]])[0]]
+    assert len(deep.cells) == 1 and deep.cells[0] in v.surviving
+    middle = v.dec.regions[v.dec.region_at([[12.0, 5.0]])[0]]
+    assert len(middle.cells) == 2
+    fell = [e for e in v.eliminated if e.cell in middle.cells]
+    assert len(fell) == 1 and fell[0].round >= 2
+    assert v.is_safe([[12.0, 5.0]], [np.pi]) == [True]  # pointing back out along -x
+    assert v.is_safe([[12.0, 5.0]], [0.0]) == [False]  # pointing toward the dead end
+
+
+def test_paper_rectangle_needs_the_elimination():
+    """The paper's Fig. 6 (1.5 x 3 lss): no region is empty after round 1, yet the
+    elimination empties the middle region and then everything: no strategy."""
+    v = analyze(DECS[3])
+    assert not v.strategy_exists and v.rounds > 1
+    first = {e.cell for e in v.eliminated if e.round == 1}
+    assert all(set(r.cells) - first for r in v.dec.regions)  # no region emptied in round 1
+    w = v.dec.regions[v.witness_region]
+    assert w.polygon.contains(shapely.Point(0.75, 1.5))  # the middle region
+    story = v.story()
+    assert story[0].startswith("Round 1") and "No surveillance strategy" in story[-1]
+
+
+def test_corners_of_the_paper():
+    """Figs. 7 and 8: a strategy exists; at the non-convex corner the corner-facing arc is the
+    escapable cell (its arc closes when the target nears the corner)."""
+    for name in ("convex_corner", "nonconvex_corner"):
+        v = analyze(decompose(load_map(example_path(name)), 1.0))
+        assert v.strategy_exists
+    v = analyze(decompose(load_map(example_path("nonconvex_corner")), 1.0))
+    r = v.dec.regions[v.dec.region_at([[0.9, 0.9]])[0]]  # both walls in reach, corner not
+    assert len(r.cells) == 2
+    assert len([c for c in r.cells if c not in v.surviving]) == 1
+
+
+def test_analyze_cli_json(capsys, tmp_path):
+    out = tmp_path / "v.png"
+    assert main(["analyze", str(example_path("rectangle")), "--lss", "1", "--json", "--plot",
+                 str(out)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data["counts"]) >= {"regions", "cells", "edges", "surviving_cells"}
+    assert data["verdict"]["strategy_exists"] is False
+    assert data["verdict"]["witness_region"].startswith("R")
+    e = data["verdict"]["eliminated"][0]
+    assert set(e) >= {"cell", "escapes_to", "piece", "round"}
+    assert all(len(edge) == 3 for edge in data["edges"])
+    assert out.stat().st_size > 1000
