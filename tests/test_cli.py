@@ -95,3 +95,57 @@ def test_bound_plot(tmp_path, capsys):
     assert main(["bound", "--vt", "1", "--vo", "2", "--lss", "1", "--from", "0", "--to", "2",
                  "--plot", str(out)]) == 0
     assert out.stat().st_size > 1000
+
+
+def test_decompose_json_shape(capsys, tmp_path):
+    out = tmp_path / "d.png"
+    data = run_json(capsys, ["decompose", str(example_path("rectangle")), "--lss", "1",
+                             "--json", "--plot", str(out), "--by-type"])
+    assert data["counts"] == {"regions": 19, "cells": 32, "pieces": len(data["pieces"])}
+    r = data["regions"][0]
+    assert set(r) >= {"id", "area", "point", "cells"}
+    c = data["cells"][0]
+    assert set(c) >= {"id", "region", "start_feature", "end_feature"}
+    assert {k["type"] for k in data["curves"]} == {"A", "B"}
+    assert all("features" in k for k in data["curves"])
+    assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_check_command_exit_codes(capsys):
+    assert main(["check", str(example_path("gallery")), "--lss", "2", "--samples", "5"]) == 0
+    assert "0 point and 0 piece disagreements" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("cmd", ["decompose", "analyze", "check"])
+@pytest.mark.parametrize(("lss", "message"), [("0", "lss must be"), ("-2", "lss must be"),
+                                              ("inf", "lss must be")])
+def test_pipeline_commands_reject_bad_lss(capsys, cmd, lss, message):
+    assert main([cmd, str(example_path("rectangle")), "--lss", lss]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+
+
+def test_pipeline_commands_reject_bad_map(capsys, tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"boundary": [[0, 0], [2, 2], [2, 0], [0, 2]]}')
+    for cmd in ("decompose", "analyze", "check"):
+        assert main([cmd, str(bad), "--lss", "1"]) == 2
+        assert "intersects itself" in capsys.readouterr().err
+
+
+def test_progress_bar_only_on_a_terminal():
+    import io
+
+    from tether.progress import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    quiet, tty = io.StringIO(), Tty()
+    for stream in (quiet, tty):
+        p = Progress("decompose", stream)
+        p("curves", 0.5)
+        p("done", 1.0)
+    assert quiet.getvalue() == ""
+    assert "decompose [" in tty.getvalue() and "100%" in tty.getvalue()
