@@ -76,3 +76,13 @@ def random_maps(draw) -> Environment:
         ):
             holes.append(hole)
     return Environment(boundary, tuple(holes), "random")
+
+
+def dump_failure(env: Environment, lss: float) -> None:
+    """Append a failing random map to the file named by TETHER_DUMP (for reproduction)."""
+    import json
+    import os
+
+    if os.environ.get("TETHER_DUMP"):
+        with open(os.environ["TETHER_DUMP"], "a") as f:
+            f.write(json.dumps({"map": env.to_dict(), "lss": lss}) + "\n")

@@ -8,7 +8,14 @@ import math
 import numpy as np
 import pytest
 import shapely
-from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE, interior_points, random_maps
+from conftest import (
+    GENERIC,
+    L_SHAPE,
+    SQUARE_HOLE,
+    STAR_HOLE,
+    interior_points,
+    random_maps,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -384,36 +384,54 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     for a, b, _ in adjacent:
         if a in face_struct and b in face_struct and face_struct[a] == face_struct[b]:
             uf.union(a, b)
-    # sub-resolution faces join the neighbour they share most boundary with
-    unresolved = [int(f) for f in keep[~resolved]]
     plen = shapely.length(arr.parts)
+    # sub-resolution faces join the neighbour they share most boundary with
+    _absorb(keep[~resolved].tolist(), adjacent, plen, uf, face_struct)
     for _ in range(4):
-        if not unresolved:
+        groups: dict[int, list[int]] = {}
+        for f in keep.tolist():
+            if f in face_struct:
+                groups.setdefault(uf.find(f), []).append(f)
+        regions, face_region = _make_regions(env, arr, groups, face_struct, pts, clear)
+        report("pieces", 0.85)
+        pieces, unresolved_pieces = _make_pieces(env, arr, regions, face_region, curves, tol,
+                                                 lss)
+        # a region none of whose boundary is resolved (a speck at a tangency) would never
+        # be crossed and its cells never eliminated: it is below resolution as a whole
+        touched = {r for p in pieces for r in p.regions}
+        isolated = {r.id for r in regions if r.id not in touched} if len(regions) > 1 else set()
+        if not isolated:
             break
-        best: dict[int, tuple[float, int]] = {}
-        for a, b, k in adjacent:
-            for f, g in ((a, b), (b, a)):
-                if f in unresolved and g in face_struct or (
-                        f in unresolved and uf.find(g) != uf.find(f) and g not in unresolved):
-                    if plen[k] > best.get(f, (-1.0, -1))[0]:
-                        best[f] = (float(plen[k]), g)
-        for f, (_, g) in best.items():
-            uf.union(f, g)
-            root_struct = face_struct.get(g)
-            if root_struct is not None:
-                face_struct[f] = root_struct
-        unresolved = [f for f in unresolved if f not in face_struct]
-    groups: dict[int, list[int]] = {}
-    for f in keep.tolist():
-        if f in face_struct:
-            groups.setdefault(uf.find(f), []).append(f)
-    regions, face_region = _make_regions(env, arr, groups, face_struct, pts, clear)
-    report("pieces", 0.85)
-    pieces, unresolved_pieces = _make_pieces(env, arr, regions, face_region, curves, tol, lss)
+        specks = [f for f, r in face_region.items() if r in isolated]
+        for f in specks:
+            del face_struct[f]
+        _absorb(specks, adjacent, plen, uf, face_struct)
     cells = tuple(Cell(cid, r.id, *_split_cell(cid)) for r in regions for cid in r.cells)
     report("done", 1.0)
     return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
                          unresolved_pieces)
+
+
+def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.ndarray,
+            uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+    """Merge each pending face (no structure of its own) into the resolved neighbour face it
+    shares the longest arrangement part with, taking that neighbour's structure."""
+    todo = set(pending)
+    for _ in range(16):
+        if not todo:
+            return
+        best: dict[int, tuple[float, int]] = {}
+        for a, b, k in adjacent:
+            for f, g in ((a, b), (b, a)):
+                if f in todo and g not in todo and g in face_struct \
+                        and plen[k] > best.get(f, (-1.0, -1))[0]:
+                    best[f] = (float(plen[k]), g)
+        if not best:
+            return
+        for f, (_, g) in best.items():
+            uf.union(f, g)
+            face_struct[f] = face_struct[g]
+            todo.discard(f)
 
 
 def _split_cell(cid: str) -> tuple[str, str]:
