@@ -147,8 +147,6 @@ class Curve:
 
     def project(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Nearest point of the critical part to ``q``: ``(t, point, unit normal)``, exact."""
-        from scipy.optimize import minimize_scalar
-
         fam, c = self.family, self.index
         if self.kind in "ACD":  # a straight line: q(t) = p + t d
             d = fam.d[c]
@@ -162,26 +160,39 @@ class Curve:
             return t, fam.p[c] + fam.lss * u, u
         best = None
         for ts, pts in zip(self.params, self.polylines, strict=True):
-            k = int(np.argmin(np.hypot(*(pts - q).T)))
-            lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, len(ts) - 1)]
-            if hi > lo:
-                res = minimize_scalar(lambda t: float(np.sum((self.point(t) - q) ** 2)),
-                                      bounds=(lo, hi), method="bounded",
-                                      options={"xatol": 1e-14 * max(1.0, abs(hi))})
-                t = float(res.x)
-            else:
-                t = float(ts[k])
+            # the nearest polyline segment brackets the answer (a vertex would be ambiguous:
+            # a conchoid's loop starts and ends at its pole)
+            a, b = pts[:-1], pts[1:]
+            ab = b - a
+            u = np.clip(np.einsum("ij,ij->i", q - a, ab)
+                        / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+            k = int(np.argmin(np.hypot(*(a + u[:, None] * ab - q).T)))
+            lo, hi = float(ts[k]), float(ts[k + 1])
+            t = lo + float(u[k]) * (hi - lo)
+            for _ in range(12):  # Gauss-Newton on (q(t) - q)·q'(t) = 0, inside the bracket
+                tangent = self._tangent(t)
+                tt = float(tangent @ tangent)
+                if tt == 0:
+                    break
+                t_new = min(max(t - float((self.point(t) - q) @ tangent) / tt, lo), hi)
+                if abs(t_new - t) <= 1e-15 * max(1.0, abs(t)):
+                    break
+                t = t_new
             d = float(np.hypot(*(self.point(t) - q)))
             if best is None or d < best[0]:
                 best = (d, t)
         t = best[1]
-        h = 1e-7 * max(1.0, abs(t))
-        tangent = self.point(t + h) - self.point(t - h)
-        while np.hypot(*tangent) == 0 and h < 1e-2:
-            h *= 10
-            tangent = self.point(t + h) - self.point(t - h)
-        tangent /= max(np.hypot(*tangent), 1e-300)
+        tangent = self._tangent(t)
+        tangent = tangent / max(float(np.hypot(*tangent)), 1e-300)
         return t, self.point(t), np.array([-tangent[1], tangent[0]])
+
+    def _tangent(self, t: float) -> np.ndarray:
+        """dq/dt by finite differences taken inside the domain (a conchoid folds back at its
+        pole, so a difference straddling a domain end would be meaningless)."""
+        lo, hi = self.domain
+        h = 1e-7 * max(1.0, abs(t), hi - lo)
+        a, b = (t - h, t + h) if self.kind in "ABCD" else (max(t - h, lo), min(t + h, hi))
+        return (self.point(b) - self.point(a)) / (b - a)
 
     def to_dict(self) -> dict:
         return {

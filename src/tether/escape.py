@@ -63,9 +63,8 @@ class Verdict:
         return escape_story(self)
 
     def counts(self) -> dict:
-        g = self.graph.graph
         return {"regions": len(self.dec.regions), "cells": len(self.dec.cells),
-                "pieces": len(self.dec.pieces), "edges": g.number_of_edges(),
+                "pieces": len(self.dec.pieces), "edges": len(self.graph.edge_list),
                 "surviving_cells": len(self.surviving)}
 
     def to_dict(self) -> dict:
@@ -118,9 +117,10 @@ def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]]
     of surviving partners; a cell falls when one count reaches 0. Returns the survivors and
     ``(cell, piece, round, because)`` per removal, in order."""
     alive = set(region_of)
+    rank = {c: i for i, c in enumerate(sorted(region_of, key=_cell_key))}
     count = {key: len(ps) for key, ps in partners.items()}
     level: list[tuple[str, int, str | None]] = []
-    for c in sorted(alive, key=_cell_key):
+    for c in sorted(alive, key=rank.__getitem__):
         for piece in pieces_of[region_of[c]]:
             if count.get((c, piece), 0) == 0:
                 level.append((c, piece, None))
@@ -142,7 +142,7 @@ def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]]
                     if count[key] == 0 and partner in alive and partner not in queued:
                         queued.add(partner)
                         nxt.append((partner, piece, c))
-        level = sorted(nxt, key=lambda t: _cell_key(t[0]))
+        level = sorted(nxt, key=lambda t: rank[t[0]])
     return frozenset(alive), removed
 
 

@@ -11,6 +11,7 @@ between pieces shared by the same two regions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import networkx as nx
 import numpy as np
@@ -22,92 +23,118 @@ from tether.tolerances import ANGLE_TOL
 
 @dataclass(frozen=True, eq=False)
 class ConnectivityGraph:
-    """G: a networkx ``MultiGraph`` whose nodes are cell ids and whose edges carry their piece.
+    """G: cells (nodes) and ``(cell, cell, piece)`` edges.
 
     ``partners[(cell, piece)]`` lists the cells adjacent to ``cell`` across ``piece``;
-    ``pieces_of[region]`` the pieces bounding a region.
+    ``pieces_of[region]`` the pieces bounding a region. :attr:`graph` gives G as a networkx
+    ``MultiGraph`` (edge keys are piece indices), built on first use.
     """
 
     dec: Decomposition = field(repr=False)
-    graph: nx.MultiGraph = field(repr=False)
+    edge_list: tuple[tuple[str, str, int], ...] = field(repr=False)
     partners: dict[tuple[str, int], tuple[str, ...]] = field(repr=False)
     pieces_of: dict[int, tuple[int, ...]] = field(repr=False)
 
     @property
+    def graph(self) -> nx.MultiGraph:
+        """G as a networkx MultiGraph; nodes carry their ``region``."""
+        g = self.__dict__.get("_nx")
+        if g is None:
+            g = nx.MultiGraph()
+            g.add_nodes_from((c.id, {"region": c.region}) for c in self.dec.cells)
+            g.add_edges_from(self.edge_list)
+            self.__dict__["_nx"] = g
+        return g
+
+    @property
     def edges(self) -> list[tuple[str, str, str]]:
         """``[cell, cell, piece]`` triples, sorted."""
-        return sorted((min(a, b), max(a, b), f"P{k}") for a, b, k in self.graph.edges(keys=True))
+        return sorted((min(a, b), max(a, b), f"P{k}") for a, b, k in self.edge_list)
 
     def __repr__(self) -> str:
-        return (f"ConnectivityGraph(cells={self.graph.number_of_nodes()}, "
-                f"edges={self.graph.number_of_edges()})")
+        return f"ConnectivityGraph(cells={len(self.dec.cells)}, edges={len(self.edge_list)})"
 
 
-def _overlap(s1: float, e1: float, s2: float, e2: float) -> float:
-    """Length (radians) of the intersection of two CCW arcs (``s == e`` never occurs)."""
-    l1 = (e1 - s1) % TWO_PI or TWO_PI
-    l2 = (e2 - s2) % TWO_PI or TWO_PI
-    total = 0.0
-    for a, la, b, lb in ((s1, l1, s2, l2), (s2, l2, s1, l1)):
-        # the part of arc b that starts inside arc a
-        d = (b - a) % TWO_PI
-        if d < la:
-            total = max(total, min(la - d, lb))
-    return total
+def _overlap(s1: Any, e1: Any, s2: Any, e2: Any) -> Any:
+    """Length (radians) of the intersection of CCW arcs ``(s1, e1)`` and ``(s2, e2)``;
+    vectorized. An arc with ``e == s`` (mod 2π) is the full circle."""
+    s1, e1, s2, e2 = (np.asarray(x, dtype=float) for x in (s1, e1, s2, e2))
+    l1 = np.mod(e1 - s1, TWO_PI)
+    l1 = np.where(l1 == 0, TWO_PI, l1)
+    l2 = np.mod(e2 - s2, TWO_PI)
+    l2 = np.where(l2 == 0, TWO_PI, l2)
+    d21 = np.mod(s2 - s1, TWO_PI)  # arc 2 starting inside arc 1
+    d12 = np.mod(s1 - s2, TWO_PI)  # arc 1 starting inside arc 2
+    a = np.where(d21 < l1, np.minimum(l1 - d21, l2), 0.0)
+    b = np.where(d12 < l2, np.minimum(l2 - d12, l1), 0.0)
+    out = np.maximum(a, b)
+    return float(out) if out.ndim == 0 else out
 
 
-def _side_arcs(dec: Decomposition, pts: np.ndarray) -> list[list[tuple[float, float, str, str]]]:
-    """Arcs ``(start, end, start_feature, end_feature)`` at each point; FULL is one arc."""
-    env = dec.env
-    table = free_arcs_many(env, pts, dec.lss, check=False)
-    out = []
-    for i in range(len(pts)):
-        if table.full[i]:
-            out.append([(0.0, TWO_PI, FREE, FREE)])
-            continue
-        rows = table.rows_of(i)
-        out.append([(float(s), float(e), feature_name(env, a), feature_name(env, b))
-                    for s, e, a, b in zip(table.start[rows], table.end[rows],
-                                          table.start_code[rows], table.end_code[rows],
-                                          strict=True)])
-    return out
+def _arc_rows(dec: Decomposition, pts: np.ndarray) -> dict[str, np.ndarray]:
+    """All free arcs at the points as flat arrays sorted by point; a FULL point contributes
+    one full-circle arc with feature codes -1."""
+    table = free_arcs_many(dec.env, pts, dec.lss, check=False)
+    full = np.flatnonzero(table.full)
+    point = np.concatenate((table.point, full))
+    order = np.argsort(point, kind="stable")
+    return {
+        "point": point[order],
+        "start": np.concatenate((table.start, np.zeros(len(full))))[order],
+        "end": np.concatenate((table.end, np.zeros(len(full))))[order],
+        "start_code": np.concatenate((table.start_code, np.full(len(full), -1)))[order],
+        "end_code": np.concatenate((table.end_code, np.full(len(full), -1)))[order],
+    }
 
 
 def build_graph(dec: Decomposition) -> ConnectivityGraph:
     """Build G from a decomposition: one edge per (cell, cell, piece) whose arcs continue into
-    each other across the piece.
+    each other across the piece (all arc pairs of all pieces compared at once).
 
     Returns
     -------
     ConnectivityGraph
     """
-    g = nx.MultiGraph()
-    for c in dec.cells:
-        g.add_node(c.id, region=c.region)
+    edges: list[tuple[str, str, int]] = []
     partners: dict[tuple[str, int], list[str]] = {}
     pieces_of: dict[int, list[int]] = {r.id: [] for r in dec.regions}
-    if dec.pieces:
+    for k, piece in enumerate(dec.pieces):
+        for r in piece.regions:
+            pieces_of[r].append(k)
+            for c in dec.regions[r].cells:
+                partners[(c, k)] = []
+    m = len(dec.pieces)
+    if m:
         q = np.array([p.sample for p in dec.pieces])
         n = np.array([p.normal for p in dec.pieces])
         e = np.array([p.eps for p in dec.pieces])[:, None]
-        arcs = _side_arcs(dec, np.vstack((q + e * n, q - e * n)))
-        m = len(dec.pieces)
+        rows = _arc_rows(dec, np.vstack((q + e * n, q - e * n)))
+        counts = np.bincount(rows["point"], minlength=2 * m)
+        first = np.cumsum(counts) - counts
+        a_rows = np.flatnonzero(rows["point"] < m)  # side of regions[0], grouped by piece
+        piece_of_a = rows["point"][a_rows]
+        nb = counts[m + piece_of_a]
+        pair_a = np.repeat(a_rows, nb)
+        within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
+        pair_b = np.repeat(first[m + piece_of_a], nb) + within
+        ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
+                      rows["end"][pair_b])
+        keep = np.flatnonzero(ov > ANGLE_TOL)
+        names = [feature_name(dec.env, code) for code in range(2 * dec.env.n)]
         known = {c.id for c in dec.cells}
-        for k, piece in enumerate(dec.pieces):
-            ra, rb = piece.regions
-            pieces_of[ra].append(k)
-            pieces_of[rb].append(k)
-            for c in dec.regions[ra].cells:
-                partners.setdefault((c, k), [])
-            for c in dec.regions[rb].cells:
-                partners.setdefault((c, k), [])
-            for sa, ea, fa1, fa2 in arcs[k]:
-                ka = cell_name(ra, fa1, fa2)
-                for sb, eb, fb1, fb2 in arcs[m + k]:
-                    kb = cell_name(rb, fb1, fb2)
-                    if ka in known and kb in known and _overlap(sa, ea, sb, eb) > ANGLE_TOL:
-                        g.add_edge(ka, kb, key=k)
-                        partners[(ka, k)].append(kb)
-                        partners[(kb, k)].append(ka)
-    return ConnectivityGraph(dec, g, {key: tuple(v) for key, v in partners.items()},
+
+        def cell_of(row: int, region: int) -> str:
+            sc, ec = rows["start_code"][row], rows["end_code"][row]
+            return cell_name(region, names[sc] if sc >= 0 else FREE,
+                             names[ec] if ec >= 0 else FREE)
+
+        for i in keep.tolist():
+            k = int(rows["point"][pair_a[i]])
+            ra, rb = dec.pieces[k].regions
+            ka, kb = cell_of(pair_a[i], ra), cell_of(pair_b[i], rb)
+            if ka in known and kb in known:
+                edges.append((ka, kb, k))
+                partners[(ka, k)].append(kb)
+                partners[(kb, k)].append(ka)
+    return ConnectivityGraph(dec, tuple(edges), {key: tuple(v) for key, v in partners.items()},
                              {r: tuple(v) for r, v in pieces_of.items()})
