@@ -329,10 +329,13 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     tol = env.length_tol
     free = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool).copy()
     A, B, tag_a, _ = env.oriented_edges
-    pidx, eidx = env.edge_index(lss).query(pts)
+    ux, uy = np.cos(ang), np.sin(ang)
+    # the rod lies in the disc of radius lss/2 about its midpoint: only edges within that
+    # reach of the midpoint can touch it (a quarter of the candidates of a query at the target)
+    mid = pts + (0.5 * lss) * np.column_stack((ux, uy))
+    pidx, eidx = env.edge_index(0.5 * lss).query(mid)
     # cheap rejection first: an edge with both ends strictly on one side of the rod's line can
     # neither cross it nor put its start vertex on it
-    ux, uy = np.cos(ang), np.sin(ang)
     ux, uy = ux[pidx], uy[pidx]
     px, py = pts[pidx, 0], pts[pidx, 1]
     wx, wy = A[eidx, 0] - px, A[eidx, 1] - py
@@ -361,10 +364,12 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     along = np.einsum("ij,ij->i", w, u)
     at_v = (np.abs(ca) <= tol) & (along > tol) & (along <= lss + tol)
     through = at_v & (along < lss - tol)
-    v = tag_a[eidx]
-    bad_v = at_v & ~_in_cone(env, v, -u)
-    bad_v |= through & ~_in_cone(env, v, u)
-    blocked = cross | bad_v
+    blocked = cross.copy()
+    hit = np.flatnonzero(at_v)  # only the few rods that meet the vertex need its cone
+    if len(hit):
+        v = tag_a[eidx[hit]]
+        bad = ~_in_cone(env, v, -u[hit]) | (through[hit] & ~_in_cone(env, v, u[hit]))
+        blocked[hit] |= bad
     free[pidx[blocked]] = False
     return free
 
