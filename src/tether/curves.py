@@ -423,11 +423,33 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             d = fam.d[cc]
             t = np.einsum("ij,ij->i", rel, d) / np.einsum("ij,ij->i", d, d)
             ok = (lam > 0) & (lam <= L)
+            # and where the target end q(s) = p + s d crosses an edge
+            e = V[env.next_vertex[vk]] - V[vk]
+            rel_q = V[vk] - fam.p[cc]
+            den = d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sq = (rel_q[:, 0] * e[:, 1] - rel_q[:, 1] * e[:, 0]) / den
+                uq = (rel_q[:, 0] * d[:, 1] - rel_q[:, 1] * d[:, 0]) / den
+            hit = (np.abs(den) > 1e-300) & (uq >= 0) & (uq <= 1)
+            cs.append(cc[hit])
+            ts.append(sq[hit])
         elif fam.kind == "B":  # rod from V_j + L u(φ) to V_j
             rel = V[vk] - fam.p[cc]
             r = np.hypot(rel[:, 0], rel[:, 1])
             t = np.mod(np.arctan2(rel[:, 1], rel[:, 0]), 2 * math.pi)
             ok = (r > 0) & (r <= L)
+            # and where the target end crosses an edge: |V_k + u e - V_j| = L
+            e = V[env.next_vertex[vk]] - V[vk]
+            ee = np.einsum("ij,ij->i", e, e)
+            b = np.einsum("ij,ij->i", e, rel)
+            disc = b * b - ee * (np.einsum("ij,ij->i", rel, rel) - L * L)
+            root = np.sqrt(np.maximum(disc, 0.0))
+            for sign in (-1.0, 1.0):
+                u = (-b + sign * root) / ee
+                hit = (disc > 0) & (u >= 0) & (u <= 1)
+                x = rel[hit] + u[hit, None] * e[hit]
+                cs.append(cc[hit])
+                ts.append(np.mod(np.arctan2(x[:, 1], x[:, 0]), 2 * math.pi))
         elif fam.kind == "E":  # line through V_k and the pole meets the base edge at Q(s)
             rel = V[vk] - fam.p[cc]
             a_rel = fam.w[cc] - fam.p[cc]
