@@ -458,6 +458,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
             ok = (np.abs(den) > 1e-300) & (np.hypot(rel[:, 0], rel[:, 1]) <= 2 * L)
+            ec, et = _conchoid_edge_crossings(env, fam, cc, vk)
+            cs.append(ec)
+            ts.append(et)
         else:  # C, D: the line o + τ w crosses edge (V_k, next) at τ; breakpoints τ and τ + L
             nk = env.next_vertex[vk]
             e = V[nk] - V[vk]
@@ -474,6 +477,41 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
         cs.append(cc[ok])
         ts.append(t[ok])
     return np.concatenate(cs), np.concatenate(ts)
+
+
+def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: np.ndarray,
+                             grid: int = 33) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters where a conchoid's target end q(s) crosses the line of edge ``vk`` (only
+    edges within lss of the pole: the conchoid stays within lss of it). Sign changes of the
+    side function on a grid, refined by bisection."""
+    V = env.vertices
+    a, e = V[vk], V[env.next_vertex[vk]] - V[vk]
+    rel = fam.p[cc] - a
+    u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+    near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
+    c, a, e = cc[near], a[near], e[near]
+    if len(c) == 0:
+        return np.zeros(0, int), np.zeros(0)
+    lo, hi = fam.lo[c], fam.hi[c]
+
+    def side(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        q = fam.points(c[rows], t)
+        return e[rows, 0] * (q[:, 1] - a[rows, 1]) - e[rows, 1] * (q[:, 0] - a[rows, 0])
+
+    frac = np.linspace(0.0, 1.0, grid)
+    rows = np.repeat(np.arange(len(c)), grid)
+    t = (lo[:, None] + frac[None, :] * (hi - lo)[:, None]).ravel()
+    f = side(t, rows).reshape(len(c), grid)
+    r, k = np.nonzero(np.sign(f[:, :-1]) * np.sign(f[:, 1:]) < 0)
+    ta = lo[r] + frac[k] * (hi - lo)[r]
+    tb = lo[r] + frac[k + 1] * (hi - lo)[r]
+    fa = np.sign(f[r, k])
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (ta + tb)
+        same = np.sign(side(mid, r)) == fa
+        ta = np.where(same, mid, ta)
+        tb = np.where(same, tb, mid)
+    return c[r], 0.5 * (ta + tb)
 
 
 def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
