@@ -241,7 +241,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- parser
-def _positive_float(text: str) -> float:
+def _float(text: str) -> float:
     try:
         return float(text)
     except ValueError:
@@ -269,8 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
     sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=_positive_float, required=True, help="rod length (map units)")
-    sp.add_argument("--at", nargs=2, type=_positive_float, required=True, metavar=("X", "Y"),
+    sp.add_argument("--lss", type=_float, required=True, help="rod length (map units)")
+    sp.add_argument("--at", nargs=2, type=_float, required=True, metavar=("X", "Y"),
                     help="target point")
     sp.add_argument("--json", action="store_true", help="print JSON")
 
@@ -294,9 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     sp = add("bound", cmd_bound, "rotation time and distance bound L of a saturated rotation")
     _speeds(sp, required=True)
-    sp.add_argument("--from", dest="theta0", type=_positive_float, required=True, metavar="TH0",
+    sp.add_argument("--from", dest="theta0", type=_float, required=True, metavar="TH0",
                     help="start angle: the paper's θ (math.md §2), radians, lifted")
-    sp.add_argument("--to", dest="thetaf", type=_positive_float, required=True, metavar="THF",
+    sp.add_argument("--to", dest="thetaf", type=_float, required=True, metavar="THF",
                     help="goal angle, radians, lifted: the sense is the sign of THF - TH0")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="also draw L against the rotation angle")
@@ -304,9 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp = add("plot-motion", cmd_plot_motion, "draw an observer motion (paper Figs. 2-5)")
     sp.add_argument("kind", choices=["tractrix", "rotation", "wall", "vertex"])
     _speeds(sp, required=False)
-    sp.add_argument("--from", dest="theta0", type=_positive_float, default=0.0, metavar="TH0",
+    sp.add_argument("--from", dest="theta0", type=_float, default=0.0, metavar="TH0",
                     help="rotation: start angle θ, radians (default 0)")
-    sp.add_argument("--to", dest="thetaf", type=_positive_float, default=2 * math.pi,
+    sp.add_argument("--to", dest="thetaf", type=_float, default=2 * math.pi,
                     metavar="THF", help="rotation: goal angle θ, radians (default 2π)")
     sp.add_argument("--out", required=True, metavar="FILE", help="image file to write")
     return p
@@ -314,16 +314,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _map_lss(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=_positive_float, required=True, help="rod length (map units)")
+    sp.add_argument("--lss", type=_float, required=True, help="rod length (map units)")
 
 
 def _speeds(sp: argparse.ArgumentParser, required: bool) -> None:
     kw = {"required": True} if required else {}
-    sp.add_argument("--vt", type=_positive_float, help="target speed bound", **kw,
+    sp.add_argument("--vt", type=_float, help="target speed bound", **kw,
                     **({} if required else {"default": 1.0}))
-    sp.add_argument("--vo", type=_positive_float, help="observer speed bound (> vt)", **kw,
+    sp.add_argument("--vo", type=_float, help="observer speed bound (> vt)", **kw,
                     **({} if required else {"default": 2.0}))
-    sp.add_argument("--lss", type=_positive_float, help="rod length (map units)", **kw,
+    sp.add_argument("--lss", type=_float, help="rod length (map units)", **kw,
                     **({} if required else {"default": 1.0}))
 
 
