@@ -165,6 +165,13 @@ class Decomposition:
             self.__dict__["_region_tree"] = t
         return t
 
+    def piece_crossings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every piece's crossing sample: points (k, 2), unit normals into ``regions[0]``
+        (k, 2), offsets (k,), map units."""
+        return (np.array([p.sample for p in self.pieces]).reshape(-1, 2),
+                np.array([p.normal for p in self.pieces]).reshape(-1, 2),
+                np.array([p.eps for p in self.pieces], dtype=float))
+
     def region_at(self, points: Any) -> np.ndarray:
         """Index of the region containing each point (``-1`` outside every region: outside the
         free space, or on a region boundary). Vectorized over points of shape (m, 2)."""
@@ -564,12 +571,13 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
                 q, n = q0, np.array([0.0, 1.0])
             trial.append((i, q, n, eps))
             first.setdefault(i, (q, n, eps))
-        both = np.vstack([np.vstack((q + e * n, q - e * n)) for _, q, n, e in trial])
-        st = structures(env, free_arcs_many(env, both, lss, check=False), len(both))
+        plus, minus = structures_across(env, lss, np.array([t[1] for t in trial]),
+                                        np.array([t[2] for t in trial]),
+                                        np.array([t[3] for t in trial]))
         still = []
         for j, (i, q, n, e) in enumerate(trial):
             ra, rb = (regions[r] for r in chains[i][0])
-            sp, sm = st[2 * j], st[2 * j + 1]
+            sp, sm = plus[j], minus[j]
             if sp == ra.structure and sm == rb.structure:
                 out[i] = (q, n, e)
             elif sp == rb.structure and sm == ra.structure:
@@ -581,6 +589,21 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
         pending = still
         rnd += 1
     return out
+
+
+def crossing_points(q: np.ndarray, n: np.ndarray, eps: np.ndarray) -> np.ndarray:
+    """Both sides of crossings: rows ``0..k-1`` are ``q + eps n``, rows ``k..2k-1`` are
+    ``q - eps n`` (``q``, ``n`` of shape (k, 2), ``eps`` of shape (k,))."""
+    e = np.asarray(eps, dtype=float)[:, None]
+    return np.vstack((q + e * n, q - e * n))
+
+
+def structures_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray,
+                      eps: np.ndarray) -> tuple[list[Structure], list[Structure]]:
+    """Exact structures on the ``+n`` and ``-n`` sides of crossings at ``q``."""
+    pts = crossing_points(q, n, eps)
+    st = structures(env, free_arcs_many(env, pts, lss, check=False), len(pts))
+    return st[: len(q)], st[len(q):]
 
 
 # ---------------------------------------------------------------------- verification
@@ -645,15 +668,10 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckRepor
                                 "expected": list(dec.regions[r].cells)})
     bad_pieces = []
     if dec.pieces:
-        q = np.array([p.sample for p in dec.pieces])
-        n = np.array([p.normal for p in dec.pieces])
-        e = np.array([p.eps for p in dec.pieces])[:, None]
-        both = np.vstack((q + e * n, q - e * n))
-        st = structures(env, free_arcs_many(env, both, dec.lss, check=False), len(both))
-        m = len(dec.pieces)
+        plus, minus = structures_across(env, dec.lss, *dec.piece_crossings())
         for i, p in enumerate(dec.pieces):
             ra, rb = (dec.regions[r] for r in p.regions)
-            if st[i] != ra.structure or st[m + i] != rb.structure:
+            if plus[i] != ra.structure or minus[i] != rb.structure:
                 bad_pieces.append({"piece": p.name, "regions": [ra.name, rb.name],
                                    "point": list(p.sample)})
     return CheckReport(len(pts), tuple(bad_pts), tuple(bad_pieces))

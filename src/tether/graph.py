@@ -17,7 +17,7 @@ import networkx as nx
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
-from tether.decomposition import FREE, Decomposition, cell_name
+from tether.decomposition import FREE, Decomposition, cell_name, crossing_points
 from tether.tolerances import ANGLE_TOL
 
 
@@ -105,10 +105,7 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
                 partners[(c, k)] = []
     m = len(dec.pieces)
     if m:
-        q = np.array([p.sample for p in dec.pieces])
-        n = np.array([p.normal for p in dec.pieces])
-        e = np.array([p.eps for p in dec.pieces])[:, None]
-        rows = _arc_rows(dec, np.vstack((q + e * n, q - e * n)))
+        rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
         counts = np.bincount(rows["point"], minlength=2 * m)
         first = np.cumsum(counts) - counts
         a_rows = np.flatnonzero(rows["point"] < m)  # side of regions[0], grouped by piece
