@@ -393,12 +393,11 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
             if f in face_struct:
                 groups.setdefault(uf.find(f), []).append(f)
         regions, face_region = _make_regions(env, arr, groups, face_struct, pts, clear)
-        report("pieces", 0.85)
-        pieces, unresolved_pieces = _make_pieces(env, arr, regions, face_region, curves, tol,
-                                                 lss)
+        chains = _chains(arr, face_region)
+        cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
-        touched = {r for p in pieces for r in p.regions}
+        touched = {r for (pair, _), c in zip(chains, cands, strict=True) if c for r in pair}
         isolated = {r.id for r in regions if r.id not in touched} if len(regions) > 1 else set()
         if not isolated:
             break
@@ -406,6 +405,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         for f in specks:
             del face_struct[f]
         _absorb(specks, adjacent, plen, uf, face_struct)
+    report("pieces", 0.85)
+    pieces, unresolved_pieces = _make_pieces(env, arr, regions, chains, cands, curves, lss)
     cells = tuple(Cell(cid, r.id, *_split_cell(cid)) for r in regions for cid in r.cells)
     report("done", 1.0)
     return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
@@ -462,14 +463,9 @@ def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[in
     return regions, face_region
 
 
-def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region],
-                 face_region: dict[int, int], curves: list[Curve], tol: float, lss: float
-                 ) -> tuple[list[Piece], int]:
-    """Group the arrangement parts separating two regions into pieces: chains of parts that
-    meet end to end and share a source curve. Returns the pieces and the number of chains
-    dropped as below resolution (no point of theirs is clear of other curves by ``4 tol``:
-    artefacts of the polyline approximation at tangencies, where the exact regions touch
-    at a point only)."""
+def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple, list[int]]]:
+    """Arrangement parts separating two regions, grouped into chains: parts that meet end to
+    end and share a source curve. Each chain is ``((region_a, region_b), part indices)``."""
     groups: dict[tuple, list[int]] = {}
     for k, (fa, fb) in enumerate(arr.part_faces):
         ra, rb = face_region.get(int(fa), -1), face_region.get(int(fb), -1)
@@ -493,7 +489,15 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region],
             comp.setdefault(uf.find(i), []).append(k)
         chains += [(key, sorted(v)) for v in comp.values()]
     chains.sort(key=lambda kv: (kv[0], kv[1][0]))
-    cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
+    return chains
+
+
+def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
+                 cands: list, curves: list[Curve], lss: float) -> tuple[list[Piece], int]:
+    """One piece per chain with a crossing sample. Returns the pieces and the number of
+    chains dropped as below resolution (no candidate point clear of other curves by
+    ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
+    touch at a point only)."""
     samples = _pick_crossings(env, chains, cands, regions, curves, arr, lss)
     pieces, dropped = [], 0
     for ((ra, rb), ks), sample in zip(chains, samples, strict=True):
