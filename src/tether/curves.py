@@ -377,20 +377,19 @@ def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float,
         ta = np.where(move_a, mid, ta)
         tb = np.where(move_a, tb, mid)
     edge_t = np.where(fa, ta, tb)  # the last free parameter at each transition
-    # walk each curve's samples and cut runs of free samples
-    bounds = {int(i): float(v) for i, v in zip(trans, edge_t, strict=True)}
-    run_start = None
-    for r in range(len(c)):
-        cr = int(c[r])
-        if r == first[cr]:
-            run_start = None
-        if free[r] and run_start is None:
-            run_start = fam.lo[cr] if r == first[cr] else bounds[r - 1]
-        last_of_curve = r == first[cr] + counts[cr] - 1
-        if run_start is not None and (last_of_curve or not free[r + 1]):
-            end = fam.hi[cr] if last_of_curve else bounds[r]
-            out[cr].append((float(run_start), float(end)))
-            run_start = None
+    # runs of free samples: a run starts at a curve's first sample or after a transition and
+    # ends at a curve's last sample or before one; transitions give the exact ends
+    bound = np.full(len(c), np.nan)
+    bound[trans] = edge_t
+    is_first = np.zeros(len(c), bool)
+    is_first[first[counts > 0]] = True
+    is_last = np.r_[is_first[1:], True]
+    starts = np.flatnonzero(free & (is_first | ~np.r_[True, free[:-1]]))
+    ends = np.flatnonzero(free & (is_last | ~np.r_[free[1:], True]))
+    lo_t = np.where(is_first[starts], fam.lo[c[starts]], bound[np.maximum(starts - 1, 0)])
+    hi_t = np.where(is_last[ends], fam.hi[c[ends]], bound[ends])
+    for cr, a, b in zip(c[starts].tolist(), lo_t.tolist(), hi_t.tolist(), strict=True):
+        out[cr].append((a, b))
     if fam.kind == "B":  # the circle is closed: join a run through angle 0
         for ivs in out:
             if len(ivs) > 1 and ivs[0][0] == fam.lo[0] and ivs[-1][1] == fam.hi[0]:

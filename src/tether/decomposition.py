@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiLineString, Polygon
+from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
 from tether.curves import Curve, critical_curves
@@ -455,8 +455,7 @@ def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[in
     for rid, (pt, faces, poly, area, st) in enumerate(drafts):
         names = structure_names(env, st)
         cells = tuple(cell_name(rid, s, e) for s, e in names)
-        if isinstance(poly, Polygon) or poly.geom_type == "MultiPolygon":
-            shapely.prepare(poly)
+        shapely.prepare(poly)
         regions.append(Region(rid, poly, area, (float(pt[0]), float(pt[1])), st, cells))
         for f in faces:
             face_region[f] = rid
