@@ -1,46 +1,21 @@
-"""The ``tether`` command. Thin: parses arguments, calls the library, prints.
-
-Every user error (bad map, bad parameter, target outside the free space) is printed as one line
-``tether: error: ...`` on stderr with exit status 2; no traceback.
-"""
+"""Commands on a map: info, arcs, decompose, check, analyze, and the demo."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
-from collections.abc import Callable, Sequence
-from importlib import resources
 from pathlib import Path
 
-from tether.errors import TetherError
-
-EXIT_USAGE = 2
+from tether.cli.common import add_map_lss, deg, example_path, float_arg, print_json
 
 
-def example_path(name: str) -> Path:
-    """Path of a bundled example map (``rectangle``, ``gallery``, ...)."""
-    return Path(str(resources.files("tether") / "examples" / f"{name}.json"))
-
-
-def _print_json(obj: object) -> None:
-    json.dump(obj, sys.stdout, indent=1, allow_nan=False)
-    sys.stdout.write("\n")
-
-
-def _deg(a: float) -> str:
-    return f"{math.degrees(a):7.2f}°"
-
-
-# ---------------------------------------------------------------------- commands
 def cmd_info(args: argparse.Namespace) -> int:
     from tether.environment import load_map
 
     env = load_map(args.map)
     info = env.summary()
     if args.json:
-        _print_json(info)
+        print_json(info)
         return 0
     x0, y0, x1, y1 = info["bounding_box"]
     print(f"map {info['name']!r}: {info['vertices']} vertices, {info['edges']} edges, "
@@ -60,8 +35,8 @@ def format_arcs(fa) -> str:
         return head + "no free orientation"
     lines = [head + f"{len(fa.arcs)} free arc(s)"]
     for a in fa.arcs:
-        lines.append(f"  [{a.start_feature:>4} -> {a.end_feature:<4}]  {_deg(a.start)} .. "
-                     f"{_deg(a.end)}  ({math.degrees(a.length):.2f}° wide)")
+        lines.append(f"  [{a.start_feature:>4} -> {a.end_feature:<4}]  {deg(a.start)} .. "
+                     f"{deg(a.end)}  ({math.degrees(a.length):.2f}° wide)")
     return "\n".join(lines)
 
 
@@ -72,7 +47,7 @@ def cmd_arcs(args: argparse.Namespace) -> int:
     env = load_map(args.map)
     fa = free_arcs(env, args.at, args.lss)
     if args.json:
-        _print_json(fa.to_dict())
+        print_json(fa.to_dict())
     else:
         print(format_arcs(fa))
     return 0
@@ -114,47 +89,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_bound(args: argparse.Namespace) -> int:
-    from tether.bounds import bound_report
-
-    rep = bound_report(args.theta0, args.thetaf, args.vt, args.vo, args.lss)
-    if args.plot:
-        from tether.plot import bound_figure, save
-
-        save(bound_figure(args.theta0, args.thetaf, args.vt, args.vo, args.lss), args.plot)
-    if args.json:
-        _print_json(rep)
-        return 0
-    sweep = abs(args.thetaf - args.theta0)
-    sense = "CCW" if args.thetaf >= args.theta0 else "CW"
-    print(f"rotation {math.degrees(sweep):.2f}° {sense}, vt={args.vt:g}, vo={args.vo:g}, "
-          f"lss={args.lss:g}")
-    print(f"  straight target (paper's L):  time {rep['rotation_time']:.6g} s, "
-          f"distance bound L = {rep['distance_bound']:.6g}")
-    print(f"  steering target (safe bound): time {rep['worst_case_time']:.6g} s, "
-          f"distance bound L_g = {rep['worst_case_distance']:.6g}")
-    return 0
-
-
-def cmd_plot_motion(args: argparse.Namespace) -> int:
-    from tether import plot
-    from tether.bounds import check_speeds
-
-    check_speeds(args.vt, args.vo, args.lss)
-    fig, ax = plot.new_axes()
-    if args.kind == "tractrix":
-        plot.plot_tractrix(ax, args.lss, args.vt)
-    elif args.kind == "rotation":
-        plot.plot_rotation(ax, args.vt, args.vo, args.lss, args.theta0, args.thetaf)
-    elif args.kind == "wall":
-        plot.plot_wall(ax, args.vt, args.vo, args.lss, h=0.6 * args.lss)
-    else:
-        plot.plot_vertex(ax, args.vt, args.vo, args.lss, lt=0.6 * args.lss)
-    plot.save(fig, args.out)
-    print(f"wrote {args.out}")
-    return 0
-
-
 def _decompose(args: argparse.Namespace):
     from tether.decomposition import decompose
     from tether.environment import load_map
@@ -173,7 +107,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         plot_decomposition(dec, ax, by_type=args.by_type)
         save(fig, args.plot)
     if args.json:
-        _print_json(dec.to_dict())
+        print_json(dec.to_dict())
         return 0
     c = dec.counts
     print(f"map {dec.env.name!r}, lss {dec.lss:g}: {c['curves']} critical curves, "
@@ -198,7 +132,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
         save(plot_verdict(verdict), args.plot)
     if args.json:
-        _print_json(verdict.to_dict())
+        print_json(verdict.to_dict())
         return 0
     print(format_verdict(verdict))
     return 0
@@ -225,7 +159,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     dec = _decompose(args)
     rep = check(dec, args.samples, args.seed)
     if args.json:
-        _print_json(rep.to_dict())
+        print_json(rep.to_dict())
     else:
         print(f"checked {rep.samples} sampled points in {len(dec.regions)} regions and "
               f"{len(dec.pieces)} piece crossings: "
@@ -240,26 +174,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0 if rep.ok else 1
 
 
-# ---------------------------------------------------------------------- parser
-def _float(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="tether",
-        description="Keep a moving target in sight at a fixed distance inside a polygonal map.",
-    )
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
-    def add(name: str, fn: Callable, help_: str) -> argparse.ArgumentParser:
-        sp = sub.add_parser(name, help=help_, description=help_)
-        sp.set_defaults(func=fn)
-        return sp
-
+def register(add) -> None:
+    """Add this group's subcommands; ``add(name, fn, help)`` returns the subparser."""
     sp = add("demo", cmd_demo, "run the whole pipeline on the bundled examples")
     sp.add_argument("--out", default="tether-demo", help="folder for the demo's figures")
 
@@ -269,76 +185,25 @@ def build_parser() -> argparse.ArgumentParser:
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
     sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=_float, required=True, help="rod length (map units)")
-    sp.add_argument("--at", nargs=2, type=_float, required=True, metavar=("X", "Y"),
+    sp.add_argument("--lss", type=float_arg, required=True, help="rod length (map units)")
+    sp.add_argument("--at", nargs=2, type=float_arg, required=True, metavar=("X", "Y"),
                     help="target point")
     sp.add_argument("--json", action="store_true", help="print JSON")
 
     sp = add("decompose", cmd_decompose, "critical curves, regions, cells and pieces")
-    _map_lss(sp)
+    add_map_lss(sp)
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the decomposition to an image file")
     sp.add_argument("--by-type", action="store_true", help="colour the curves by type")
     sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
 
     sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")
-    _map_lss(sp)
+    add_map_lss(sp)
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the verdict figure to an image file")
 
     sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")
-    _map_lss(sp)
+    add_map_lss(sp)
     sp.add_argument("--samples", type=int, default=20, help="sample points per region")
     sp.add_argument("--seed", type=int, default=0, help="random seed")
     sp.add_argument("--json", action="store_true", help="print JSON")
-
-    sp = add("bound", cmd_bound, "rotation time and distance bound L of a saturated rotation")
-    _speeds(sp, required=True)
-    sp.add_argument("--from", dest="theta0", type=_float, required=True, metavar="TH0",
-                    help="start angle: the paper's θ (math.md §2), radians, lifted")
-    sp.add_argument("--to", dest="thetaf", type=_float, required=True, metavar="THF",
-                    help="goal angle, radians, lifted: the sense is the sign of THF - TH0")
-    sp.add_argument("--json", action="store_true", help="print JSON")
-    sp.add_argument("--plot", metavar="FILE", help="also draw L against the rotation angle")
-
-    sp = add("plot-motion", cmd_plot_motion, "draw an observer motion (paper Figs. 2-5)")
-    sp.add_argument("kind", choices=["tractrix", "rotation", "wall", "vertex"])
-    _speeds(sp, required=False)
-    sp.add_argument("--from", dest="theta0", type=_float, default=0.0, metavar="TH0",
-                    help="rotation: start angle θ, radians (default 0)")
-    sp.add_argument("--to", dest="thetaf", type=_float, default=2 * math.pi,
-                    metavar="THF", help="rotation: goal angle θ, radians (default 2π)")
-    sp.add_argument("--out", required=True, metavar="FILE", help="image file to write")
-    return p
-
-
-def _map_lss(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=_float, required=True, help="rod length (map units)")
-
-
-def _speeds(sp: argparse.ArgumentParser, required: bool) -> None:
-    kw = {"required": True} if required else {}
-    sp.add_argument("--vt", type=_float, help="target speed bound", **kw,
-                    **({} if required else {"default": 1.0}))
-    sp.add_argument("--vo", type=_float, help="observer speed bound (> vt)", **kw,
-                    **({} if required else {"default": 2.0}))
-    sp.add_argument("--lss", type=_float, help="rod length (map units)", **kw,
-                    **({} if required else {"default": 1.0}))
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``tether`` command; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except TetherError as exc:
-        print(f"tether: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except BrokenPipeError:
-        return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
