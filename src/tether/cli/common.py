@@ -44,3 +44,12 @@ def add_speeds(sp: argparse.ArgumentParser, required: bool) -> None:
                     **({} if required else {"default": 2.0}))
     sp.add_argument("--lss", type=float_arg, help="rod length (map units)", **kw,
                     **({} if required else {"default": 1.0}))
+
+
+def check_plot_arg(args: argparse.Namespace, attr: str = "plot") -> None:
+    """Validate an optional image output argument (``--plot``) before any computation."""
+    from tether.output import IMAGE_KINDS, check_output_path
+
+    value = getattr(args, attr, None)
+    if value is not None:
+        check_output_path(value, IMAGE_KINDS)

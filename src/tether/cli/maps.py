@@ -4,9 +4,15 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
-from tether.cli.common import add_map_lss, deg, example_path, float_arg, print_json
+from tether.cli.common import (
+    add_map_lss,
+    check_plot_arg,
+    deg,
+    example_path,
+    float_arg,
+    print_json,
+)
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -58,10 +64,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from tether.decomposition import decompose
     from tether.environment import load_map
     from tether.escape import analyze
+    from tether.output import make_output_dir
     from tether.plot import plot_verdict, save
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_dir(args.out)
     env = load_map(example_path("gallery"))
     info = env.summary()
     print(f"== tether demo: the bundled map {info['name']!r} ==")
@@ -99,6 +105,7 @@ def _decompose(args: argparse.Namespace):
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
+    check_plot_arg(args)
     dec = _decompose(args)
     if args.plot:
         from tether.plot import new_axes, plot_decomposition, save
@@ -125,6 +132,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 def cmd_analyze(args: argparse.Namespace) -> int:
     from tether.escape import analyze
 
+    check_plot_arg(args)
     dec = _decompose(args)
     verdict = analyze(dec)
     if args.plot:

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import math
 
-from tether.cli.common import add_speeds, float_arg, print_json
+from tether.cli.common import add_speeds, check_plot_arg, float_arg, print_json
 
 
 def cmd_bound(args: argparse.Namespace) -> int:
     from tether.bounds import bound_report
 
+    check_plot_arg(args)
     rep = bound_report(args.theta0, args.thetaf, args.vt, args.vo, args.lss)
     if args.plot:
         from tether.plot import bound_figure, save
@@ -33,7 +34,9 @@ def cmd_bound(args: argparse.Namespace) -> int:
 def cmd_plot_motion(args: argparse.Namespace) -> int:
     from tether import plot
     from tether.bounds import check_speeds
+    from tether.output import IMAGE_KINDS, check_output_path
 
+    check_output_path(args.out, IMAGE_KINDS)
     check_speeds(args.vt, args.vo, args.lss)
     fig, ax = plot.new_axes()
     if args.kind == "tractrix":
