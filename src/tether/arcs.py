@@ -142,8 +142,9 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     """Blocked orientation intervals ``B_i(p)`` for all edges within reach of each point.
 
     Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
-    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in [0, pi)), ``cw_code`` and
-    ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (ANGLE_TOL, pi)),
+    ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    Intervals narrower than ``ANGLE_TOL`` (tangencies) are dropped.
     """
     A, B, tag_a, tag_b = env.oriented_edges
     pidx, eidx = env.edge_index(lss).query(pts)
@@ -167,12 +168,16 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     p2 = w[k] + t2[k, None] * d[k]
     start = np.mod(np.arctan2(p1[:, 1], p1[:, 0]), TWO_PI)
     length = np.arctan2(p1[:, 0] * p2[:, 1] - p1[:, 1] * p2[:, 0], np.einsum("ij,ij->i", p1, p2))
+    # an interval narrower than the angle tolerance is a tangency (the circle grazes the edge,
+    # or the point sits at distance lss of a vertex up to rounding): it blocks nothing
+    wide = length > ANGLE_TOL
+    k, start, length = k[wide], start[wide], length[wide]
     e = eidx[k]
     return {
         "point": pidx[k],
         "edge": e,
         "start": start,
-        "length": np.maximum(length, 0.0),
+        "length": length,
         "cw_code": np.where(r1[k] <= 0, env.n + tag_a[e], e),
         "ccw_code": np.where(r2[k] >= 1, env.n + tag_b[e], e),
     }
