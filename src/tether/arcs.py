@@ -141,6 +141,8 @@ class ArcTable:
 def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str, np.ndarray]:
     """Blocked orientation intervals ``B_i(p)`` for all edges within reach of each point.
 
+    ``env`` is taken as is (call it with :attr:`Environment.internal` and internal points).
+
     Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
     ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (ANGLE_TOL, pi)),
     ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
@@ -278,7 +280,13 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     pts = _as_points(points)
     if check:
         check_inside(env, pts)
-    return _merge(blocked_intervals(env, pts, lss), len(pts))
+    inner, frame = env.internal, env.frame
+    table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
+    if inner is env:
+        return table
+    cm = env.code_map  # internal feature codes to the file's
+    return ArcTable(table.point, table.start, table.end, cm[table.start_code],
+                    cm[table.end_code], table.full)
 
 
 def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:
@@ -331,6 +339,9 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     lss = check_lss(lss)
     pts = _as_points(points)
     ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+    if not env.is_internal:  # computed in the normalized frame, without straight vertices
+        frame = env.frame
+        return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)
     tol = env.length_tol
     free = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool).copy()
     A, B, tag_a, _ = env.oriented_edges
