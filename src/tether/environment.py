@@ -78,6 +78,22 @@ def _validate_ring(ring: np.ndarray, where: str, tol: float) -> None:
         raise InvalidMapError(f"{where}: the ring intersects itself{at}")
 
 
+def _at(geom: Any) -> str:
+    """`` at (x, y)``: a point of ``geom`` (a location for a message), or ``""`` if empty."""
+    if geom is None or geom.is_empty:
+        return ""
+    p = geom.representative_point() if geom.geom_type != "Point" else geom
+    return f" at ({_fmt(p.x)}, {_fmt(p.y)})"
+
+
+def _where_outside(outer: Polygon, hole: Polygon) -> str:
+    """Where a hole leaves or touches the boundary ring, for the error message."""
+    touch = outer.exterior.intersection(hole.exterior)
+    if not touch.is_empty:
+        return _at(touch)
+    return _at(hole.difference(outer))
+
+
 @dataclass(frozen=True, eq=False)
 class Environment:
     """A polygonal map: the closed free space ``F`` bounded by an outer ring and hole rings.
@@ -117,10 +133,12 @@ class Environment:
             _validate_ring(h, f"hole {k}", tol)
             hp = Polygon(h)
             if not outer.contains(hp) or outer.exterior.intersects(LinearRing(h)):
-                raise InvalidMapError(f"hole {k}: not strictly inside the boundary")
+                raise InvalidMapError(f"hole {k}: not strictly inside the boundary"
+                                      f"{_where_outside(outer, hp)}")
             for j, other in enumerate(hole_polys):
                 if hp.intersects(other):
-                    raise InvalidMapError(f"holes {j} and {k} overlap or touch")
+                    raise InvalidMapError(f"holes {j} and {k} overlap or touch"
+                                          f"{_at(hp.intersection(other))}")
             hole_polys.append(hp)
 
     # ------------------------------------------------------------------ structure
@@ -388,7 +406,8 @@ def from_wkt(text: str, where: str = "map", name: str = "") -> Environment:
 
 
 def load_map(path: str | Path) -> Environment:
-    """Read a map file: ``.json`` (tether's form or GeoJSON), ``.geojson`` or ``.wkt``.
+    """Read a map file: ``.json`` (tether's form or GeoJSON), ``.geojson``, ``.wkt``, or a ROS
+    ``map_server`` map ``.yaml`` (see :func:`tether.occupancy.read_ros_map`, default options).
 
     Raises
     ------
@@ -399,9 +418,13 @@ def load_map(path: str | Path) -> Environment:
     p = Path(path)
     where = str(path)
     suffix = p.suffix.lower()
+    if suffix in {".yaml", ".yml"}:
+        from tether.occupancy import read_ros_map
+
+        return read_ros_map(p)
     if suffix not in {".json", ".geojson", ".wkt"}:
         raise InvalidMapError(f"{where}: unknown map format {suffix or '(none)'!r}; "
-                              "use .json, .geojson or .wkt")
+                              "use .json, .geojson, .wkt or a ROS map .yaml")
     try:
         text = p.read_text()
     except OSError as exc:
