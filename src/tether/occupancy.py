@@ -487,7 +487,7 @@ def _to_environment(grid: OccupancyGrid, poly: Polygon, tol_cells: float) -> Env
         simple = _simplified(poly, tol) if tol > 0 else poly
         rings = [np.asarray(simple.exterior.coords)[:-1]]
         rings += [np.asarray(r.coords)[:-1] for r in simple.interiors]
-        rings = [grid.to_world(r) for r in rings]
+        rings = [np.round(grid.to_world(r), 9) for r in rings]  # float noise of the transform
         try:
             return Environment(rings[0], tuple(rings[1:]), grid.name)
         except InvalidMapError as exc:

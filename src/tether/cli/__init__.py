@@ -25,6 +25,7 @@ EXIT_USAGE = 2
 GROUPS = [
     "maps",
     "motion",
+    "ros",
 ]
 
 
