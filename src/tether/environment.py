@@ -728,7 +728,8 @@ def _parse_json(text: str, where: str) -> Any:
 
 
 def load_map(path: str | Path) -> Environment:
-    """Read a map file: ``.json`` (tether's form or GeoJSON), ``.geojson`` or ``.wkt``.
+    """Read a map file: ``.json`` (tether's form or GeoJSON), ``.geojson``, ``.wkt``, or a ROS
+    ``map_server`` map ``.yaml`` (see :func:`tether.occupancy.read_ros_map`, default options).
 
     Files must be text: UTF-8 (UTF-16/32 JSON is also read), at most ``MAX_MAP_BYTES`` bytes
     and ``MAX_VERTICES`` vertices (:mod:`tether.tolerances`).
@@ -743,9 +744,13 @@ def load_map(path: str | Path) -> Environment:
     p = Path(path)
     where = str(path)
     suffix = p.suffix.lower()
+    if suffix in {".yaml", ".yml"}:
+        from tether.occupancy import read_ros_map
+
+        return read_ros_map(p)
     if suffix not in {".json", ".geojson", ".wkt"}:
         raise InvalidMapError(f"{where}: unknown map format {suffix or '(none)'!r}; "
-                              "use .json, .geojson or .wkt")
+                              "use .json, .geojson, .wkt or a ROS map .yaml")
     try:
         if p.is_dir():
             raise InvalidMapError(f"{where}: is a folder, not a map file")
