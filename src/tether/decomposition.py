@@ -20,12 +20,19 @@ from typing import Any
 
 import numpy as np
 import shapely
+from shapely.errors import GEOSException
 from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
 from tether.curves import Curve, critical_curves
 from tether.environment import Environment
+from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
+
+
+class ArrangementError(TetherError):
+    """The critical curves' arrangement could not be computed at tether's resolution."""
+
 
 Structure = Any  # frozenset of (start_code, end_code) pairs, or "FULL" / "EMPTY"
 FREE = "*"  # feature name of both ends of the single cell of a FULL region
@@ -107,6 +114,9 @@ class Piece:
     sample: tuple[float, float]
     normal: tuple[float, float]
     eps: float
+    #: whether the two sides of the crossing showed the two regions' structures when the
+    #: decomposition was built (False: no candidate point did; ``check`` reports it)
+    verified: bool = True
 
     @property
     def name(self) -> str:
@@ -288,8 +298,9 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
             if len(p) >= 2 and np.ptp(p, axis=0).max() > 0:
                 lines.append(LineString(p))
                 source.append(c.id)
-    noded = shapely.node(MultiLineString(lines))
+    noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
+    parts = parts[shapely.length(parts) > 0]
     faces = shapely.get_parts(shapely.polygonize(parts))
     # which faces lie on the two sides of each part: match the part's longest segment with the
     # faces' ring segments (polygonize keeps the noded coordinates exactly)
@@ -311,11 +322,50 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # which input lines each part came from
     tree = shapely.STRtree(lines)
     mid = shapely.points(0.5 * (pa[longest] + pb[longest]))
-    qi, li = tree.query(mid, predicate="dwithin", distance=max(1e-3 * tol, 1e-12))
+    qi, li = tree.query(mid, predicate="dwithin", distance=max(1e-3 * tol + 2 * grid, 1e-12))
     src: list[set] = [set() for _ in range(len(parts))]
     for q, line in zip(qi.tolist(), li.tolist(), strict=True):
         src[powner[longest[q]]].add(source[line])
     return _Arrangement(parts, part_faces, [tuple(sorted(s)) for s in src], faces)
+
+
+#: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
+#: tolerance: coarser grids only if a finer one fails too.
+SNAP_GRIDS = (0.25, 1.0, 4.0)
+
+
+def _node(lines: list[LineString], tol: float) -> tuple[Any, float]:
+    """Node the lines: GEOS's floating-point noder first; if it fails to converge (nearly
+    coincident or tangent curves), snap rounding on a grid of ``SNAP_GRIDS * tol`` map units
+    (GEOS's fixed-precision overlay, robust by construction: every vertex moves by at most
+    half a grid cell, well inside the curves' own tolerance ``tol``). Returns the noded
+    geometry and the grid used (0 for exact floating-point noding).
+
+    Raises
+    ------
+    ArrangementError
+        If even the coarsest grid fails (the map is beyond tether's resolution).
+    """
+    try:
+        return shapely.node(MultiLineString(lines)), 0.0
+    except GEOSException:
+        pass
+    err = None
+    for frac in SNAP_GRIDS:
+        grid = frac * tol
+        try:
+            snapped = shapely.set_precision(np.asarray(lines, dtype=object), grid)
+            return shapely.union_all(snapped, grid_size=grid), grid
+        except GEOSException as exc:
+            err = exc
+    raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
+                           f"on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the curve "
+                           f"tolerance {tol:.2g}): {_geos_message(err)}")
+
+
+def _geos_message(exc: BaseException | None) -> str:
+    """The first line of a GEOS error, without its class prefix."""
+    return str(exc).splitlines()[0] if exc is not None else "unknown error"
 
 
 def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -355,8 +405,18 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     ------
     InvalidParameterError
         If ``lss`` is not a finite positive number.
+    ArrangementError
+        If the geometry engine fails even with snap rounding (one line, no traceback).
     """
     lss = check_lss(lss)
+    try:
+        return _decompose(env, lss, rel_tol, progress)
+    except GEOSException as exc:  # never a traceback from the geometry engine
+        raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
+                               f"{_geos_message(exc)}") from exc
+
+
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> Decomposition:
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -504,13 +564,14 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
             dropped += 1
             continue
         srcs = sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
-        q, n, eps = sample
+        q, n, eps, verified = sample
         kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
         feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
         geom = shapely.line_merge(shapely.union_all(arr.parts[ks])) if len(ks) > 1 \
             else arr.parts[ks[0]]
         pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
-                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps))
+                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
+                            bool(verified)))
     return pieces, dropped
 
 
@@ -557,7 +618,8 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
     are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
-    (``check`` reports it); a chain with no candidate at all gets ``None``."""
+    (``check`` reports it); a chain with no candidate at all gets ``None``. Each answer is
+    ``(q, n, eps, verified)``."""
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
@@ -582,13 +644,13 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
             ra, rb = (regions[r] for r in chains[i][0])
             sp, sm = plus[j], minus[j]
             if sp == ra.structure and sm == rb.structure:
-                out[i] = (q, n, e)
+                out[i] = (q, n, e, True)
             elif sp == rb.structure and sm == ra.structure:
-                out[i] = (q, -n, e)
+                out[i] = (q, -n, e, True)
             elif rnd + 1 < len(cands[i]):
                 still.append(i)
             else:
-                out[i] = first[i]
+                out[i] = (*first[i], False)
         pending = still
         rnd += 1
     return out
@@ -630,13 +692,16 @@ class CheckReport:
 
 
 def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
-                      margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Random points inside each region, farther than ``margin`` (default ``10 * curve_tol``)
-    from its boundary. Returns (points, region index of each)."""
+                      margin: float | None = None, regions: Any = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Random points inside each region (or each of the region indices ``regions``), farther
+    than ``margin`` (default ``10 * curve_tol``) from its boundary. Returns (points, region
+    index of each)."""
     rng = np.random.default_rng(seed)
     margin = 10 * dec.curve_tol if margin is None else margin
     pts, owner = [], []
-    for r in dec.regions:
+    chosen = dec.regions if regions is None else [dec.regions[int(i)] for i in regions]
+    for r in chosen:
         inner = r.polygon.buffer(-margin)
         if inner.is_empty:
             continue
@@ -659,8 +724,34 @@ def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
 def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckReport:
     """Verify a decomposition by sampling: every sampled point's exact structure must equal its
     region's, and across every piece the two sides must show the two regions' structures."""
-    env = dec.env
     pts, owner = sample_in_regions(dec, per_region, seed)
+    return CheckReport(len(pts), _point_disagreements(dec, pts, owner),
+                       _piece_disagreements(dec))
+
+
+#: Regions sampled by :func:`self_check` (one point each, chosen at random).
+SELF_CHECK_REGIONS = 200
+
+
+def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0
+               ) -> CheckReport:
+    """The cheap check :func:`tether.escape.analyze` runs by default: one random point in
+    each of up to ``regions`` random regions against its region's structure, and every piece's
+    crossing as verified when the decomposition was built (no recomputation)."""
+    rng = np.random.default_rng(seed)
+    chosen = np.arange(len(dec.regions))
+    if len(chosen) > regions:
+        chosen = np.sort(rng.choice(chosen, regions, replace=False))
+    pts, owner = sample_in_regions(dec, 1, seed, regions=chosen)
+    bad_pieces = tuple({"piece": p.name, "regions": [f"R{r}" for r in p.regions],
+                        "point": list(p.sample)} for p in dec.pieces if not p.verified)
+    return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces)
+
+
+def _point_disagreements(dec: Decomposition, pts: np.ndarray, owner: np.ndarray
+                         ) -> tuple[dict, ...]:
+    """Sampled points whose exact structure differs from their region's."""
+    env = dec.env
     bad_pts = []
     if len(pts):
         st = structures(env, free_arcs_many(env, pts, dec.lss, check=False), len(pts))
@@ -669,6 +760,12 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckRepor
                 bad_pts.append({"region": f"R{r}", "point": [float(p[0]), float(p[1])],
                                 "found": [list(x) for x in structure_names(env, s)],
                                 "expected": list(dec.regions[r].cells)})
+    return tuple(bad_pts)
+
+
+def _piece_disagreements(dec: Decomposition) -> tuple[dict, ...]:
+    """Pieces whose two crossing sides do not show their two regions' structures (exact)."""
+    env = dec.env
     bad_pieces = []
     if dec.pieces:
         plus, minus = structures_across(env, dec.lss, *dec.piece_crossings())
@@ -677,8 +774,8 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckRepor
             if plus[i] != ra.structure or minus[i] != rb.structure:
                 bad_pieces.append({"piece": p.name, "regions": [ra.name, rb.name],
                                    "point": list(p.sample)})
-    return CheckReport(len(pts), tuple(bad_pts), tuple(bad_pieces))
+    return tuple(bad_pieces)
 
 
-__all__ = ["Cell", "CheckReport", "Decomposition", "Piece", "Region", "cell_name", "check",
-           "decompose", "sample_in_regions", "structures"]
+__all__ = ["ArrangementError", "Cell", "CheckReport", "Decomposition", "Piece", "Region",
+           "cell_name", "check", "decompose", "sample_in_regions", "self_check", "structures"]

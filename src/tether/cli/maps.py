@@ -133,9 +133,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         save(plot_verdict(verdict), args.plot)
     if args.json:
         print_json(verdict.to_dict())
-        return 0
+        return 0 if verdict.verified is not False else 1
     print(format_verdict(verdict))
-    return 0
+    return 0 if verdict.verified is not False else 1
 
 
 def format_verdict(verdict) -> str:
@@ -150,6 +150,11 @@ def format_verdict(verdict) -> str:
     if verdict.witness_region is not None:
         lines.append(f"  witness region: R{verdict.witness_region}")
     lines += ["  " + s for s in verdict.story()]
+    rep = verdict.self_check
+    if rep is not None and not rep.ok:
+        lines.insert(0, f"SELF-CHECK FAILED: {len(rep.point_disagreements)} point and "
+                        f"{len(rep.piece_disagreements)} piece disagreements with exact "
+                        "evaluation; the verdict below is NOT verified (run `tether check`)")
     return "\n".join(lines)
 
 
