@@ -217,8 +217,11 @@ class Decomposition:
                     break
         return out
 
-    def to_dict(self) -> dict:
-        return {
+    def to_dict(self, geometry: bool = False) -> dict:
+        """Counts, regions and cells; with ``geometry`` also the pieces, the curves and each
+        region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
+        small on large maps (the full one is tens of MB at a few hundred vertices)."""
+        out = {
             "map": self.env.name,
             "lss": self.lss,
             "curve_tolerance": self.curve_tol,
@@ -226,9 +229,17 @@ class Decomposition:
             "counts": {k: v for k, v in self.counts.items() if k != "curves"},
             "regions": [r.to_dict() for r in self.regions],
             "cells": [c.to_dict() for c in self.cells],
-            "pieces": [p.to_dict() for p in self.pieces],
-            "curves": [c.to_dict() for c in self.curves],
         }
+        if geometry:
+            out["pieces"] = [p.to_dict() for p in self.pieces]
+            out["curves"] = [c.to_dict() for c in self.curves]
+            wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
+            for d, w in zip(out["regions"], wkt, strict=True):
+                d["polygon"] = w
+            wkt = shapely.to_wkt([p.geometry for p in self.pieces], rounding_precision=-1)
+            for d, w in zip(out["pieces"], wkt, strict=True):
+                d["geometry"] = w
+        return out
 
     def plot(self, ax: Any = None, **kw: Any) -> list:
         """Draw the decomposition (see :func:`tether.plot.plot_decomposition`)."""

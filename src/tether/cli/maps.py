@@ -107,7 +107,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         plot_decomposition(dec, ax, by_type=args.by_type)
         save(fig, args.plot)
     if args.json:
-        print_json(dec.to_dict())
+        print_json(dec.to_dict(geometry=args.geometry))
         return 0
     c = dec.counts
     print(f"map {dec.env.name!r}, lss {dec.lss:g}: {c['curves']} critical curves, "
@@ -200,6 +200,8 @@ def register(add) -> None:
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the decomposition to an image file")
     sp.add_argument("--by-type", action="store_true", help="colour the curves by type")
+    sp.add_argument("--geometry", action="store_true",
+                    help="with --json: also pieces, curves and every region's polygon (large)")
     sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
 
     sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")
