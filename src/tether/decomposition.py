@@ -24,7 +24,7 @@ from shapely.errors import GEOSException
 from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
-from tether.curves import Curve, critical_curves
+from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
@@ -330,14 +330,42 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     for k, sid in enumerate(part_ids.tolist()):
         fs = slot.get(sid, [])
         part_faces[powner[longest[k]], : len(fs[:2])] = fs[:2]
-    # which input lines each part came from
-    tree = shapely.STRtree(lines)
-    mid = shapely.points(0.5 * (pa[longest] + pb[longest]))
-    qi, li = tree.query(mid, predicate="dwithin", distance=max(1e-3 * tol + 2 * grid, 1e-12))
-    src: list[set] = [set() for _ in range(len(parts))]
-    for q, line in zip(qi.tolist(), li.tolist(), strict=True):
-        src[powner[longest[q]]].add(source[line])
-    return _Arrangement(parts, part_faces, [tuple(sorted(s)) for s in src], faces)
+    # which input lines each part came from: input segments near the middle of its longest
+    # segment (a segment tree: distances to whole long polylines would dominate the time)
+    la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
+    mid = 0.5 * (pa[longest] + pb[longest])
+    qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12))
+    src_of = np.asarray(source)[lowner[si]]
+    pair = np.unique(np.column_stack((powner[longest[qi]], src_of)), axis=0)
+    src: list[list[int]] = [[] for _ in range(len(parts))]
+    for k, s in pair.tolist():
+        src[k].append(s)
+    return _Arrangement(parts, part_faces, [tuple(s) for s in src], faces)
+
+
+def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs (point, segment) closer than ``reach`` (map units) for points (m, 2) and
+    segments ``a[k]-b[k]``: point indices, segment indices and distances."""
+    if len(pts) == 0 or len(a) == 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    tree = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
+    lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
+                     pts[:, 1] + reach)
+    qi, si = tree.query(lo)  # envelopes only; exact distances below
+    d = _point_segment_distance(pts[qi], a[si], b[si])
+    near = d <= reach
+    return qi[near], si[near], d[near]
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise distance from points ``p`` to segments ``a-b`` (all shape (k, 2))."""
+    ab = b - a
+    den = np.einsum("ij,ij->i", ab, ab)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(den > 0, np.einsum("ij,ij->i", p - a, ab) / den, 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.hypot(*(a + u[:, None] * ab - p).T)
 
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
@@ -607,11 +635,10 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     reach = max(1e3 * tol, 1e-3 * lss)
     clear = np.full(len(Q), reach)
     if len(Q):
-        qi, pj = shapely.STRtree(arr.parts).query(shapely.points(Q), predicate="dwithin",
-                                                  distance=reach)
-        other = pj != mine[qi]
-        d = shapely.distance(arr.parts[pj[other]], shapely.points(Q[qi[other]]))
-        np.minimum.at(clear, qi[other], d)
+        sa, sb, sowner = _ring_segments(arr.parts)
+        qi, sj, d = _segments_near(Q, sa, sb, reach)
+        other = sowner[sj] != mine[qi]
+        np.minimum.at(clear, qi[other], d[other])
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
     ok = ok[np.lexsort((-clear[ok], chain[ok]))]
@@ -634,19 +661,16 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
+    chain_srcs = [sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
+                  for _, ks in chains]
     rnd = 0
     while pending:
-        trial = []
-        for i in pending:
-            q0, eps = cands[i][rnd]
-            srcs = sorted({s for k in chains[i][1] for s in arr.part_sources[k] if s >= 0})
-            if srcs:
-                _, q, n = min((curves[s].project(q0) for s in srcs),
-                              key=lambda r, q0=q0: float(np.hypot(*(r[1] - q0))))
-            else:
-                q, n = q0, np.array([0.0, 1.0])
-            trial.append((i, q, n, eps))
-            first.setdefault(i, (q, n, eps))
+        q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)
+        eps = [cands[i][rnd][1] for i in pending]
+        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending], q0)
+        trial = list(zip(pending, q, n, eps, strict=True))
+        for i, qi, ni, ei in trial:
+            first.setdefault(i, (qi, ni, ei))
         plus, minus = structures_across(env, lss, np.array([t[1] for t in trial]),
                                         np.array([t[2] for t in trial]),
                                         np.array([t[3] for t in trial]))
@@ -665,6 +689,26 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
         pending = still
         rnd += 1
     return out
+
+
+def _project_on_sources(curves: list[Curve], srcs: list[list[int]], q0: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves
+    ``srcs[k]`` (all rows at once); a row without a source curve keeps its point, normal
+    (0, 1)."""
+    q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))
+    count = np.array([len(s) for s in srcs], dtype=int)
+    if count.sum() == 0:
+        return q, n
+    row = np.repeat(np.arange(len(srcs)), count)
+    cid = np.fromiter((c for s in srcs for c in s), dtype=int, count=int(count.sum()))
+    _, p, nrm = project_many(curves, cid, q0[row])
+    dist = np.hypot(*(p - q0[row]).T)
+    order = np.lexsort((dist, row))
+    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    q[row[best]] = p[best]
+    n[row[best]] = nrm[best]
+    return q, n
 
 
 def crossing_points(q: np.ndarray, n: np.ndarray, eps: np.ndarray) -> np.ndarray:
