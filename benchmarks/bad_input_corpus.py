@@ -399,6 +399,32 @@ def output_cases() -> list[Case]:
     return cases
 
 
+def ros_cases() -> list[Case]:
+    """The ``convert`` and ``sweep`` commands (ROS maps), when this version has them."""
+    sq = {"m.json": js(SQUARE), "afile": b"x"}
+    yaml_bad = {"r.yaml": b"image: r.pgm\nresolution: -1\norigin: [0, 0, 0]\n",
+                "r.pgm": b"P5\n2 2\n255\n\x00\x00\x00\x00"}
+    return [
+        Case("ros", "convert to missing folder", ["convert", "m.json", "nope/m.wkt"], sq),
+        Case("ros", "convert to unknown extension", ["convert", "m.json", "m.txt"], sq),
+        Case("ros", "convert to a folder", ["convert", "m.json", "."], sq),
+        Case("ros", "convert good", ["convert", "m.json", "m.wkt"], sq, allow=(0,),
+             outputs=("m.wkt",)),
+        Case("ros", "convert bad yaml", ["convert", "r.yaml", "m.json"], yaml_bad),
+        Case("ros", "convert yaml garbage", ["convert", "g.yaml", "m.json"],
+             {"g.yaml": b"\x00\x01 not yaml: [", "m.json": js(SQUARE)}),
+        Case("ros", "sweep --workers 0", ["sweep", "m.json", "--lss", "1", "--workers", "0"],
+             sq),
+        Case("ros", "sweep bad range", ["sweep", "m.json", "--lss", "1:0:1"], sq),
+        Case("ros", "sweep nan range", ["sweep", "m.json", "--lss", "nan"], sq, allow=(0, 2)),
+        Case("ros", "sweep --plot missing folder",
+             ["sweep", "m.json", "--lss", "1", "--plot", "nope/f.png"], sq),
+        Case("ros", "sweep --plot empty", ["sweep", "m.json", "--lss", "1", "--plot", ""], sq),
+        Case("ros", "sweep huge range", ["sweep", "m.json", "--lss", "0:1e9:1"], sq),
+        Case("ros", "sweep lss 1e-12", ["sweep", "m.json", "--lss", "1e-12"], sq, allow=(0, 2)),
+    ]
+
+
 def usage_cases() -> list[Case]:
     return [
         Case("usage", "no arguments", []),
@@ -413,7 +439,15 @@ def usage_cases() -> list[Case]:
 def all_cases() -> list[Case]:
     return (encoding_cases() + json_syntax_cases() + json_type_cases() + geometry_cases()
             + geojson_cases() + wkt_cases() + file_cases() + param_cases() + output_cases()
-            + usage_cases())
+            + usage_cases() + _if_command("convert", ros_cases))
+
+
+def _if_command(name: str, make) -> list[Case]:
+    """Cases of a command group that older versions may not have."""
+    from tether.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    return make() if name in sub.choices else []
 
 
 # ---------------------------------------------------------------------- running
