@@ -457,11 +457,17 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     Raises
     ------
     InvalidParameterError
-        If ``lss`` is not a finite positive number.
+        If ``lss`` is not a finite positive number within the range of
+        :func:`tether.arcs.check_lss` relative to the map's diameter.
     ArrangementError
         If the geometry engine fails even with snap rounding (one line, no traceback).
     """
-    lss = check_lss(lss)
+    lss = check_lss(lss, env)
+    if not env.is_internal:  # computed in the normalized frame, reported in the user's
+        from tether.userframe import decomposition_to_user
+
+        inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
+        return decomposition_to_user(inner, env, lss)
     try:
         return _decompose(env, lss, rel_tol, progress)
     except GEOSException as exc:  # never a traceback from the geometry engine
