@@ -174,7 +174,7 @@ def test_sweep_cli(tmp_path, capsys):
                 ["--lss", "1", "--workers", "0"], ["--lss", "1", "--vt", "1"],
                 ["--lss", "1", "--seed", "0", "0"]):
         assert main(["sweep", m, *bad]) == 2
-    assert capsys.readouterr().err.count("tether: error:") == 5
+    assert capsys.readouterr().err.count("error:") == 5
 
 
 def test_sweep_cli_unreachable_dask(capsys):

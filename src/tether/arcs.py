@@ -19,20 +19,35 @@ import numpy as np
 
 from tether.environment import Environment
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
-from tether.tolerances import ANGLE_TOL
+from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
 TWO_PI = 2.0 * math.pi
 _GROUP = 16.0  # > 3*pi: offsets separating points' angle ranges in the merge
 
 
-def check_lss(lss: Any) -> float:
-    """Return ``lss`` as a float, or raise :class:`InvalidParameterError` if not finite and > 0."""
+def check_lss(lss: Any, env: Environment | None = None) -> float:
+    """Return ``lss`` as a float, or raise :class:`InvalidParameterError` if not finite and > 0.
+
+    With ``env``, ``lss`` must also lie within ``[LSS_MIN_REL, LSS_MAX_REL]`` times the map's
+    diameter (:mod:`tether.tolerances`): a rod a million times shorter than the map would need
+    curves of billions of points, one far longer than the map sees the same geometry.
+    """
+    if isinstance(lss, bool):
+        raise InvalidParameterError(f"lss must be a number, got {lss!r}")
     try:
         val = float(lss)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InvalidParameterError(f"lss must be a number, got {lss!r}") from None
     if not math.isfinite(val) or val <= 0:
         raise InvalidParameterError(f"lss must be a finite length > 0, got {lss!r}")
+    if env is not None:
+        d = env.diameter
+        lo, hi = LSS_MIN_REL * d, LSS_MAX_REL * d
+        if not lo <= val <= hi:
+            raise InvalidParameterError(
+                f"lss {val:g} is out of range for map {env.name!r} of diameter {d:.6g}: "
+                f"use {lo:.3g} <= lss <= {hi:.3g} ({LSS_MIN_REL:g} to {LSS_MAX_REL:g} times "
+                "the diameter)")
     return val
 
 

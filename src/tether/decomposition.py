@@ -354,9 +354,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     Raises
     ------
     InvalidParameterError
-        If ``lss`` is not a finite positive number.
+        If ``lss`` is not a finite positive number within the range of
+        :func:`tether.arcs.check_lss` relative to the map's diameter.
     """
-    lss = check_lss(lss)
+    lss = check_lss(lss, env)
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)

@@ -181,13 +181,17 @@ class OccupancyGrid:
         import yaml
         from PIL import Image
 
+        from tether.output import atomic_output
+
         yp = Path(yaml_path)
         img_path = yp.with_suffix(".pgm")
-        Image.fromarray(self.image(), mode="L").save(img_path)
+        with atomic_output(img_path) as tmp:
+            Image.fromarray(self.image(), mode="L").save(tmp, format="PPM")
         meta = {"image": img_path.name, "mode": "trinary", "resolution": self.resolution,
                 "origin": list(self.origin), "negate": 0, "occupied_thresh": 0.65,
                 "free_thresh": 0.196}
-        yp.write_text(yaml.safe_dump(meta, sort_keys=False))
+        with atomic_output(yp) as tmp:
+            Path(tmp).write_text(yaml.safe_dump(meta, sort_keys=False))
         return img_path
 
 

@@ -17,3 +17,31 @@ ANGLE_TOL = 1e-9
 #: drawn within ``REL_CURVE_TOL * diameter`` of its exact shape. Regions thinner than a few
 #: times this are below tether's geometric resolution.
 REL_CURVE_TOL = 1e-6
+
+# ---------------------------------------------------------------------- valid ranges
+# Inputs outside these ranges are rejected with one line (InvalidParameterError /
+# InvalidMapError) instead of exhausting memory or losing every digit; see docs/conventions.md.
+
+#: ``lss`` must lie within ``[LSS_MIN_REL, LSS_MAX_REL] ×`` the map's diameter. Below, the
+#: critical curves would need more than ~1e9 polyline points; above, every rod reaches every
+#: wall and the geometry is that of lss = 1e3 × diameter anyway.
+LSS_MIN_REL = 1e-3
+LSS_MAX_REL = 1e3
+
+#: Speeds (``vt``, ``vo``), lengths (``lss`` in ``bound``/``plot-motion``) are at most this in
+#: absolute value, and positive ones at least ``1 / VALUE_MAX``: far from the float limits so
+#: that products and quotients of three of them stay finite and keep their digits.
+VALUE_MAX = 1e12
+
+#: ``vo`` must exceed ``vt`` by this fraction of ``vo`` (the safe bound divides by ``vo - vt``).
+SPEED_GAP_REL = 1e-9
+
+#: Rotation angles (``--from``, ``--to``) are at most this many radians in absolute value.
+ANGLE_MAX = 1e4
+
+#: Maps: at most this many vertices in all, and files at most this many bytes.
+MAX_VERTICES = 100_000
+MAX_MAP_BYTES = 64 * 2**20
+
+#: ``tether check --samples`` per region.
+SAMPLES_RANGE = (1, 100_000)
