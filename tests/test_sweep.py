@@ -181,3 +181,12 @@ def test_sweep_cli_unreachable_dask(capsys):
     assert main(["sweep", str(example_path("rectangle")), "--lss", "1",
                  "--dask", "tcp://127.0.0.1:9", "--dask-timeout", "1"]) == 2
     assert "Dask scheduler" in capsys.readouterr().err
+
+
+def test_sweep_cli_on_a_dask_cluster(capsys):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5,1", "--tol", "0",
+                     "--json", "--dask", cluster.scheduler_address]) == 0
+    assert json.loads(capsys.readouterr().out)["longest_lss_with_strategy"] == 0.5
