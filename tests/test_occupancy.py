@@ -12,6 +12,9 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from PIL import Image
 from scipy import ndimage
 
@@ -21,6 +24,7 @@ from tether.errors import InvalidMapError, InvalidParameterError
 from tether.occupancy import (
     FREE,
     OCCUPIED,
+    OccupancyGrid,
     close_pinches,
     free_component,
     rasterize,
@@ -193,6 +197,26 @@ def test_random_maps_match_their_pixels(tmp_path, seed):
     assert abs(env.area - exact.area) <= boundary_pixels(mask) * 0.0025
     # dropped holes are all small
     assert len(env.holes) <= len(exact.holes)
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(bool, st.tuples(st.integers(2, 14), st.integers(2, 14))),
+       st.floats(-math.pi, math.pi))
+def test_any_grid_gives_a_valid_map_matching_its_cells(free, yaw):
+    """Property: for any grid with a free cell, the exact polygon holds exactly the kept cells,
+    one hole per enclosed obstacle component, in any frame."""
+    if not free.any():
+        return
+    grid = OccupancyGrid(np.where(free, FREE, OCCUPIED), 0.1, (0.3, -0.2, yaw))
+    mask = free_component(grid)
+    assert mask.sum() >= 1 and np.all(mask <= free)
+    env = grid.to_environment(simplify=0, min_hole_area=0)
+    assert env.area == pytest.approx(mask.sum() * 0.01, rel=1e-6)  # vertices rounded to 1e-9
+    assert len(env.holes) == inner_obstacle_components(mask)
+    centres = grid.to_world(np.stack(np.meshgrid(np.arange(mask.shape[1]) + 0.5,
+                                                 np.arange(mask.shape[0]) + 0.5), axis=-1))
+    assert np.array_equal(env.contains(centres[..., 0], centres[..., 1]), mask)
+    assert grid.to_environment().polygon.is_valid
 
 
 # ---------------------------------------------------------------------- errors

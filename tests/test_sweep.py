@@ -129,6 +129,13 @@ def test_kernel_hook(monkeypatch):
     assert [r.safe_fraction for r in res.rows] == [1.0, 0.5]
     assert all(r.safe_fraction is None for r in sweep(RECT, [0.5], tol=0).rows)
 
+    def broken(env, lss, vt, vo):
+        raise RuntimeError("no grid")
+
+    game.surveillance_kernel = broken
+    row = sweep(RECT, [0.5], vt=1.0, vo=2.0, tol=0).rows[0]
+    assert row.strategy_exists is True and row.error == "kernel: RuntimeError: no grid"
+
 
 def test_formats():
     res = sweep(RECT, [0.5, 1.0], tol=0)

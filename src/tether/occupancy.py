@@ -301,7 +301,7 @@ def read_grid(yaml_path: str | Path) -> OccupancyGrid:
             pixels = np.asarray(im)[..., 0] if im.mode == "LA" else np.asarray(im)
     except FileNotFoundError:
         raise InvalidMapError(f"{where}: image {str(img_path)!r} not found") from None
-    except (OSError, UnidentifiedImageError) as exc:
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise InvalidMapError(f"{where}: cannot read image {str(img_path)!r} ({exc})") from None
     cells = np.flipud(_classify(pixels, mode, bool(negate), occ, free))
     return OccupancyGrid(cells, res, tuple(origin), name=yp.stem, source=where)

@@ -42,7 +42,8 @@ _COUNT_KEYS = ("regions", "cells", "pieces", "edges", "surviving_cells")
 class SweepRow:
     """The pipeline's result at one rod length.
 
-    ``strategy_exists`` is ``None`` when the run failed (``error`` says why); ``refined`` marks
+    ``strategy_exists`` is ``None`` when the run failed (``error`` says why; an error starting
+    ``kernel:`` means only the kernel failed and the verdict stands); ``refined`` marks
     rows evaluated by the bisection rather than from the user's list; ``seconds`` is wall time.
     """
 
@@ -158,12 +159,17 @@ def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | No
         env = Environment(env_data["boundary"], tuple(env_data["holes"]),
                           env_data.get("name", ""))
         verdict = analyze(decompose(env, lss))
-        frac = None if vt is None or vo is None else _kernel_fraction(env, lss, vt, vo)
-        return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac,
-                        refined=refined, seconds=time.perf_counter() - t0)
     except Exception as exc:  # noqa: BLE001 - reported in the row
         return SweepRow(float(lss), None, {}, None, f"{type(exc).__name__}: {exc}",
                         refined=refined, seconds=time.perf_counter() - t0)
+    frac, error = None, None
+    if vt is not None and vo is not None:
+        try:
+            frac = _kernel_fraction(env, lss, vt, vo)
+        except Exception as exc:  # noqa: BLE001 - the verdict stands; the kernel's failure noted
+            error = f"kernel: {type(exc).__name__}: {exc}"
+    return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac, error,
+                    refined=refined, seconds=time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------- the sweep
