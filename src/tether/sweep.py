@@ -13,8 +13,8 @@ hit; an interval narrower than the sample step, between two samples without a st
 missed. The ends reported are exact to the tolerance only for the transitions the samples bracket.
 
 With the speeds ``vt`` and ``vo`` given and :mod:`tether.game` installed, every row also carries
-the surveillance kernel's safe fraction (``surveillance_kernel(...).safe_fraction()``, averaged
-over target points when it is per point).
+the surveillance kernel's safe fraction: the fraction of free states in the kernel
+(``Kernel.safe_fraction_total()``, else the mean over target points of ``safe_fraction()``).
 """
 
 from __future__ import annotations
@@ -139,8 +139,11 @@ def _kernel_fraction(env: Environment, lss: float, vt: float, vo: float) -> floa
             from tether.game.kernel import surveillance_kernel  # type: ignore[no-redef]
         except ImportError:
             return None
-    frac = surveillance_kernel(env, lss, vt, vo).safe_fraction()
-    return float(np.mean(np.asarray(frac, dtype=float)))
+    kernel = surveillance_kernel(env, lss, vt, vo)
+    if hasattr(kernel, "safe_fraction_total"):  # fraction of all free states in the kernel
+        return float(kernel.safe_fraction_total())
+    frac = np.asarray(kernel.safe_fraction(), dtype=float)  # per target point, NaN: none free
+    return float(np.nanmean(frac)) if np.isfinite(frac).any() else None
 
 
 def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | None = None,
