@@ -22,7 +22,7 @@ from shapely.geometry import LinearRing, Polygon
 
 from tether.errors import InvalidMapError
 from tether.spatial import EdgeIndex
-from tether.tolerances import MAX_MAP_BYTES, MAX_VERTICES, REL_LENGTH_TOL
+from tether.tolerances import MAX_MAP_BYTES, MAX_VERTICES, REL_LENGTH_TOL, REL_STRAIGHT_TOL
 
 _JSON_KEYS = {"boundary", "holes", "name"}
 
@@ -44,7 +44,8 @@ def _ring_array(coords: Any, where: str) -> np.ndarray:
 
 
 def _signed_area(ring: np.ndarray) -> float:
-    x, y = ring[:, 0], ring[:, 1]
+    rel = ring - ring.mean(axis=0)  # centred: no cancellation at large offsets
+    x, y = rel[:, 0], rel[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
@@ -88,6 +89,76 @@ def _hole_outside_where(outer: Polygon, hole: np.ndarray, first: int) -> str:
                 f"{'on' if on else 'outside'} the boundary")
     at = outer.exterior.intersection(LinearRing(hole)).representative_point()
     return f"it touches the boundary near ({_fmt(at.x)}, {_fmt(at.y)})"
+
+
+def _straight_flags(ring: np.ndarray) -> np.ndarray:
+    """Straight vertices of one ring (see :attr:`Environment.straight`): first each vertex
+    against its neighbours, then each run of straight vertices against the chord of the kept
+    vertices around it (so that a long, gently curving chain is not flattened)."""
+    k = len(ring)
+    prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+    flags = _near_chord(ring, prev, nxt)
+    for _ in range(k):
+        if flags.all() or not flags.any():
+            break
+        bad = _worst_in_runs(ring, flags)
+        if not bad:
+            break
+        flags[bad] = False
+    return flags
+
+
+def _near_chord(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether points ``p`` lie within ``REL_STRAIGHT_TOL |b - a|`` of chords ``a-b`` and
+    between their ends."""
+    ab = b - a
+    ap = p - a
+    cross = np.abs(ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0])
+    ll = np.einsum("ij,ij->i", ab, ab)
+    along = np.einsum("ij,ij->i", ab, ap)
+    return (cross <= REL_STRAIGHT_TOL * ll) & (along > 0) & (along < ll)
+
+
+def _worst_in_runs(ring: np.ndarray, flags: np.ndarray) -> list[int]:
+    """For each run of straight vertices whose kept ends' chord does not hold every vertex of
+    the run, the vertex farthest from that chord (to be kept after all)."""
+    k = len(ring)
+    kept = np.flatnonzero(~flags)
+    out = []
+    for a, b in zip(kept, np.roll(kept, -1), strict=True):
+        run = (np.arange(a + 1, a + 1 + (b - a - 1) % k)) % k
+        if len(run) == 0:
+            continue
+        pa = np.repeat(ring[a][None], len(run), axis=0)
+        pb = np.repeat(ring[b][None], len(run), axis=0)
+        ok = _near_chord(ring[run], pa, pb)
+        if not ok.all():
+            ab = ring[b] - ring[a]
+            ap = ring[run] - ring[a]
+            dev = np.abs(ab[0] * ap[:, 1] - ab[1] * ap[:, 0])
+            out.append(int(run[int(np.argmax(np.where(ok, -1.0, dev)))]))
+    return out
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A similarity to the internal frame: ``internal = (user - origin) * scale``; ``scale``
+    is a power of two, so lengths convert exactly and angles are unchanged."""
+
+    origin: np.ndarray
+    scale: float
+
+    def to_internal(self, pts: Any) -> np.ndarray:
+        """User points (m, 2) to internal ones."""
+        return (np.asarray(pts, dtype=float) - self.origin) * self.scale
+
+    def to_user(self, pts: Any) -> np.ndarray:
+        """Internal points (m, 2) to user ones."""
+        return np.asarray(pts, dtype=float) / self.scale + self.origin
+
+    def geometry_to_user(self, geom: Any) -> Any:
+        """A shapely geometry from internal to user coordinates."""
+        return shapely.transform(geom, self.to_user)
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,7 +306,78 @@ class Environment:
         d_out, d_in = self.cone
         # Walking along the oriented boundary (free on the left), a right turn is reflex.
         turn = d_in[:, 1] * d_out[:, 0] - d_in[:, 0] * d_out[:, 1]  # cross(-d_in, d_out)
-        return turn < -1e-12
+        return (turn < -1e-12) & ~self.straight
+
+    @cached_property
+    def straight(self) -> np.ndarray:
+        """Whether each vertex is straight: within ``REL_STRAIGHT_TOL`` of the chord joining
+        the neighbours kept around it (see :mod:`tether.tolerances`), shape (n,). A straight
+        vertex is no feature of the free space: it gets no curves and no regions, and the
+        computation runs on the map without it (:attr:`internal`)."""
+        out = np.zeros(self.n, dtype=bool)
+        start = 0
+        for r in self.rings:
+            out[start:start + len(r)] = _straight_flags(r - r.mean(axis=0))
+            start += len(r)
+        return out
+
+    @cached_property
+    def frame(self) -> Frame:
+        """The normalized internal frame: origin at the bounding box's centre, scale a power of
+        two bringing the diameter near 1 (so that scaling is exact)."""
+        if self.__dict__.get("_is_internal"):
+            return Frame(np.zeros(2), 1.0)
+        x0, y0, x1, y1 = self.bounds
+        origin = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+        # the diameter from the centred box: no cancellation at large offsets
+        diam = math.hypot(x1 - origin[0], y1 - origin[1]) + math.hypot(origin[0] - x0,
+                                                                       origin[1] - y0)
+        return Frame(origin, 2.0 ** -round(math.log2(diam)))
+
+    @cached_property
+    def internal(self) -> Environment:
+        """The map the computation runs on: in :attr:`frame`, without its straight vertices.
+        Its vertex ``j`` is this map's ``vertex_map[j]``, its edge ``k`` starts the wall named
+        after this map's edge ``vertex_map[k]``. The internal map's own internal map is itself.
+        """
+        if self.__dict__.get("_is_internal"):
+            return self
+        keep = ~self.straight
+        rings, start = [], 0
+        for r in self.rings:
+            rings.append(self.frame.to_internal(r[keep[start:start + len(r)]]))
+            start += len(r)
+        try:
+            inner = Environment(rings[0], tuple(rings[1:]), self.name)
+        except InvalidMapError as exc:  # pragma: no cover - removing straight vertices broke it
+            raise InvalidMapError(f"without its straight vertices, {exc}") from None
+        inner.__dict__["_is_internal"] = True
+        inner.__dict__["vertex_map"] = np.arange(inner.n)
+        return inner
+
+    @property
+    def is_internal(self) -> bool:
+        """Whether this map is already in the internal frame (computation runs on it as is)."""
+        return self.internal is self
+
+    @cached_property
+    def vertex_map(self) -> np.ndarray:
+        """For each vertex of :attr:`internal`, its index in this map (file numbering)."""
+        return np.flatnonzero(~self.straight)
+
+    @cached_property
+    def code_map(self) -> np.ndarray:
+        """Feature codes of :attr:`internal` (edge ``k`` = ``k``, vertex ``j`` = ``n' + j``) to
+        this map's codes; an internal edge maps to the first file edge of its wall."""
+        vm = self.vertex_map
+        return np.concatenate((vm, self.n + vm))
+
+    def feature_names_map(self) -> dict[str, str]:
+        """Internal feature names to this map's (file) names, e.g. ``{"E3": "E5"}``."""
+        vm = self.vertex_map.tolist()
+        out = {f"E{k}": f"E{v}" for k, v in enumerate(vm)}
+        out.update({f"V{k}": f"V{v}" for k, v in enumerate(vm)})
+        return out
 
     @property
     def reflex_indices(self) -> np.ndarray:
@@ -316,6 +458,7 @@ class Environment:
             "edges": self.n,
             "holes": len(self.holes),
             "reflex_vertices": [self.vertex_name(j) for j in self.reflex_indices],
+            "straight_vertices": [self.vertex_name(j) for j in np.flatnonzero(self.straight)],
             "area": self.area,
             "bounding_box": list(self.bounds),
         }

@@ -1,5 +1,10 @@
 """The numerical tolerances of tether, one per kind of quantity.
 
+All computation happens in a normalized internal frame (:attr:`tether.environment.Environment.
+frame`): the map translated to its bounding box's centre and scaled by a power of two (exact) to
+a diameter near 1, so every tolerance below is relative to the map and a map gives the same
+answer wherever it sits. Results are reported back in the user's coordinates.
+
 Lengths are compared with ``REL_LENGTH_TOL * diameter`` where ``diameter`` is the diagonal of
 the map's bounding box (see :attr:`tether.environment.Environment.length_tol`); angles with
 ``ANGLE_TOL`` radians. Computed points (curve crossings, contacts) are always compared with
@@ -45,3 +50,9 @@ MAX_MAP_BYTES = 64 * 2**20
 
 #: ``tether check --samples`` per region.
 SAMPLES_RANGE = (1, 100_000)
+
+#: A vertex is *straight* (no feature of the free space) when its distance to the chord joining
+#: its neighbours is at most this times the chord's length (an interior angle within about
+#: ``4 * REL_STRAIGHT_TOL`` radians of pi). Straight vertices produce no curves and no regions;
+#: the walls they join keep the file's name of their first edge.
+REL_STRAIGHT_TOL = 1e-7
