@@ -47,6 +47,9 @@ def test_sweep_rows_and_bisection_match_a_direct_scan():
     assert iv.lo == 0.25 and iv.below is None
     assert iv.above - iv.hi <= 0.02
     assert 0.5 <= iv.hi < 1.0
+    # known independently (docs/rectangle_sweep.md): a rectangle has a strategy iff both sides
+    # are at least 2 lss, so this 1.5-wide one up to lss 0.75 exactly
+    assert iv.hi <= 0.75 + 1e-9 < iv.above + 2e-9
     # a dense direct scan agrees: a strategy up to hi, none from above to 1.0
     for lss in np.linspace(0.5, iv.hi, 4):
         assert direct(RECT, lss)
