@@ -7,8 +7,10 @@ Three kinds of generated maps at 5 cm per cell:
 - ``warehouse``: an open hall with rows of rack obstacles (many holes).
 
 Stages: ``read`` (PGM decode + classify), ``component`` (4-connected component + diagonal pinch
-closing), ``vectorize`` (row runs -> rectangles -> ``shapely.union_all``), ``simplify``
-(hole dropping, topology-preserving simplification, Environment validation). Times are wall
+closing), ``vectorize`` (boundary cell edges -> maximal segments -> ``shapely.line_merge``),
+``simplify`` (hole dropping, topology-preserving simplification, Environment validation); the
+column ``union`` times the other vectorizer (row runs -> rectangles -> ``shapely.union_all``),
+the first implementation, for comparison. Times are wall
 seconds, best of ``--repeat``; the machine is shared, so figures are noisy.
 
 Run ``python benchmarks/bench_occupancy.py [--sizes 250 500 1000] [--repeat 2]``.
@@ -92,6 +94,9 @@ def bench(img: np.ndarray, folder: Path, repeat: int) -> dict:
         env = _to_environment(grid, _drop_small_holes(poly, 4.0), 1.0)
         t["simplify"] = time.perf_counter() - t0
         t["total"] = sum(t.values())
+        t0 = time.perf_counter()
+        vectorize(mask, method="union")
+        t["union"] = time.perf_counter() - t0
         for k, v in t.items():
             best[k] = min(best.get(k, np.inf), v)
     best["cells"] = img.size
@@ -111,14 +116,15 @@ def main() -> None:
     kinds = {"offices": lambda n: offices(n, rng), "slam": lambda n: offices(n, rng, True),
              "warehouse": lambda n: warehouse(n, rng)}
     print(f"{'map':<10} {'cells':>9} {'read':>7} {'compon.':>7} {'vector.':>7} {'simplify':>8} "
-          f"{'total s':>7} {'raw vtx':>8} {'vertices':>8} {'holes':>6}")
+          f"{'total s':>7} {'union':>7} {'raw vtx':>8} {'vertices':>8} {'holes':>6}")
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:
             for kind, make in kinds.items():
                 r = bench(make(n), Path(tmp), args.repeat)
                 print(f"{kind:<10} {n:>4}x{n:<4} {r['read']:7.3f} {r['component']:7.3f} "
                       f"{r['vectorize']:7.3f} {r['simplify']:8.3f} {r['total']:7.3f} "
-                      f"{r['raw_vertices']:8d} {r['vertices']:8d} {r['holes']:6d}")
+                      f"{r['union']:7.3f} {r['raw_vertices']:8d} {r['vertices']:8d} "
+                      f"{r['holes']:6d}")
 
 
 if __name__ == "__main__":

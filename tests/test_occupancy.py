@@ -30,6 +30,7 @@ from tether.occupancy import (
     rasterize,
     read_grid,
     read_ros_map,
+    vectorize,
 )
 
 F, O, U = 254, 0, 205  # map_saver pixel values: free, occupied, unknown
@@ -155,6 +156,8 @@ def test_close_pinches_removes_every_corner_contact():
     a, b, c, d = p[:-1, :-1], p[:-1, 1:], p[1:, :-1], p[1:, 1:]
     assert not np.any((a & d & ~b & ~c) | (b & c & ~a & ~d))
     assert np.all(out <= m)  # free space only shrinks
+    with pytest.raises(InvalidMapError, match="MultiPolygon"):
+        vectorize(m)  # the edges do not close into rings; the union falls apart
 
 
 def test_diagonal_pinches_give_a_valid_polygon(tmp_path):
@@ -188,6 +191,7 @@ def test_random_maps_match_their_pixels(tmp_path, seed):
     exact = read_ros_map(yp, simplify=0, min_hole_area=0)
     assert exact.area == pytest.approx(mask.sum() * 0.0025, rel=1e-9)
     assert len(exact.holes) == inner_obstacle_components(mask)
+    assert vectorize(mask).equals(vectorize(mask, method="union"))
     back = rasterize(exact, 0.05, origin=(-1.0, 0.5))
     rows, cols = mask.shape
     assert np.array_equal(back.free[:rows, :cols], mask)
@@ -217,6 +221,7 @@ def test_any_grid_gives_a_valid_map_matching_its_cells(free, yaw):
                                                  np.arange(mask.shape[0]) + 0.5), axis=-1))
     assert np.array_equal(env.contains(centres[..., 0], centres[..., 1]), mask)
     assert grid.to_environment().polygon.is_valid
+    assert vectorize(mask).equals(vectorize(mask, method="union"))  # two ways, one polygon
 
 
 # ---------------------------------------------------------------------- errors
