@@ -12,6 +12,9 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from PIL import Image
 from scipy import ndimage
 
@@ -21,11 +24,13 @@ from tether.errors import InvalidMapError, InvalidParameterError
 from tether.occupancy import (
     FREE,
     OCCUPIED,
+    OccupancyGrid,
     close_pinches,
     free_component,
     rasterize,
     read_grid,
     read_ros_map,
+    vectorize,
 )
 
 F, O, U = 254, 0, 205  # map_saver pixel values: free, occupied, unknown
@@ -151,6 +156,8 @@ def test_close_pinches_removes_every_corner_contact():
     a, b, c, d = p[:-1, :-1], p[:-1, 1:], p[1:, :-1], p[1:, 1:]
     assert not np.any((a & d & ~b & ~c) | (b & c & ~a & ~d))
     assert np.all(out <= m)  # free space only shrinks
+    with pytest.raises(InvalidMapError, match="MultiPolygon"):
+        vectorize(m)  # the edges do not close into rings; the union falls apart
 
 
 def test_diagonal_pinches_give_a_valid_polygon(tmp_path):
@@ -184,6 +191,7 @@ def test_random_maps_match_their_pixels(tmp_path, seed):
     exact = read_ros_map(yp, simplify=0, min_hole_area=0)
     assert exact.area == pytest.approx(mask.sum() * 0.0025, rel=1e-9)
     assert len(exact.holes) == inner_obstacle_components(mask)
+    assert vectorize(mask).equals(vectorize(mask, method="union"))
     back = rasterize(exact, 0.05, origin=(-1.0, 0.5))
     rows, cols = mask.shape
     assert np.array_equal(back.free[:rows, :cols], mask)
@@ -193,6 +201,27 @@ def test_random_maps_match_their_pixels(tmp_path, seed):
     assert abs(env.area - exact.area) <= boundary_pixels(mask) * 0.0025
     # dropped holes are all small
     assert len(env.holes) <= len(exact.holes)
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(bool, st.tuples(st.integers(2, 14), st.integers(2, 14))),
+       st.floats(-math.pi, math.pi))
+def test_any_grid_gives_a_valid_map_matching_its_cells(free, yaw):
+    """Property: for any grid with a free cell, the exact polygon holds exactly the kept cells,
+    one hole per enclosed obstacle component, in any frame."""
+    if not free.any():
+        return
+    grid = OccupancyGrid(np.where(free, FREE, OCCUPIED), 0.1, (0.3, -0.2, yaw))
+    mask = free_component(grid)
+    assert mask.sum() >= 1 and np.all(mask <= free)
+    env = grid.to_environment(simplify=0, min_hole_area=0)
+    assert env.area == pytest.approx(mask.sum() * 0.01, rel=1e-6)  # vertices rounded to 1e-9
+    assert len(env.holes) == inner_obstacle_components(mask)
+    centres = grid.to_world(np.stack(np.meshgrid(np.arange(mask.shape[1]) + 0.5,
+                                                 np.arange(mask.shape[0]) + 0.5), axis=-1))
+    assert np.array_equal(env.contains(centres[..., 0], centres[..., 1]), mask)
+    assert grid.to_environment().polygon.is_valid
+    assert vectorize(mask).equals(vectorize(mask, method="union"))  # two ways, one polygon
 
 
 # ---------------------------------------------------------------------- errors
@@ -221,7 +250,8 @@ def test_no_free_cell_and_bad_options(tmp_path):
 
 
 def test_hole_messages_give_locations():
-    with pytest.raises(InvalidMapError, match=r"inside the boundary: vertex V4 \(0, 1\) lies on"):
+    with pytest.raises(InvalidMapError,
+                       match=r"not strictly inside the boundary: vertex V4 \(0, 1\) lies on"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]], ([[0, 1], [1, 1], [1, 2]],))
     with pytest.raises(InvalidMapError, match=r"overlap or touch near \(2, 2\)"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]],

@@ -47,6 +47,9 @@ def test_sweep_rows_and_bisection_match_a_direct_scan():
     assert iv.lo == 0.25 and iv.below is None
     assert iv.above - iv.hi <= 0.02
     assert 0.5 <= iv.hi < 1.0
+    # known independently (docs/rectangle_sweep.md): a rectangle has a strategy iff both sides
+    # are at least 2 lss, so this 1.5-wide one up to lss 0.75 exactly
+    assert iv.hi <= 0.75 + 1e-9 < iv.above + 2e-9
     # a dense direct scan agrees: a strategy up to hi, none from above to 1.0
     for lss in np.linspace(0.5, iv.hi, 4):
         assert direct(RECT, lss)
@@ -129,6 +132,13 @@ def test_kernel_hook(monkeypatch):
     assert [r.safe_fraction for r in res.rows] == [1.0, 0.5]
     assert all(r.safe_fraction is None for r in sweep(RECT, [0.5], tol=0).rows)
 
+    def broken(env, lss, vt, vo):
+        raise RuntimeError("no grid")
+
+    game.surveillance_kernel = broken
+    row = sweep(RECT, [0.5], vt=1.0, vo=2.0, tol=0).rows[0]
+    assert row.strategy_exists is True and row.error == "kernel: RuntimeError: no grid"
+
 
 def test_formats():
     res = sweep(RECT, [0.5, 1.0], tol=0)
@@ -174,10 +184,19 @@ def test_sweep_cli(tmp_path, capsys):
                 ["--lss", "1", "--workers", "0"], ["--lss", "1", "--vt", "1"],
                 ["--lss", "1", "--seed", "0", "0"]):
         assert main(["sweep", m, *bad]) == 2
-    assert capsys.readouterr().err.count("tether: error:") == 5
+    assert capsys.readouterr().err.count("error:") == 5
 
 
 def test_sweep_cli_unreachable_dask(capsys):
     assert main(["sweep", str(example_path("rectangle")), "--lss", "1",
                  "--dask", "tcp://127.0.0.1:9", "--dask-timeout", "1"]) == 2
     assert "Dask scheduler" in capsys.readouterr().err
+
+
+def test_sweep_cli_on_a_dask_cluster(capsys):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5,1", "--tol", "0",
+                     "--json", "--dask", cluster.scheduler_address]) == 0
+    assert json.loads(capsys.readouterr().out)["longest_lss_with_strategy"] == 0.5

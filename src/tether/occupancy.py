@@ -181,13 +181,17 @@ class OccupancyGrid:
         import yaml
         from PIL import Image
 
+        from tether.output import atomic_output
+
         yp = Path(yaml_path)
         img_path = yp.with_suffix(".pgm")
-        Image.fromarray(self.image(), mode="L").save(img_path)
+        with atomic_output(img_path) as tmp:
+            Image.fromarray(self.image(), mode="L").save(tmp, format="PPM")
         meta = {"image": img_path.name, "mode": "trinary", "resolution": self.resolution,
                 "origin": list(self.origin), "negate": 0, "occupied_thresh": 0.65,
                 "free_thresh": 0.196}
-        yp.write_text(yaml.safe_dump(meta, sort_keys=False))
+        with atomic_output(yp) as tmp:
+            Path(tmp).write_text(yaml.safe_dump(meta, sort_keys=False))
         return img_path
 
 
@@ -297,7 +301,7 @@ def read_grid(yaml_path: str | Path) -> OccupancyGrid:
             pixels = np.asarray(im)[..., 0] if im.mode == "LA" else np.asarray(im)
     except FileNotFoundError:
         raise InvalidMapError(f"{where}: image {str(img_path)!r} not found") from None
-    except (OSError, UnidentifiedImageError) as exc:
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise InvalidMapError(f"{where}: cannot read image {str(img_path)!r} ({exc})") from None
     cells = np.flipud(_classify(pixels, mode, bool(negate), occ, free))
     return OccupancyGrid(cells, res, tuple(origin), name=yp.stem, source=where)
@@ -445,20 +449,65 @@ def _vertical_merge(rows: np.ndarray, c0: np.ndarray, c1: np.ndarray
     return c0[start], rows[start], c1[start], rows[end] + 1
 
 
-def vectorize(mask: np.ndarray) -> Polygon:
+def vectorize(mask: np.ndarray, method: str = "edges") -> Polygon:
     """The union of the True cells of ``mask`` (row 0 at the bottom) as one polygon, exactly,
     in cell coordinates (``x`` = column, ``y`` = row; cell ``(r, c)`` is ``[c, c+1] x [r, r+1]``).
 
     The mask must be one 4-connected component without diagonal pinches (see
     :func:`free_component`); then the result is a valid polygon whose rings touch nowhere.
+
+    ``method="edges"`` (default) takes the cell edges between a kept and another cell (numpy),
+    joins them into maximal straight segments and lets GEOS merge those into rings
+    (``shapely.line_merge``); every boundary vertex has two edges when no pinch is left, so the
+    rings close. ``method="union"`` merges the rows' runs of cells as rectangles with
+    ``shapely.union_all`` (several times slower on ragged maps); it is the fallback should the
+    rings not close, and the tests' cross-check.
     """
-    rows, c0, c1 = _row_runs(np.asarray(mask, dtype=bool))
+    mask = np.asarray(mask, dtype=bool)
+    if method == "edges":
+        poly = _vectorize_edges(mask)
+        if poly is not None:
+            return poly
+    elif method != "union":
+        raise InvalidParameterError(f"method must be 'edges' or 'union', got {method!r}")
+    rows, c0, c1 = _row_runs(mask)
     x0, y0, x1, y1 = _vertical_merge(rows, c0, c1)
-    boxes = shapely.box(x0, y0, x1, y1)
-    geom = shapely.union_all(boxes)
+    geom = shapely.union_all(shapely.box(x0, y0, x1, y1))
     if geom.geom_type != "Polygon":
         raise InvalidMapError(f"the free cells form a {geom.geom_type}, not one polygon")
     return shapely.simplify(geom, 0.0)  # drop the collinear vertices of the box seams
+
+
+def _edge_segments(mask: np.ndarray) -> np.ndarray:
+    """Maximal straight runs of cell edges between kept and other cells: (k, 2, 2) endpoints
+    ``(x, y)`` in cell coordinates."""
+    m = np.pad(mask, 1)
+    rows, c0, c1 = _row_runs(m[1:, :] != m[:-1, :])  # horizontal edges at y = row
+    horiz = np.stack((np.column_stack((c0 - 1, rows)), np.column_stack((c1 - 1, rows))), axis=1)
+    cols, r0, r1 = _row_runs((m[:, 1:] != m[:, :-1]).T)  # vertical edges at x = col
+    vert = np.stack((np.column_stack((cols, r0 - 1)), np.column_stack((cols, r1 - 1))), axis=1)
+    return np.concatenate((horiz, vert)).astype(float)
+
+
+def _vectorize_edges(mask: np.ndarray) -> Polygon | None:
+    """The polygon from the boundary edges (see :func:`vectorize`); ``None`` if they do not
+    close into one outer ring and holes."""
+    segs = _edge_segments(mask)
+    if len(segs) == 0:
+        return None
+    merged = shapely.line_merge(shapely.multilinestrings(shapely.linestrings(segs)))
+    lines = shapely.get_parts(merged)
+    if not np.all(shapely.is_closed(lines)):
+        return None
+    coords, index = shapely.get_coordinates(lines, return_index=True)
+    rings = shapely.linearrings(coords, indices=index)
+    areas = shapely.area(shapely.polygons(rings))
+    k = int(np.argmax(areas))
+    poly = shapely.polygons(rings[k], np.delete(rings, k))
+    poly = shapely.simplify(poly, 0.0)  # a ring's start may sit mid-edge
+    if not poly.is_valid or abs(poly.area - mask.sum()) > 1e-6:
+        return None
+    return poly
 
 
 def _drop_small_holes(poly: Polygon, min_area: float) -> Polygon:

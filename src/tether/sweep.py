@@ -13,8 +13,8 @@ hit; an interval narrower than the sample step, between two samples without a st
 missed. The ends reported are exact to the tolerance only for the transitions the samples bracket.
 
 With the speeds ``vt`` and ``vo`` given and :mod:`tether.game` installed, every row also carries
-the surveillance kernel's safe fraction (``surveillance_kernel(...).safe_fraction()``, averaged
-over target points when it is per point).
+the surveillance kernel's safe fraction: the fraction of free states in the kernel
+(``Kernel.safe_fraction_total()``, else the mean over target points of ``safe_fraction()``).
 """
 
 from __future__ import annotations
@@ -42,7 +42,8 @@ _COUNT_KEYS = ("regions", "cells", "pieces", "edges", "surviving_cells")
 class SweepRow:
     """The pipeline's result at one rod length.
 
-    ``strategy_exists`` is ``None`` when the run failed (``error`` says why); ``refined`` marks
+    ``strategy_exists`` is ``None`` when the run failed (``error`` says why; an error starting
+    ``kernel:`` means only the kernel failed and the verdict stands); ``refined`` marks
     rows evaluated by the bisection rather than from the user's list; ``seconds`` is wall time.
     """
 
@@ -138,8 +139,11 @@ def _kernel_fraction(env: Environment, lss: float, vt: float, vo: float) -> floa
             from tether.game.kernel import surveillance_kernel  # type: ignore[no-redef]
         except ImportError:
             return None
-    frac = surveillance_kernel(env, lss, vt, vo).safe_fraction()
-    return float(np.mean(np.asarray(frac, dtype=float)))
+    kernel = surveillance_kernel(env, lss, vt, vo)
+    if hasattr(kernel, "safe_fraction_total"):  # fraction of all free states in the kernel
+        return float(kernel.safe_fraction_total())
+    frac = np.asarray(kernel.safe_fraction(), dtype=float)  # per target point, NaN: none free
+    return float(np.nanmean(frac)) if np.isfinite(frac).any() else None
 
 
 def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | None = None,
@@ -158,12 +162,17 @@ def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | No
         env = Environment(env_data["boundary"], tuple(env_data["holes"]),
                           env_data.get("name", ""))
         verdict = analyze(decompose(env, lss))
-        frac = None if vt is None or vo is None else _kernel_fraction(env, lss, vt, vo)
-        return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac,
-                        refined=refined, seconds=time.perf_counter() - t0)
     except Exception as exc:  # noqa: BLE001 - reported in the row
         return SweepRow(float(lss), None, {}, None, f"{type(exc).__name__}: {exc}",
                         refined=refined, seconds=time.perf_counter() - t0)
+    frac, error = None, None
+    if vt is not None and vo is not None:
+        try:
+            frac = _kernel_fraction(env, lss, vt, vo)
+        except Exception as exc:  # noqa: BLE001 - the verdict stands; the kernel's failure noted
+            error = f"kernel: {type(exc).__name__}: {exc}"
+    return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac, error,
+                    refined=refined, seconds=time.perf_counter() - t0)
 
 
 # ---------------------------------------------------------------------- the sweep

@@ -117,7 +117,7 @@ LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diam
 
 
 def add_map_lss(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
 
 

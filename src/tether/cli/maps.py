@@ -196,11 +196,11 @@ def register(add) -> None:
     sp.add_argument("--out", default="tether-demo", help="folder for the demo's figures")
 
     sp = add("info", cmd_info, "summarize a map: vertices, edges, reflex vertices, area")
-    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--json", action="store_true", help="print JSON")
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
-    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
     sp.add_argument("--at", nargs=2, type=finite_arg, required=True, metavar=("X", "Y"),
                     help="target point")
