@@ -71,11 +71,13 @@ class EscapeTable:
         """Extra distance per row: the no-pivot radius ``Lss·vt/(vo+vt)`` at vertex rows."""
         return np.where(self.is_vertex, self.verdict.dec.lss * vt / (vo + vt), 0.0)
 
-    def margins(self, p: Any, a: float, vt: float, vo: float
+    def margins(self, p: Any, a: float, vt: float, vo: float,
+                arc: tuple[float, float] | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(concern, Δ, σ, margin)`` per row for the rod ``(p, a)``: ``margin = |p − q| −
-        L_g(Δ) − offset`` (``inf`` where the row does not concern the rod)."""
-        concern, delta, sense = self.sweeps(a)
+        """``(concern, Δ, σ, margin)`` per row for the rod ``(p, a)`` (in free ``arc``, see
+        :meth:`sweeps`): ``margin = |p − q| − L_g(Δ) − offset`` (``inf`` where the row does
+        not concern the rod)."""
+        concern, delta, sense = self.sweeps(a, arc)
         d = np.hypot(self.q[:, 0] - p[0], self.q[:, 1] - p[1])
         m = d - l_safe(delta, vt, vo, self.verdict.dec.lss) - self.offsets(vt, vo)
         return concern, delta, sense, np.where(concern, m, np.inf)
@@ -85,10 +87,19 @@ class EscapeTable:
         return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
                       key=lambda s: int(s[1:]))
 
-    def sweeps(self, a: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sweeps(self, a: float, arc: tuple[float, float] | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For orientation ``a``: which rows concern the rod (``a`` in the cell's arc, not in
-        the goal), the sweep ``Δ`` to the goal (rad) and its sense ``σ`` (+1 CCW, −1 CW)."""
-        return sweeps(self.k_start, self.k_end, self.g_start, self.g_end, a)
+        the goal), the sweep ``Δ`` to the goal (rad) and its sense ``σ`` (+1 CCW, −1 CW).
+
+        ``arc``: the rod's current free arc ``(start, end)`` (CCW). Vertex rows (whose cell
+        arc is the whole circle) then sweep only inside it, since the rod cannot turn through
+        an obstacle."""
+        ks, ke = self.k_start, self.k_end
+        if arc is not None and self.is_vertex.any():
+            ks = np.where(self.is_vertex, arc[0], ks)
+            ke = np.where(self.is_vertex, arc[1], ke)
+        return sweeps(ks, ke, self.g_start, self.g_end, a)
 
     def to_dict(self) -> dict:
         rows = []
@@ -240,24 +251,66 @@ def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTa
                        env.vertices[refl].reshape(-1, 2))
 
 
-def _vertex_goals(env: Any, lss: float, refl: np.ndarray
+def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
                   ) -> tuple[np.ndarray, list[list[tuple[float, float]]]]:
-    """For each reflex vertex: a point just off it inside its free cone, and the free arcs
-    there (the orientations that need no pivot about the vertex when the target reaches it)."""
+    """For each reflex vertex: a point just off it inside its free cone, and the goal there:
+    the orientations free at *every* sample point around the vertex (radii up to ``lss/2``,
+    across the free cone), so that a rod held in them needs no pivot about the vertex however
+    the target rounds it. Falls back to the free arcs at the point when that set is empty."""
     if not len(refl):
         return np.zeros((0, 2)), []
     d_out, d_in = env.cone
     a_out = np.arctan2(d_out[refl, 1], d_out[refl, 0])
-    a_in = np.arctan2(d_in[refl, 1], d_in[refl, 0])
-    mid = a_out + 0.5 * np.mod(a_in - a_out, TWO_PI)
+    width = np.mod(np.arctan2(d_in[refl, 1], d_in[refl, 0]) - a_out, TWO_PI)
+    mid = a_out + 0.5 * width
     q = env.vertices[refl] + 1e-4 * lss * np.column_stack((np.cos(mid), np.sin(mid)))
-    table = free_arcs_many(env, q, lss, check=False)
+    dirs = (np.arange(n_dir) + 0.5) * (TWO_PI / n_dir)
     goals = []
-    for i in range(len(refl)):
-        rows = table.rows_of(i)
-        goals.append([(float(s), float(e)) for s, e in zip(table.start[rows], table.end[rows],
-                                                           strict=True)])
+    table = free_arcs_many(env, q, lss, check=False)
+    for i, j in enumerate(refl):
+        phis = a_out[i] + width[i] * (np.arange(9) + 0.5) / 9
+        radii = lss * np.array([0.02, 0.15, 0.5])
+        pts = (env.vertices[j] + radii[:, None, None]
+               * np.stack((np.cos(phis), np.sin(phis)), axis=-1)[None]).reshape(-1, 2)
+        pts = pts[np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)]
+        ok = np.ones(n_dir, dtype=bool)
+        for pt in pts:
+            ok &= rod_free_fan(env, pt, dirs, lss)
+        arcs = _runs(ok, dirs, TWO_PI / n_dir)
+        if not arcs:
+            rows = table.rows_of(i)
+            arcs = [(float(s), float(e)) for s, e in zip(table.start[rows], table.end[rows],
+                                                         strict=True)]
+        goals.append(arcs)
     return q, goals
+
+
+def rod_free_fan(env: Any, point: np.ndarray, dirs: np.ndarray, lss: float) -> np.ndarray:
+    """Whether the rods from ``point`` in each direction are free (independent test)."""
+    from tether.arcs import rod_is_free_many
+
+    return rod_is_free_many(env, np.repeat(point[None], len(dirs), axis=0), dirs, lss)
+
+
+def _runs(ok: np.ndarray, dirs: np.ndarray, step: float) -> list[tuple[float, float]]:
+    """CCW arcs ``(start, end)`` covering the runs of ``True`` in a circular mask, shrunk by
+    half a step at each end (so that they lie inside the true free set)."""
+    if ok.all():
+        return [(0.0, 0.0)]
+    if not ok.any():
+        return []
+    k = int(np.argmin(ok))  # start scanning at a blocked direction
+    order = np.roll(np.arange(len(ok)), -k)
+    out, start = [], None
+    for idx in list(order) + [order[0]]:
+        if ok[idx] and start is None:
+            start = idx
+        elif not ok[idx] and start is not None:
+            last = (idx - 1) % len(ok)
+            if last != start:
+                out.append((float(dirs[start]) % TWO_PI, float(dirs[last]) % TWO_PI))
+            start = None
+    return out
 
 
 def escape_table_of(verdict: Verdict) -> EscapeTable:
@@ -363,7 +416,7 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
     conflicts: list[tuple[int, int]] = []
     if free and verdict.strategy_exists:
         table = escape_table_of(verdict)
-        points = _escape_points(table, p, a, vt, vo, lss)
+        points = _escape_points(table, p, a, vt, vo, lss, _arc_at(env, p, a, lss))
         for e in points:
             if e.margin < 0:
                 where = (f"on {e.piece} of {e.cell}" if e.kind == "piece"
@@ -389,14 +442,25 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
                       tuple(reasons))
 
 
+def _arc_at(env: Any, p: np.ndarray, a: float, lss: float) -> tuple[float, float] | None:
+    """The free arc holding rod ``a`` at ``p`` (``None`` when FULL)."""
+    from tether.arcs import free_arcs
+
+    fa = free_arcs(env, p, lss)
+    for arc in fa.arcs:
+        if arc.contains(a):
+            return (arc.start, arc.end)
+    return None
+
+
 def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
-                   lss: float) -> list[EscapePoint]:
+                   lss: float, arc: tuple[float, float] | None = None) -> list[EscapePoint]:
     """The concerning escape samples within reach, one per piece or vertex (the tightest),
     sorted by margin."""
     out: list[EscapePoint] = []
     if not len(table):
         return out
-    concern, delta, sense, margin = table.margins(p, a, vt, vo)
+    concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
     dist = np.hypot(*(table.q - p).T)
     lg = l_safe(delta, vt, vo, lss)
     reach = _reach(vt, vo, lss) + lss
@@ -450,7 +514,8 @@ def is_safe(verdict: Verdict, vt: float, vo: float, points: Any, angles: Any) ->
     if not len(table):
         return ok
     for i in np.flatnonzero(ok):
-        _, _, _, margin = table.margins(pts[i], float(ang[i]), vt, vo)
+        arc = _arc_at(dec.env, pts[i], float(ang[i]), lss)
+        _, _, _, margin = table.margins(pts[i], float(ang[i]), vt, vo, arc)
         if np.any(margin < 0):
             ok[i] = False
     return ok

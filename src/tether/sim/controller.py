@@ -24,6 +24,7 @@ from tether.assess import escape_table_of
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
+TWO_PI = 2.0 * math.pi
 #: Rates are chosen within ``vo·(1 − VO_MARGIN)`` so that rounding never exceeds ``vo``.
 VO_MARGIN = 1e-9
 #: Angular margin (rad) kept inside a free arc when the rod is pushed by one of its ends.
@@ -197,7 +198,10 @@ class PaperController(_Compliant):
         t = self.table
         if t is None or not len(t):
             return None, math.inf, 0
-        concern, _, sense, margin = t.margins(p, a, self.vt, self.vo)
+        e = self.local.ends(float(p[0]), float(p[1]), a)
+        arc = ((a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI) if math.isfinite(e.ccw_gap) \
+            else None
+        concern, _, sense, margin = t.margins(p, a, self.vt, self.vo, arc)
         k = int(np.argmin(margin))
         if not concern[k]:
             return None, math.inf, 0
@@ -213,6 +217,7 @@ class PaperController(_Compliant):
                 concern, _, _ = self.table.sweeps(a)
                 if not concern[self.goal_row]:
                     self.goal_row, self.sense = None, 0
+                    self.bound = -math.inf
             if self.goal_row is None and row is not None and margin <= pad:
                 self.goal_row, self.sense = row, sense
         else:
