@@ -65,7 +65,12 @@ class EscapeTable:
     @property
     def is_vertex(self) -> np.ndarray:
         """Rows that stand for a reflex vertex (``piece`` holds ``−1 − j`` there)."""
-        return self.piece < 0
+        return (self.piece < 0) & (self.piece > WALL_CODE)
+
+    @property
+    def is_wall(self) -> np.ndarray:
+        """Rows that stand for a steep wall contact (``piece`` holds ``WALL_CODE − i``)."""
+        return self.piece <= WALL_CODE
 
     def offsets(self, vt: float, vo: float) -> np.ndarray:
         """Extra distance per row: the no-pivot radius ``Lss·vt/(vo+vt)`` at vertex rows."""
@@ -96,9 +101,10 @@ class EscapeTable:
         arc is the whole circle) then sweep only inside it, since the rod cannot turn through
         an obstacle."""
         ks, ke = self.k_start, self.k_end
-        if arc is not None and self.is_vertex.any():
-            ks = np.where(self.is_vertex, arc[0], ks)
-            ke = np.where(self.is_vertex, arc[1], ke)
+        anywhere = self.piece < 0
+        if arc is not None and anywhere.any():
+            ks = np.where(anywhere, arc[0], ks)
+            ke = np.where(anywhere, arc[1], ke)
         return sweeps(ks, ke, self.g_start, self.g_end, a)
 
     def to_dict(self) -> dict:
@@ -117,8 +123,14 @@ class EscapeTable:
                                     for j in self.reflex]}
 
 
+#: Piece code of wall rows: ``WALL_CODE − i`` for edge ``E<i>``.
+WALL_CODE = -1_000_000
+
+
 def _row_name(k: int) -> str:
-    return f"P{k}" if k >= 0 else f"V{-1 - k}"
+    if k >= 0:
+        return f"P{k}"
+    return f"V{-1 - k}" if k > WALL_CODE else f"E{WALL_CODE - k}"
 
 
 def sweeps(ks: Any, ke: Any, gs: Any, ge: Any, a: Any
@@ -313,13 +325,66 @@ def _runs(ok: np.ndarray, dirs: np.ndarray, step: float) -> list[tuple[float, fl
     return out
 
 
-def escape_table_of(verdict: Verdict) -> EscapeTable:
-    """:func:`escape_table`, cached on the verdict."""
-    t = verdict.__dict__.get("_escape_table")
+def escape_table_of(verdict: Verdict, ratio: float | None = None) -> EscapeTable:
+    """:func:`escape_table`, cached on the verdict; with ``ratio = vt/vo`` the steep-wall rows
+    of :func:`wall_rows` are added (cached per ratio)."""
+    cache = verdict.__dict__.setdefault("_escape_tables", {})
+    t = cache.get(None)
     if t is None:
         t = escape_table(verdict)
-        verdict.__dict__["_escape_table"] = t
-    return t
+        cache[None] = t
+    if ratio is None:
+        return t
+    key = round(float(ratio), 12)
+    w = cache.get(key)
+    if w is None:
+        w = _with_walls(t, float(ratio))
+        cache[key] = w
+    return w
+
+
+def wall_rows(env: Any, lss: float, ratio: float, spacing: float | None = None
+              ) -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
+    """Steep wall contacts (§5a): a rod whose tip meets edge ``E_i`` within ``δ0 =
+    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. Rows: points
+    ``q`` at distance ``lss`` from each edge (where such a contact starts), the edge index, and
+    the goal arc: every orientation at least ``δ0`` away from pointing straight at the wall."""
+    d0 = math.asin(min(max(ratio, 0.0), 1.0))
+    A, B, _, _ = env.oriented_edges
+    nrm = env.free_normals
+    step = 0.5 * lss if spacing is None else spacing
+    qs, edges, goals = [], [], []
+    for i in range(len(A)):
+        e = B[i] - A[i]
+        n_s = max(1, int(np.ceil(np.hypot(*e) / step)))
+        s = (np.arange(n_s) + 0.5) / n_s
+        q = A[i] + s[:, None] * e + lss * nrm[i]
+        q = q[np.asarray(env.contains(q[:, 0], q[:, 1]), dtype=bool)]
+        at_wall = math.atan2(-nrm[i, 1], -nrm[i, 0])
+        for qq in q:
+            qs.append(qq)
+            edges.append(i)
+            goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
+    return np.array(qs).reshape(-1, 2), np.array(edges, dtype=int), goals
+
+
+def _with_walls(t: EscapeTable, ratio: float) -> EscapeTable:
+    env, lss = t.verdict.dec.env, t.verdict.dec.lss
+    q, edges, goals = wall_rows(env, lss, ratio)
+    m = len(q)
+    width = t.g_start.shape[1] if t.g_start.ndim == 2 and t.g_start.shape[1] else 1
+    gs = np.full((m, width), np.nan)
+    ge = np.full((m, width), np.nan)
+    for i, (s, e) in enumerate(goals):
+        gs[i, 0], ge[i, 0] = s, e
+    g_start = np.vstack((t.g_start.reshape(len(t), -1) if len(t) else np.zeros((0, width)), gs))
+    g_end = np.vstack((t.g_end.reshape(len(t), -1) if len(t) else np.zeros((0, width)), ge))
+    return EscapeTable(t.verdict, np.vstack((t.q, q)),
+                       t.cell + tuple(env.edge_name(int(i)) for i in edges),
+                       np.concatenate((t.piece, WALL_CODE - edges)),
+                       np.concatenate((t.k_start, np.zeros(m))),
+                       np.concatenate((t.k_end, np.zeros(m))), g_start, g_end, t.reflex,
+                       t.reflex_xy)
 
 
 def l_safe(delta: Any, vt: float, vo: float, lss: float) -> np.ndarray:
@@ -415,13 +480,14 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
     points: list[EscapePoint] = []
     conflicts: list[tuple[int, int]] = []
     if free and verdict.strategy_exists:
-        table = escape_table_of(verdict)
+        table = escape_table_of(verdict, vt / vo)
         points = _escape_points(table, p, a, vt, vo, lss, _arc_at(env, p, a, lss))
         for e in points:
             if e.margin < 0:
                 where = (f"on {e.piece} of {e.cell}" if e.kind == "piece"
                          else f"at reflex vertex {e.piece} (plus the no-pivot radius "
-                              f"{lss * vt / (vo + vt):.3g})")
+                              f"{lss * vt / (vo + vt):.3g})" if e.kind == "vertex"
+                         else f"where the rod would meet wall {e.piece} too steeply to slide")
                 reasons.append(
                     f"escape point ({e.point[0]:.3g}, {e.point[1]:.3g}) {where} is "
                     f"{e.distance:.3g} away, closer than L_g = {e.L_g:.3g} (a "
@@ -470,8 +536,9 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
         if k not in best or margin[i] < margin[best[k]]:
             best[k] = int(i)
     for i in sorted(best.values(), key=lambda i: margin[i]):
-        vertex = bool(table.is_vertex[i])
-        out.append(EscapePoint("vertex" if vertex else "piece",
+        vertex = bool(table.piece[i] < 0)
+        kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
+        out.append(EscapePoint(kind,
                                (float(table.q[i, 0]), float(table.q[i, 1])),
                                None if vertex else table.cell[i], _row_name(int(table.piece[i])),
                                float(dist[i]), float(delta[i]), int(sense[i]),
@@ -510,7 +577,7 @@ def is_safe(verdict: Verdict, vt: float, vo: float, points: Any, angles: Any) ->
     ok = np.array([c is not None and c in verdict.surviving for c in cells], dtype=bool)
     if not verdict.strategy_exists or not ok.any():
         return ok
-    table = escape_table_of(verdict)
+    table = escape_table_of(verdict, vt / vo)
     if not len(table):
         return ok
     for i in np.flatnonzero(ok):
@@ -526,7 +593,7 @@ def critical_distance_field(verdict: Verdict, vt: float, vo: float, a: float, xs
     """``min_q (|p − q| − L_g(Δ_q))`` over a grid (for the second set of critical curves: its
     zero level is the locus of target positions at ``L_g`` from the escape points concerning
     orientation ``a``; with ``paper`` the paper's ``L`` instead)."""
-    table = escape_table_of(verdict)
+    table = escape_table_of(verdict, vt / vo)
     X, Y = np.meshgrid(xs, ys)
     out = np.full(X.shape, np.inf)
     if not len(table):

@@ -179,7 +179,8 @@ class PaperController(_Compliant):
 
     def _prepare(self, world: World) -> None:
         super()._prepare(world)
-        self.table = escape_table_of(world.verdict) if world.verdict is not None else None
+        self.table = (escape_table_of(world.verdict, self.vt / self.vo)
+                      if world.verdict is not None else None)
         self.gain = self.vt * self.lss / (self.vo - self.vt)  # L_g per radian
         self._reset_state()
 

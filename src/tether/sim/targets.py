@@ -249,7 +249,8 @@ class DashTarget:
         from tether.assess import escape_table_of
 
         self.planner = _planner(world)
-        self.table = escape_table_of(world.verdict) if world.verdict is not None else None
+        self.table = (escape_table_of(world.verdict, world.vt / world.vo)
+                      if world.verdict is not None else None)
         self.world = world
         self.rng = rng
         self.walker = _Walker()
