@@ -163,7 +163,8 @@ class PaperController(_Compliant):
     ``|p − q| <= L_g(Δ) + pad`` with ``pad = trigger_steps·vt·dt`` and keeps its sense until the
     rod is in that sample's goal. The escape table is re-evaluated when a cheap lower bound on
     the smallest margin (it shrinks by at most ``vt·dt + vt·Lss·|δa|/(vo − vt)`` a step) gets
-    close to the pad, and at least every ``refresh`` steps.
+    close to the pad, and at least every ``refresh`` steps. A committed rotation goes on until
+    the rod is ``overshoot`` rad inside the goal.
 
     ``reactive`` is ``"follow"`` (default) or ``"translate"``. Needs ``world.verdict``.
     """
@@ -171,8 +172,10 @@ class PaperController(_Compliant):
     name = "paper"
 
     def __init__(self, world: World | None = None, reactive: str = "follow",
-                 trigger_steps: float = 2.0, refresh: int = 8) -> None:
+                 trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2) -> None:
         self.reactive = reactive
+        self.overshoot = float(overshoot)
+        self._arc = None
         self.trigger_steps = float(trigger_steps)
         self.refresh = int(refresh)
         super().__init__(world)
@@ -202,6 +205,7 @@ class PaperController(_Compliant):
         e = self.local.ends(float(p[0]), float(p[1]), a)
         arc = ((a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI) if math.isfinite(e.ccw_gap) \
             else None
+        self._arc = arc
         concern, _, sense, margin = t.margins(p, a, self.vt, self.vo, arc)
         k = int(np.argmin(margin))
         if not concern[k]:
@@ -214,8 +218,9 @@ class PaperController(_Compliant):
             row, margin, sense = self._scan(p, a)
             self.bound, self.since = margin, 0
             if self.goal_row is not None:
-                # keep the committed rotation while its sample still concerns the rod
-                concern, _, _ = self.table.sweeps(a)
+                # keep the committed rotation until the rod is ``overshoot`` rad inside the
+                # goal (hysteresis: the reactive law would otherwise pull it straight back)
+                concern, _, _ = self.table.sweeps(a - self.sense * self.overshoot, self._arc)
                 if not concern[self.goal_row]:
                     self.goal_row, self.sense = None, 0
                     self.bound = -math.inf
