@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.assess import escape_table_of
+from tether.assess import escape_table_of, sweeps
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
@@ -214,21 +214,35 @@ class PaperController(_Compliant):
 
     def _trigger(self, p: np.ndarray, a: float, dt: float) -> tuple[int | None, int]:
         pad = self.trigger_steps * self.vt * dt
-        if self.goal_row is not None or self.bound <= 2.0 * pad or self.since >= self.refresh:
+        if self.goal_row is not None:
+            # keep the committed rotation until the rod is ``overshoot`` rad inside the goal
+            # (hysteresis: the reactive law would otherwise pull it straight back); only the
+            # committed row is checked meanwhile
+            if not self._still_concerned(p, a - self.sense * self.overshoot):
+                self.goal_row, self.sense = None, 0
+                self.bound = -math.inf
+            else:
+                return self.goal_row, self.sense
+        if self.bound <= 2.0 * pad or self.since >= self.refresh:
             row, margin, sense = self._scan(p, a)
             self.bound, self.since = margin, 0
-            if self.goal_row is not None:
-                # keep the committed rotation until the rod is ``overshoot`` rad inside the
-                # goal (hysteresis: the reactive law would otherwise pull it straight back)
-                concern, _, _ = self.table.sweeps(a - self.sense * self.overshoot, self._arc)
-                if not concern[self.goal_row]:
-                    self.goal_row, self.sense = None, 0
-                    self.bound = -math.inf
-            if self.goal_row is None and row is not None and margin <= pad:
+            if row is not None and margin <= pad:
                 self.goal_row, self.sense = row, sense
         else:
             self.since += 1
         return self.goal_row, self.sense
+
+    def _still_concerned(self, p: np.ndarray, a: float) -> bool:
+        """Whether the committed row still concerns orientation ``a`` (one row only)."""
+        t, k = self.table, self.goal_row
+        ks, ke = t.k_start[k:k + 1], t.k_end[k:k + 1]
+        if t.piece[k] < 0:
+            e = self.local.ends(float(p[0]), float(p[1]), a)
+            if math.isfinite(e.ccw_gap):
+                ks = np.array([(a - e.cw_gap) % TWO_PI])
+                ke = np.array([(a + e.ccw_gap) % TWO_PI])
+        concern, _, _ = sweeps(ks, ke, t.g_start[k:k + 1], t.g_end[k:k + 1], a)
+        return bool(concern[0])
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
         row, sense = self._trigger(p, a, dt)
