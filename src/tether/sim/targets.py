@@ -307,6 +307,7 @@ class EscapeTarget:
         if self.use_dash:
             self.dash.reset(world, p, a, rng)
         self.cell: str | None = None
+        self.round = math.inf
 
     def _plan(self, p: np.ndarray, cell: str) -> None:
         dec = self.world.decomposition
@@ -327,8 +328,15 @@ class EscapeTarget:
         self.walker.tick(t)
         cell = self.world.decomposition.cell_at(p, a)[0]
         if cell is not None and cell != self.cell:
-            self.cell = cell
-            self._plan(p, cell)
+            # follow the elimination downward: re-plan when the rod's cell fell in an earlier
+            # round than the committed one (progress), or when the plan is used up; a detour
+            # through other regions on the way does not reset the plan
+            rec = self.record.get(cell)
+            if rec is not None and (rec.round < self.round or self.walker.done):
+                self.cell, self.round = cell, rec.round
+                self._plan(p, cell)
+        elif self.walker.done and self.cell is not None:
+            self._plan(p, self.cell)
         return self.walker.velocity(p)
 
 
