@@ -148,11 +148,16 @@ def sweeps(ks: Any, ke: Any, gs: Any, ge: Any, a: Any
     ahead = np.mod(ke - a, TWO_PI)[:, None]  # room CCW inside K's arc
     behind = np.mod(a - ks, TWO_PI)[:, None]  # room CW
     full = (klen >= TWO_PI)[:, None]
-    d_ccw = np.mod(gs - a, TWO_PI)
-    d_cw = np.mod(a - ge, TWO_PI)
-    d_ccw = np.where(valid & (full | (d_ccw <= ahead)), d_ccw, np.inf)
-    d_cw = np.where(valid & (full | (d_cw <= behind)), d_cw, np.inf)
+    raw_ccw = np.where(valid, np.mod(gs - a, TWO_PI), np.inf)
+    raw_cw = np.where(valid, np.mod(a - ge, TWO_PI), np.inf)
+    d_ccw = np.where(full | (raw_ccw <= ahead), raw_ccw, np.inf)
+    d_cw = np.where(full | (raw_cw <= behind), raw_cw, np.inf)
     best_ccw, best_cw = d_ccw.min(axis=1), d_cw.min(axis=1)
+    # a goal the rod cannot reach inside its arc now (an obstacle in the way): count the
+    # unconstrained sweep, since the arc may open as the target moves; never ignore the row
+    stuck = ~np.isfinite(np.minimum(best_ccw, best_cw))
+    best_ccw = np.where(stuck, raw_ccw.min(axis=1), best_ccw)
+    best_cw = np.where(stuck, raw_cw.min(axis=1), best_cw)
     delta = np.minimum(best_ccw, best_cw)
     sense = np.where(best_ccw <= best_cw, 1, -1)
     concern = in_k & ~in_g & np.isfinite(delta)
