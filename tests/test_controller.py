@@ -125,3 +125,19 @@ def test_escape_target_wins_from_random_starts(seed):
     r = simulate(w, PaperController(w), make_target("escape", w), (x, y, a), duration=90.0,
                  dt=0.02, seed=seed)
     assert r.outcome == "lost", (x, y, a)
+
+
+def test_gap_def2_alone_loses_walls_repair_it():
+    """The smallest counterexample to the paper's literal escape points (docs/strategy.md)."""
+    from tether.assess import escape_table_of
+    from tether.sim.targets import PathTarget
+
+    w = world("nonconvex_corner")
+    st = (3.0, 0.8, 0.0)
+    t = escape_table_of(w.verdict, 0.5).subset("pieces")
+    assert t.margins(np.array(st[:2]), st[2], 0.5, 1.0)[3].min() > 4.0
+    runs = {rows: simulate(w, PaperController(w, escape_rows=rows),
+                           PathTarget(w, waypoints=[[9.2, 0.8], [9.2, 6.0]]), st,
+                           duration=25.0, dt=0.02) for rows in ("pieces", "all")}
+    assert runs["pieces"].outcome == "lost" and "E0" in runs["pieces"].reason
+    assert runs["all"].outcome == "held"

@@ -72,6 +72,18 @@ class EscapeTable:
         """Rows that stand for a steep wall contact (``piece`` holds ``WALL_CODE − i``)."""
         return self.piece <= WALL_CODE
 
+    def subset(self, kinds: str) -> EscapeTable:
+        """The rows of some kinds only: ``"pieces"``, ``"pieces+vertices"`` or ``"all"``."""
+        keep = self.piece >= 0
+        if "vert" in kinds:
+            keep = keep | self.is_vertex
+        if kinds == "all":
+            keep = np.ones(len(self), dtype=bool)
+        return EscapeTable(self.verdict, self.q[keep], tuple(np.array(self.cell, dtype=object)
+                                                              [keep].tolist()),
+                           self.piece[keep], self.k_start[keep], self.k_end[keep],
+                           self.g_start[keep], self.g_end[keep], self.reflex, self.reflex_xy)
+
     def offsets(self, vt: float, vo: float) -> np.ndarray:
         """Extra distance per row: the no-pivot radius ``Lss·vt/(vo+vt)`` at vertex rows."""
         return np.where(self.is_vertex, self.verdict.dec.lss * vt / (vo + vt), 0.0)

@@ -166,14 +166,18 @@ class PaperController(_Compliant):
     close to the pad, and at least every ``refresh`` steps. A committed rotation goes on until
     the rod is ``overshoot`` rad inside the goal.
 
-    ``reactive`` is ``"follow"`` (default) or ``"translate"``. Needs ``world.verdict``.
+    ``reactive`` is ``"follow"`` (default) or ``"translate"``. ``escape_rows``: ``"all"``
+    (pieces, reflex vertices, steep walls), ``"pieces"`` (Def. 2 alone, the paper's literal
+    escape points) or ``"pieces+vertices"``. Needs ``world.verdict``.
     """
 
     name = "paper"
 
     def __init__(self, world: World | None = None, reactive: str = "follow",
-                 trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2) -> None:
+                 trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2,
+                 escape_rows: str = "all") -> None:
         self.reactive = reactive
+        self.escape_rows = escape_rows
         self.overshoot = float(overshoot)
         self._arc = None
         self.trigger_steps = float(trigger_steps)
@@ -182,8 +186,11 @@ class PaperController(_Compliant):
 
     def _prepare(self, world: World) -> None:
         super()._prepare(world)
-        self.table = (escape_table_of(world.verdict, self.vt / self.vo)
-                      if world.verdict is not None else None)
+        self.table = None
+        if world.verdict is not None:
+            self.table = escape_table_of(world.verdict, self.vt / self.vo)
+            if self.escape_rows != "all":
+                self.table = self.table.subset(self.escape_rows)
         self.gain = self.vt * self.lss / (self.vo - self.vt)  # L_g per radian
         self._reset_state()
 
