@@ -141,3 +141,24 @@ def test_gap_def2_alone_loses_walls_repair_it():
                            duration=25.0, dt=0.02) for rows in ("pieces", "all")}
     assert runs["pieces"].outcome == "lost" and "E0" in runs["pieces"].reason
     assert runs["all"].outcome == "held"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["random", "wall", "tangential", "dash", "escape", "search"])
+def test_held_from_safe_starts_on_the_room_corner(kind):
+    """vt/vo = 0.3 on the paper's non-convex corner: every target kind is held from safe starts
+    (the full table, with its losses at higher ratios, is docs/strategy.md)."""
+    from tether.assess import assess
+
+    w = world("nonconvex_corner", vt=0.3)
+    rng = np.random.default_rng(7)
+    starts = []
+    while len(starts) < 3:
+        x, y = rng.uniform(0.1, 9.9, 2)
+        a = rng.uniform(0, 2 * math.pi)
+        if rod_is_free(w.env, (x, y), a, w.lss) and assess(w.verdict, 0.3, 1.0, x, y, a).safe:
+            starts.append((x, y, a))
+    for k, start in enumerate(starts):
+        r = simulate(w, PaperController(w), make_target(kind, w), start, duration=20.0,
+                     dt=0.02, seed=k)
+        assert r.outcome == "held", (start, r.reason)
