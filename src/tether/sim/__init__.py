@@ -4,5 +4,10 @@ The simulator takes a controller and a target as objects that follow the protoco
 :mod:`tether.sim.protocols`, so the paper's controller (:mod:`tether.sim.controller`) and the
 surveillance kernel's (:mod:`tether.game`) are interchangeable, and so are the target kinds.
 May import the pipeline stages above it (environment, arcs, decomposition, escape, bounds,
-rates); never imports matplotlib.
+rates, assess); never imports matplotlib.
+
+Modules: ``protocols`` (World, Command, Controller, Target), ``simulate`` (the loop, the
+monitor, traces), ``controller`` (paper, follow, translate; ``CONTROLLERS``), ``targets``
+(``TARGETS``), ``local`` (the free arc around the rod in µs), ``paths`` (shortest paths for
+targets), ``scenarios`` (the paper's Figs. 7 and 8, live).
 """

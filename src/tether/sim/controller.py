@@ -20,14 +20,31 @@ from typing import Any
 
 import numpy as np
 
-from tether.rates import step_rate_interval
+from tether.assess import escape_table_of, sweeps
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
+TWO_PI = 2.0 * math.pi
 #: Rates are chosen within ``vo·(1 − VO_MARGIN)`` so that rounding never exceeds ``vo``.
 VO_MARGIN = 1e-9
 #: Angular margin (rad) kept inside a free arc when the rod is pushed by one of its ends.
 CONTACT_MARGIN = 1e-9
+
+
+def step_interval(vx: float, vy: float, a: float, lss: float, vo: float, dt: float
+                  ) -> tuple[float, float]:
+    """Scalar :func:`tether.rates.step_rate_interval` in plain floats (the control loop's)."""
+    c, s = math.cos(a), math.sin(a)
+    vr = (vx * c + vy * s) * dt
+    vs = (-vx * s + vy * c) * dt
+    wn = math.hypot(lss - vr, vs)
+    w_minus_l = (vr * vr + vs * vs - 2.0 * lss * vr) / (wn + lss)
+    half = ((vo * dt) ** 2 - w_minus_l ** 2) / (4.0 * lss * wn)
+    if half >= 1.0:
+        return -math.pi / dt, math.pi / dt
+    beta = 2.0 * math.asin(math.sqrt(max(half, 0.0)))
+    delta = math.atan2(vs, lss - vr)
+    return min(-beta - delta, 0.0) / dt, max(beta - delta, 0.0) / dt
 
 
 def _vel(v: np.ndarray, a: float, rate: float, lss: float) -> np.ndarray:
@@ -72,8 +89,8 @@ class _Compliant:
                    mode: str) -> Command:
         """Make the preferred ``want`` (rad/s) admissible: chord within ``vo·dt`` and the rod in
         its free arc at the end of the step."""
-        lo, hi = step_rate_interval(v, a, self.lss, self.vo * (1.0 - VO_MARGIN), dt)
-        lo, hi = float(lo), float(hi)
+        lo, hi = step_interval(float(v[0]), float(v[1]), a, self.lss,
+                               self.vo * (1.0 - VO_MARGIN), dt)
         x1, y1 = float(p[0] + v[0] * dt), float(p[1] + v[1] * dt)
         ends = self.local.ends(x1, y1, a)
         if ends.free:
@@ -137,8 +154,123 @@ class TranslateController(_Compliant):
         return 0.0, "reactive"
 
 
+class PaperController(_Compliant):
+    """The paper's strategy (§§IV–VI, ``math.md`` §10): reactive far from escape points,
+    saturated rotation toward the goal once the trigger fires, compliant at arc ends.
+
+    The trigger: for the rod orientation ``a``, every escape sample ``q`` that concerns it
+    (:meth:`tether.assess.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when
+    ``|p − q| <= L_g(Δ) + pad`` with ``pad = trigger_steps·vt·dt`` and keeps its sense until the
+    rod is in that sample's goal. The escape table is re-evaluated when a cheap lower bound on
+    the smallest margin (it shrinks by at most ``vt·dt + vt·Lss·|δa|/(vo − vt)`` a step) gets
+    close to the pad, and at least every ``refresh`` steps. A committed rotation goes on until
+    the rod is ``overshoot`` rad inside the goal.
+
+    ``reactive`` is ``"follow"`` (default) or ``"translate"``. ``escape_rows``: ``"all"``
+    (pieces, reflex vertices, steep walls), ``"pieces"`` (Def. 2 alone, the paper's literal
+    escape points) or ``"pieces+vertices"``. Needs ``world.verdict``.
+    """
+
+    name = "paper"
+
+    def __init__(self, world: World | None = None, reactive: str = "follow",
+                 trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2,
+                 escape_rows: str = "all") -> None:
+        self.reactive = reactive
+        self.escape_rows = escape_rows
+        self.overshoot = float(overshoot)
+        self._arc = None
+        self.trigger_steps = float(trigger_steps)
+        self.refresh = int(refresh)
+        super().__init__(world)
+
+    def _prepare(self, world: World) -> None:
+        super()._prepare(world)
+        self.table = None
+        if world.verdict is not None:
+            self.table = escape_table_of(world.verdict, self.vt / self.vo)
+            if self.escape_rows != "all":
+                self.table = self.table.subset(self.escape_rows)
+        self.gain = self.vt * self.lss / (self.vo - self.vt)  # L_g per radian
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        self.bound = -math.inf  # lower bound on the smallest margin
+        self.since = 0
+        self.goal_row: int | None = None
+        self.sense = 0
+
+    def reset(self, world: World, p: np.ndarray, a: float) -> None:
+        super().reset(world, p, a)
+        self._reset_state()
+
+    def _scan(self, p: np.ndarray, a: float) -> tuple[int | None, float, int]:
+        """The concerning escape sample with the smallest margin: (row, margin, sense)."""
+        t = self.table
+        if t is None or not len(t):
+            return None, math.inf, 0
+        e = self.local.ends(float(p[0]), float(p[1]), a)
+        arc = ((a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI) if math.isfinite(e.ccw_gap) \
+            else None
+        self._arc = arc
+        concern, _, sense, margin = t.margins(p, a, self.vt, self.vo, arc)
+        k = int(np.argmin(margin))
+        if not concern[k]:
+            return None, math.inf, 0
+        return k, float(margin[k]), int(sense[k])
+
+    def _trigger(self, p: np.ndarray, a: float, dt: float) -> tuple[int | None, int]:
+        pad = self.trigger_steps * self.vt * dt
+        if self.goal_row is not None:
+            # keep the committed rotation until the rod is ``overshoot`` rad inside the goal
+            # (hysteresis: the reactive law would otherwise pull it straight back); only the
+            # committed row is checked meanwhile
+            if not self._still_concerned(p, a - self.sense * self.overshoot):
+                self.goal_row, self.sense = None, 0
+                self.bound = -math.inf
+            else:
+                return self.goal_row, self.sense
+        if self.bound <= 2.0 * pad or self.since >= self.refresh:
+            row, margin, sense = self._scan(p, a)
+            self.bound, self.since = margin, 0
+            if row is not None and margin <= pad:
+                self.goal_row, self.sense = row, sense
+        else:
+            self.since += 1
+        return self.goal_row, self.sense
+
+    def _still_concerned(self, p: np.ndarray, a: float) -> bool:
+        """Whether the committed row still concerns orientation ``a`` (one row only)."""
+        t, k = self.table, self.goal_row
+        ks, ke = t.k_start[k:k + 1], t.k_end[k:k + 1]
+        if t.piece[k] < 0:
+            e = self.local.ends(float(p[0]), float(p[1]), a)
+            if math.isfinite(e.ccw_gap):
+                ks = np.array([(a - e.cw_gap) % TWO_PI])
+                ke = np.array([(a + e.ccw_gap) % TWO_PI])
+        concern, _, _ = sweeps(ks, ke, t.g_start[k:k + 1], t.g_end[k:k + 1], a)
+        return bool(concern[0])
+
+    def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
+        row, sense = self._trigger(p, a, dt)
+        if row is not None:
+            lo, hi = step_interval(float(v[0]), float(v[1]), a, self.lss,
+                                   self.vo * (1.0 - VO_MARGIN), dt)
+            return (hi if sense > 0 else lo), "rotational"
+        if self.reactive == "translate":
+            return 0.0, "reactive"
+        return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive"
+
+    def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
+        cmd = super().step(p, v, a, dt)
+        if cmd.feasible:
+            self.bound -= self.vt * dt + self.gain * abs(cmd.rate) * dt
+        return cmd
+
+
 #: Controllers by name: ``CONTROLLERS[name](world)``.
 CONTROLLERS: dict[str, Any] = {
+    "paper": PaperController,
     "follow": FollowController,
     "translate": TranslateController,
 }

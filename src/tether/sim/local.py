@@ -140,6 +140,12 @@ def ends_of(blocked: list[Blocked], a: float) -> ArcEnds:
     return ArcEnds(not inside, ccw, fccw, cw, fcw)
 
 
+def _wrap0(off: float) -> float:
+    """An angle offset in [0, 2π) that is 2π less rounding is 0: interval ends computed from
+    the same vertex by two edges may differ in the last bit."""
+    return 0.0 if off > TWO_PI - 1e-12 else off
+
+
 def _exits(blocked: list[Blocked], a: float) -> tuple[float, str | None, float, str | None]:
     """From a blocked ``a``: CCW distance to the CCW end of the blocked union holding it, and CW
     distance to its CW end, with their features."""
@@ -149,7 +155,7 @@ def _exits(blocked: list[Blocked], a: float) -> tuple[float, str | None, float, 
         moved = False
         for b in blocked:
             width = (b.hi - b.lo) % TWO_PI
-            off = (a + up - b.lo) % TWO_PI
+            off = _wrap0((a + up - b.lo) % TWO_PI)
             if off < width + 1e-12 and (width - off) > 1e-15:
                 up += width - off
                 fup = b.hi_feature
@@ -162,7 +168,7 @@ def _exits(blocked: list[Blocked], a: float) -> tuple[float, str | None, float, 
         moved = False
         for b in blocked:
             width = (b.hi - b.lo) % TWO_PI
-            off = (a - down - b.lo) % TWO_PI
+            off = _wrap0((a - down - b.lo) % TWO_PI)
             if off > 1e-15 and off <= width + 1e-12:
                 down += off
                 fdown = b.lo_feature

@@ -289,6 +289,7 @@ def simulate(world: World, controller: Controller, target: Target,
     rng = np.random.default_rng(seed)
     p = np.array([x, y])
     controller.reset(world, p.copy(), a)
+    world.extra["controller"] = controller  # white-box targets attack a copy of it
     target.reset(world, p.copy(), a, rng)
     mon = Monitor(world)
     dec = world.decomposition

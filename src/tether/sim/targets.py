@@ -162,12 +162,267 @@ class RandomTarget:
         return v
 
 
+def _lookahead_ok(planner: PathPlanner, p: np.ndarray, v: np.ndarray, horizon: float) -> bool:
+    return planner.contains(p + v * horizon) and planner.visible(p, p + v * horizon)
+
+
+def _steer(planner: PathPlanner, p: np.ndarray, v: np.ndarray, horizon: float) -> np.ndarray:
+    """``v`` turned as little as possible so that ``horizon`` s of it stay in the free space."""
+    n = float(np.hypot(*v))
+    if n == 0:
+        return v
+    base = math.atan2(v[1], v[0])
+    for turn in np.radians([0, 15, -15, 30, -30, 50, -50, 75, -75, 100, -100, 135, -135, 180]):
+        w = n * np.array([math.cos(base + turn), math.sin(base + turn)])
+        if _lookahead_ok(planner, p, w, horizon):
+            return w
+    return np.zeros(2)
+
+
+class WallTarget:
+    """The paper's antagonist: walks around the nearest obstacle boundary, just off it."""
+
+    name = "wall"
+
+    def __init__(self, world: World) -> None:
+        self.walker = _Walker()
+
+    def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        planner = _planner(world)
+        rings = [np.asarray(r.coords)[:-1] for r in (planner.space.exterior,
+                                                     *planner.space.interiors)]
+        from shapely.geometry import LinearRing, Point
+
+        dist = [LinearRing(r).distance(Point(p)) for r in rings]
+        ring = rings[int(np.argmin(dist))]
+        if rng.random() < 0.5:
+            ring = ring[::-1]
+        k = int(np.argmin(np.hypot(*(ring - p).T)))
+        loop = np.vstack([ring[k:], ring[:k]] * 20)
+        route = planner.path(p, loop[0])
+        self.walker = _Walker()
+        self.walker.vt = world.vt
+        self.walker.set_path(np.vstack([route, loop[1:]]))
+
+    def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        self.walker.tick(t)
+        return self.walker.velocity(p)
+
+
+class TangentialTarget:
+    """Runs perpendicular to the rod in the sense the observer is turning (the worst case of
+    §3), turning as little as needed to stay off the walls."""
+
+    name = "tangential"
+
+    def __init__(self, world: World) -> None:
+        pass
+
+    def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        self.planner = _planner(world)
+        self.vt = world.vt
+        self.lss = world.lss
+        self.a_prev = a
+        self.sense = 1.0 if rng.random() < 0.5 else -1.0
+
+    def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        da = a - self.a_prev
+        if abs(da) > 1e-12:
+            self.sense = math.copysign(1.0, da)
+        self.a_prev = a
+        # the observer turning CCW moves along +u⊥; the target runs the other way along the
+        # tangent, which makes the sweep slowest (θ = π − ... in §3)
+        v = -self.sense * self.vt * np.array([-math.sin(a), math.cos(a)])
+        return _steer(self.planner, p, v, 0.1 * self.lss / max(self.vt, 1e-12))
+
+
+class DashTarget:
+    """Knows the decomposition and the rod: runs the shortest path to the escape point with the
+    smallest margin for the current rod (re-chosen every ``replan`` s); wanders when none."""
+
+    name = "dash"
+
+    def __init__(self, world: World, replan: float = 0.5) -> None:
+        self.replan = float(replan)
+
+    def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        from tether.assess import escape_table_of
+
+        self.planner = _planner(world)
+        self.table = (escape_table_of(world.verdict, world.vt / world.vo)
+                      if world.verdict is not None else None)
+        self.world = world
+        self.rng = rng
+        self.walker = _Walker()
+        self.walker.vt = world.vt
+        self.t_plan = -math.inf
+
+    def _plan(self, p: np.ndarray, a: float) -> None:
+        goal = None
+        if self.table is not None and len(self.table):
+            concern, _, _, margin = self.table.margins(p, a, self.world.vt, self.world.vo)
+            if concern.any():
+                goal = self.table.q[int(np.argmin(margin))]
+        if goal is None or not self.planner.contains(goal):
+            if goal is None:
+                goal = self.planner.random_point(self.rng)
+            else:
+                goal = _nearest_inside(self.planner, goal)
+        self.walker.set_path(self.planner.path(p, goal))
+
+    def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        self.walker.tick(t)
+        if t - self.t_plan >= self.replan or self.walker.done:
+            self._plan(p, a)
+            self.t_plan = t
+        return self.walker.velocity(p)
+
+
+def _nearest_inside(planner: PathPlanner, q: np.ndarray) -> np.ndarray:
+    from shapely.geometry import Point
+    from shapely.ops import nearest_points
+
+    pt = nearest_points(planner.space, Point(q))[0]
+    return np.array([pt.x, pt.y])
+
+
+class EscapeTarget:
+    """The Prop. 1 evader: for the cell the rod is in, crosses the piece that the elimination
+    recorded for it (into the region where the rod has no surviving continuation); on a map
+    with a strategy it behaves like ``dash``."""
+
+    name = "escape"
+
+    def __init__(self, world: World) -> None:
+        self.dash = DashTarget(world)
+
+    def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        self.world = world
+        self.planner = _planner(world)
+        self.walker = _Walker()
+        self.walker.vt = world.vt
+        ver = world.verdict
+        self.record = {e.cell: e for e in ver.eliminated} if ver is not None else {}
+        self.use_dash = ver is None or ver.strategy_exists
+        if self.use_dash:
+            self.dash.reset(world, p, a, rng)
+        self.cell: str | None = None
+        self.round = math.inf
+
+    def _plan(self, p: np.ndarray, cell: str) -> None:
+        dec = self.world.decomposition
+        rec = self.record.get(cell)
+        if rec is None:
+            return
+        piece = dec.pieces[int(rec.piece[1:])]
+        q, n, eps = np.array(piece.sample), np.array(piece.normal), piece.eps
+        to = int(rec.escapes_to[1:])
+        side = 1.0 if piece.regions[0] == to else -1.0
+        beyond = q + side * max(eps * 4, 1e-6) * n
+        route = self.planner.path(p, _nearest_inside(self.planner, q))
+        self.walker.set_path(np.vstack([route, beyond[None], (beyond + side * 0.05 * n)[None]]))
+
+    def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        if self.use_dash:
+            return self.dash.velocity(t, p, a)
+        self.walker.tick(t)
+        cell = self.world.decomposition.cell_at(p, a)[0]
+        if cell is not None and cell != self.cell:
+            # follow the elimination downward: re-plan when the rod's cell fell in an earlier
+            # round than the committed one (progress), or when the plan is used up; a detour
+            # through other regions on the way does not reset the plan
+            rec = self.record.get(cell)
+            if rec is not None and (rec.round < self.round or self.walker.done):
+                self.cell, self.round = cell, rec.round
+                self._plan(p, cell)
+        elif self.walker.done and self.cell is not None:
+            self._plan(p, self.cell)
+        return self.walker.velocity(p)
+
+
+class SearchTarget:
+    """White-box adversary: every ``period`` s it tries ``headings`` constant headings (and as
+    many two-leg turns) over ``horizon`` s against a copy of the controller, scoring each by
+    the smallest slack the rod keeps to its arc ends (a controller failure scores −1), and
+    plays the worst for the observer. Non-shortest paths included (Becerra 2010)."""
+
+    name = "search"
+
+    def __init__(self, world: World, horizon: float = 1.0, period: float = 0.5,
+                 headings: int = 8) -> None:
+        self.horizon, self.period, self.headings = float(horizon), float(period), int(headings)
+
+    def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        from tether.sim.local import LocalArcs
+
+        self.world = world
+        self.planner = _planner(world)
+        self.rng = rng
+        self.controller = world.extra.get("controller")
+        self.local = world.extra.get("_local_arcs") or LocalArcs(world.env, world.lss)
+        self.t_plan = -math.inf
+        self.plan: list[np.ndarray] = []
+        self.leg = 0.0
+        self.dt = 0.02
+
+    def _score(self, p: np.ndarray, a: float, legs: list[np.ndarray]) -> float:
+        import copy
+
+        ctrl = copy.copy(self.controller)
+        dt = self.dt
+        n = max(1, int(round(self.horizon / dt)))
+        worst = math.inf
+        for k in range(n):
+            v = legs[0] if k < n // 2 else legs[1]
+            q = p + v * dt
+            if not self.planner.contains(q):
+                return math.inf  # the walls stop this plan: not a threat
+            cmd = ctrl.step(p, v, a, dt) if ctrl is not None else None
+            if cmd is not None and not cmd.feasible:
+                return -1.0 + k / n
+            a = a + (cmd.rate if cmd is not None else 0.0) * dt
+            p = q
+            e = self.local.ends(float(p[0]), float(p[1]), a)
+            if not e.free:
+                return -1.0 + k / n
+            worst = min(worst, e.ccw_gap, e.cw_gap)
+        return worst
+
+    def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        if self.plan and t > self.t_plan:
+            self.dt = max(min(t - self.last_t, 0.1), 1e-4) if hasattr(self, "last_t") else 0.02
+        self.last_t = t
+        if t - self.t_plan >= self.period or not self.plan:
+            vt = self.world.vt
+            base = self.rng.uniform(0, 2 * math.pi)
+            angs = base + np.arange(self.headings) * (2 * math.pi / self.headings)
+            cands = [[vt * np.array([math.cos(h), math.sin(h)])] * 2 for h in angs]
+            turns = angs + (math.pi / 2) * self.rng.choice([-1, 1], len(angs))
+            cands += [[vt * np.array([math.cos(h), math.sin(h)]),
+                       vt * np.array([math.cos(g), math.sin(g)])]
+                      for h, g in zip(angs, turns, strict=True)]
+            scores = [self._score(p.copy(), a, legs) for legs in cands]
+            best = int(np.argmin(scores))
+            self.plan = cands[best] if math.isfinite(scores[best]) else \
+                [self.planner.path(p, self.planner.random_point(self.rng))[-1] - p] * 2
+            self.t_plan = t
+        v = self.plan[0] if t - self.t_plan < self.horizon / 2 else self.plan[1]
+        n = float(np.hypot(*v))
+        v = v * (self.world.vt / n) if n > 0 else v
+        return _steer(self.planner, p, v, 0.05 * self.world.lss / max(self.world.vt, 1e-12))
+
+
 TargetFactory = Callable[..., Any]
 
 #: Target kinds by name: ``TARGETS[kind](world, **options)``.
 TARGETS: dict[str, TargetFactory] = {
     "path": PathTarget,
     "random": RandomTarget,
+    "wall": WallTarget,
+    "tangential": TangentialTarget,
+    "dash": DashTarget,
+    "escape": EscapeTarget,
+    "search": SearchTarget,
 }
 
 

@@ -1,0 +1,627 @@
+"""Start analysis: escape points, the trigger distances and a safe/unsafe verdict (``math.md`` §10).
+
+**Escape table.** For a surviving cell ``K`` over ``R`` and a piece ``γ`` of ``R`` toward
+``R'``, the continuation set ``C_γ(K)`` is the part of ``K``'s arc that continues into
+*surviving* partners across ``γ``. Where some partner of ``K`` across ``γ`` was eliminated,
+``C_γ(K)`` is not all of ``K``'s arc: ``γ`` is an *escape piece* of ``K`` and ``C_γ(K)`` its
+goal. The table samples every escape piece (points ``q`` just inside ``R``, with ``K``'s arc
+there and the goal arcs just across). Reflex vertices are listed with their no-pivot radius
+``Lss·vt/(vo+vt)``.
+
+**For an orientation a** an escape sample ``q`` concerns the rod when ``a`` lies in ``K``'s arc
+at ``q`` but not in the goal: the observer must sweep ``Δ`` (inside ``K``'s arc, in the sense
+``σ`` that reaches the goal first) before the target gets there. The sweep takes at most
+``T_g = Lss·Δ/(vo − vt)``, the target covers ``L_g = vt·T_g`` meanwhile; the margin is
+``|p − q| − L_g`` (straight-line distance: a lower bound on the target's path). The paper's ``L``
+(straight dash, R3) is reported beside it.
+
+**Verdict.** ``safe`` iff the rod is free, its cell survives the elimination, every concerning
+escape point has a non-negative margin, and no two reachable escape points conflict (Prop. 3 as
+a check: opposite senses and neither order of the two sweeps finishes in time). Lengths in map
+units, angles in radians, times in seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tether.arcs import feature_name, free_arcs_many, rod_is_free
+from tether.bounds import check_speeds, distance_bound
+from tether.decomposition import FREE, cell_name
+from tether.escape import Verdict
+
+TWO_PI = 2.0 * math.pi
+#: Samples per escape piece (at most; short pieces get fewer).
+SAMPLES_PER_PIECE = 24
+
+
+@dataclass(frozen=True, eq=False)
+class EscapeTable:
+    """Escape samples of every surviving cell (vectorized rows) and the reflex vertices.
+
+    Row ``i``: point ``q[i]`` on piece ``piece[i]`` just inside the region of cell
+    ``cell[i]``; that cell's arc there is CCW ``(k_start[i], k_end[i])`` (equal ends: the full
+    circle); the goal is the union of CCW arcs ``(g_start[i, j], g_end[i, j])`` (NaN padded).
+    """
+
+    verdict: Verdict = field(repr=False)
+    q: np.ndarray
+    cell: tuple[str, ...]
+    piece: np.ndarray
+    k_start: np.ndarray
+    k_end: np.ndarray
+    g_start: np.ndarray
+    g_end: np.ndarray
+    reflex: np.ndarray  # indices of reflex vertices
+    reflex_xy: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    @property
+    def is_vertex(self) -> np.ndarray:
+        """Rows that stand for a reflex vertex (``piece`` holds ``−1 − j`` there)."""
+        return (self.piece < 0) & (self.piece > WALL_CODE)
+
+    @property
+    def is_wall(self) -> np.ndarray:
+        """Rows that stand for a steep wall contact (``piece`` holds ``WALL_CODE − i``)."""
+        return self.piece <= WALL_CODE
+
+    def subset(self, kinds: str) -> EscapeTable:
+        """The rows of some kinds only: ``"pieces"``, ``"pieces+vertices"`` or ``"all"``."""
+        keep = self.piece >= 0
+        if "vert" in kinds:
+            keep = keep | self.is_vertex
+        if kinds == "all":
+            keep = np.ones(len(self), dtype=bool)
+        return EscapeTable(self.verdict, self.q[keep], tuple(np.array(self.cell, dtype=object)
+                                                              [keep].tolist()),
+                           self.piece[keep], self.k_start[keep], self.k_end[keep],
+                           self.g_start[keep], self.g_end[keep], self.reflex, self.reflex_xy)
+
+    def offsets(self, vt: float, vo: float) -> np.ndarray:
+        """Extra distance per row: the no-pivot radius ``Lss·vt/(vo+vt)`` at vertex rows."""
+        return np.where(self.is_vertex, self.verdict.dec.lss * vt / (vo + vt), 0.0)
+
+    def margins(self, p: Any, a: float, vt: float, vo: float,
+                arc: tuple[float, float] | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(concern, Δ, σ, margin)`` per row for the rod ``(p, a)`` (in free ``arc``, see
+        :meth:`sweeps`): ``margin = |p − q| − L_g(Δ) − offset`` (``inf`` where the row does
+        not concern the rod)."""
+        concern, delta, sense = self.sweeps(a, arc)
+        d = np.hypot(self.q[:, 0] - p[0], self.q[:, 1] - p[1])
+        m = d - l_safe(delta, vt, vo, self.verdict.dec.lss) - self.offsets(vt, vo)
+        return concern, delta, sense, np.where(concern, m, np.inf)
+
+    @property
+    def pieces(self) -> list[str]:
+        return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
+                      key=lambda s: int(s[1:]))
+
+    def sweeps(self, a: float, arc: tuple[float, float] | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For orientation ``a``: which rows concern the rod (``a`` in the cell's arc, not in
+        the goal), the sweep ``Δ`` to the goal (rad) and its sense ``σ`` (+1 CCW, −1 CW).
+
+        ``arc``: the rod's current free arc ``(start, end)`` (CCW). Vertex rows (whose cell
+        arc is the whole circle) then sweep only inside it, since the rod cannot turn through
+        an obstacle."""
+        ks, ke = self.k_start, self.k_end
+        anywhere = self.piece < 0
+        if arc is not None and anywhere.any():
+            ks = np.where(anywhere, arc[0], ks)
+            ke = np.where(anywhere, arc[1], ke)
+        return sweeps(ks, ke, self.g_start, self.g_end, a)
+
+    def to_dict(self) -> dict:
+        rows = []
+        for i in range(len(self.q)):
+            goal = [[float(s), float(e)] for s, e in zip(self.g_start[i], self.g_end[i],
+                                                          strict=True) if np.isfinite(s)]
+            rows.append({"point": self.q[i].tolist(), "cell": self.cell[i],
+                         "piece": _row_name(int(self.piece[i])),
+                         "cell_arc": [float(self.k_start[i]), float(self.k_end[i])],
+                         "goal": goal})
+        env = self.verdict.dec.env
+        return {"escape_samples": rows,
+                "reflex_vertices": [{"vertex": env.vertex_name(int(j)),
+                                     "point": env.vertices[int(j)].tolist()}
+                                    for j in self.reflex]}
+
+
+#: Piece code of wall rows: ``WALL_CODE − i`` for edge ``E<i>``.
+WALL_CODE = -1_000_000
+
+
+def _row_name(k: int) -> str:
+    if k >= 0:
+        return f"P{k}"
+    return f"V{-1 - k}" if k > WALL_CODE else f"E{WALL_CODE - k}"
+
+
+def sweeps(ks: Any, ke: Any, gs: Any, ge: Any, a: Any
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vectorized core of :meth:`EscapeTable.sweeps` (``gs``, ``ge`` of shape (m, G))."""
+    ks, ke = np.asarray(ks, float), np.asarray(ke, float)
+    gs, ge = np.asarray(gs, float), np.asarray(ge, float)
+    klen = np.mod(ke - ks, TWO_PI)
+    klen = np.where(klen == 0.0, TWO_PI, klen)
+    in_k = np.mod(a - ks, TWO_PI) <= klen
+    glen = np.mod(ge - gs, TWO_PI)
+    glen = np.where(glen == 0.0, TWO_PI, glen)
+    valid = np.isfinite(gs)
+    in_g = np.any(valid & (np.mod(a - gs[...], TWO_PI) <= np.where(valid, glen, -1.0)), axis=1)
+    ahead = np.mod(ke - a, TWO_PI)[:, None]  # room CCW inside K's arc
+    behind = np.mod(a - ks, TWO_PI)[:, None]  # room CW
+    full = (klen >= TWO_PI)[:, None]
+    raw_ccw = np.where(valid, np.mod(gs - a, TWO_PI), np.inf)
+    raw_cw = np.where(valid, np.mod(a - ge, TWO_PI), np.inf)
+    d_ccw = np.where(full | (raw_ccw <= ahead), raw_ccw, np.inf)
+    d_cw = np.where(full | (raw_cw <= behind), raw_cw, np.inf)
+    best_ccw, best_cw = d_ccw.min(axis=1), d_cw.min(axis=1)
+    # a goal the rod cannot reach inside its arc now (an obstacle in the way): count the
+    # unconstrained sweep, since the arc may open as the target moves; never ignore the row
+    stuck = ~np.isfinite(np.minimum(best_ccw, best_cw))
+    best_ccw = np.where(stuck, raw_ccw.min(axis=1), best_ccw)
+    best_cw = np.where(stuck, raw_cw.min(axis=1), best_cw)
+    delta = np.minimum(best_ccw, best_cw)
+    sense = np.where(best_ccw <= best_cw, 1, -1)
+    concern = in_k & ~in_g & np.isfinite(delta)
+    return concern, np.where(concern, delta, 0.0), sense
+
+
+def _piece_samples(piece: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points along a piece and unit normals there (map units)."""
+    geom = piece.geometry
+    lines = list(getattr(geom, "geoms", [geom]))
+    pts, nrm = [], []
+    total = sum(g.length for g in lines)
+    for g in lines:
+        if g.length <= 0:
+            continue
+        k = max(1, int(round(n * g.length / total)))
+        for s in (np.arange(k) + 0.5) / k:
+            d = s * g.length
+            a = np.asarray(g.interpolate(max(d - 1e-6 * g.length, 0.0)).coords[0])
+            b = np.asarray(g.interpolate(min(d + 1e-6 * g.length, g.length)).coords[0])
+            t = b - a
+            tn = float(np.hypot(*t))
+            if tn == 0:
+                continue
+            pts.append(np.asarray(g.interpolate(d).coords[0]))
+            nrm.append(np.array([-t[1], t[0]]) / tn)
+    if not pts:
+        return np.asarray([piece.sample]), np.asarray([piece.normal])
+    return np.array(pts), np.array(nrm)
+
+
+def _arc_of(table: Any, env: Any, i: int, region: int, wanted: set[str]
+            ) -> list[tuple[float, float, str]]:
+    """Arcs of point ``i`` of an arc table whose cell name (in ``region``) is in ``wanted``."""
+    if table.full[i]:
+        cid = cell_name(region, FREE, FREE)
+        return [(0.0, 0.0, cid)] if cid in wanted else []
+    out = []
+    rows = table.rows_of(i)
+    for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],
+                            table.end_code[rows], strict=True):
+        cid = cell_name(region, feature_name(env, sc), feature_name(env, ec))
+        if cid in wanted:
+            out.append((float(s), float(e), cid))
+    return out
+
+
+def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTable:
+    """The escape samples of every surviving cell and the reflex vertices (see the module
+    docstring)."""
+    dec, graph, surv = verdict.dec, verdict.graph, verdict.surviving
+    env = dec.env
+    rows_q, rows_cell, rows_piece, rows_k, rows_g = [], [], [], [], []
+    for (cid, k), parts in sorted(graph.partners.items()):
+        if cid not in surv:
+            continue
+        good = [c for c in parts if c in surv]
+        if len(good) == len(parts) or not good:
+            continue
+        piece = dec.pieces[k]
+        region = dec.cell(cid).region
+        other = piece.regions[1] if piece.regions[0] == region else piece.regions[0]
+        q, n = _piece_samples(piece, samples)
+        eps = piece.eps
+        side = np.vstack((q + eps * n, q - eps * n))
+        reg = dec.region_at(side)
+        m = len(q)
+        here = np.where(reg[:m] == region, 0, np.where(reg[m:] == region, 1, -1))
+        inside = np.where(here == 0, np.arange(m), np.arange(m) + m)
+        across = np.where(here == 0, np.arange(m) + m, np.arange(m))
+        ok = (here >= 0) & (reg[across] == other)
+        if not ok.any():
+            continue
+        idx = np.flatnonzero(ok)
+        table = free_arcs_many(env, side, dec.lss, check=False)
+        for i in idx:
+            karc = _arc_of(table, env, int(inside[i]), region, {cid})
+            goals = _arc_of(table, env, int(across[i]), other, set(good))
+            if len(karc) != 1 or not goals:
+                continue
+            rows_q.append(side[inside[i]])
+            rows_cell.append(cid)
+            rows_piece.append(k)
+            rows_k.append(karc[0][:2])
+            rows_g.append([g[:2] for g in goals])
+    refl = np.asarray(env.reflex_indices, dtype=int)
+    vq, vgoal = _vertex_goals(env, dec.lss, refl)
+    n_piece_rows = len(rows_q)
+    for j, q, goals in zip(refl, vq, vgoal, strict=True):
+        if not goals:
+            continue
+        rows_q.append(q)
+        rows_cell.append(env.vertex_name(int(j)))
+        rows_piece.append(-1 - int(j))
+        rows_k.append((0.0, 0.0))
+        rows_g.append(goals)
+    width = max((len(g) for g in rows_g), default=1)
+    gs = np.full((len(rows_g), width), np.nan)
+    ge = np.full((len(rows_g), width), np.nan)
+    for i, g in enumerate(rows_g):
+        for j, (s, e) in enumerate(g):
+            gs[i, j], ge[i, j] = s, e
+    kk = np.array(rows_k, dtype=float).reshape(-1, 2)
+    piece = np.array(rows_piece, dtype=int)
+    del n_piece_rows
+    return EscapeTable(verdict, np.array(rows_q, dtype=float).reshape(-1, 2), tuple(rows_cell),
+                       piece, kk[:, 0], kk[:, 1], gs, ge, refl,
+                       env.vertices[refl].reshape(-1, 2))
+
+
+def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
+                  ) -> tuple[np.ndarray, list[list[tuple[float, float]]]]:
+    """For each reflex vertex: a point just off it inside its free cone, and the goal there:
+    the orientations free at *every* sample point around the vertex (radii up to ``lss/2``,
+    across the free cone), so that a rod held in them needs no pivot about the vertex however
+    the target rounds it. Falls back to the free arcs at the point when that set is empty."""
+    if not len(refl):
+        return np.zeros((0, 2)), []
+    d_out, d_in = env.cone
+    a_out = np.arctan2(d_out[refl, 1], d_out[refl, 0])
+    width = np.mod(np.arctan2(d_in[refl, 1], d_in[refl, 0]) - a_out, TWO_PI)
+    mid = a_out + 0.5 * width
+    q = env.vertices[refl] + 1e-4 * lss * np.column_stack((np.cos(mid), np.sin(mid)))
+    dirs = (np.arange(n_dir) + 0.5) * (TWO_PI / n_dir)
+    goals = []
+    table = free_arcs_many(env, q, lss, check=False)
+    for i, j in enumerate(refl):
+        phis = a_out[i] + width[i] * (np.arange(9) + 0.5) / 9
+        radii = lss * np.array([0.02, 0.15, 0.5])
+        pts = (env.vertices[j] + radii[:, None, None]
+               * np.stack((np.cos(phis), np.sin(phis)), axis=-1)[None]).reshape(-1, 2)
+        pts = pts[np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)]
+        ok = np.ones(n_dir, dtype=bool)
+        for pt in pts:
+            ok &= rod_free_fan(env, pt, dirs, lss)
+        arcs = _runs(ok, dirs, TWO_PI / n_dir)
+        if not arcs:
+            rows = table.rows_of(i)
+            arcs = [(float(s), float(e)) for s, e in zip(table.start[rows], table.end[rows],
+                                                         strict=True)]
+        goals.append(arcs)
+    return q, goals
+
+
+def rod_free_fan(env: Any, point: np.ndarray, dirs: np.ndarray, lss: float) -> np.ndarray:
+    """Whether the rods from ``point`` in each direction are free (independent test)."""
+    from tether.arcs import rod_is_free_many
+
+    return rod_is_free_many(env, np.repeat(point[None], len(dirs), axis=0), dirs, lss)
+
+
+def _runs(ok: np.ndarray, dirs: np.ndarray, step: float) -> list[tuple[float, float]]:
+    """CCW arcs ``(start, end)`` covering the runs of ``True`` in a circular mask, shrunk by
+    half a step at each end (so that they lie inside the true free set)."""
+    if ok.all():
+        return [(0.0, 0.0)]
+    if not ok.any():
+        return []
+    k = int(np.argmin(ok))  # start scanning at a blocked direction
+    order = np.roll(np.arange(len(ok)), -k)
+    out, start = [], None
+    for idx in list(order) + [order[0]]:
+        if ok[idx] and start is None:
+            start = idx
+        elif not ok[idx] and start is not None:
+            last = (idx - 1) % len(ok)
+            if last != start:
+                out.append((float(dirs[start]) % TWO_PI, float(dirs[last]) % TWO_PI))
+            start = None
+    return out
+
+
+def escape_table_of(verdict: Verdict, ratio: float | None = None) -> EscapeTable:
+    """:func:`escape_table`, cached on the verdict; with ``ratio = vt/vo`` the steep-wall rows
+    of :func:`wall_rows` are added (cached per ratio)."""
+    cache = verdict.__dict__.setdefault("_escape_tables", {})
+    t = cache.get(None)
+    if t is None:
+        t = escape_table(verdict)
+        cache[None] = t
+    if ratio is None:
+        return t
+    key = round(float(ratio), 12)
+    w = cache.get(key)
+    if w is None:
+        w = _with_walls(t, float(ratio))
+        cache[key] = w
+    return w
+
+
+def wall_rows(env: Any, lss: float, ratio: float, spacing: float | None = None
+              ) -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
+    """Steep wall contacts (§5a): a rod whose tip meets edge ``E_i`` within ``δ0 =
+    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. Rows: points
+    ``q`` at distance ``lss`` from each edge (where such a contact starts), the edge index, and
+    the goal arc: every orientation at least ``δ0`` away from pointing straight at the wall."""
+    d0 = math.asin(min(max(ratio, 0.0), 1.0))
+    A, B, _, _ = env.oriented_edges
+    nrm = env.free_normals
+    step = 0.5 * lss if spacing is None else spacing
+    qs, edges, goals = [], [], []
+    for i in range(len(A)):
+        e = B[i] - A[i]
+        n_s = max(1, int(np.ceil(np.hypot(*e) / step)))
+        s = (np.arange(n_s) + 0.5) / n_s
+        q = A[i] + s[:, None] * e + lss * nrm[i]
+        q = q[np.asarray(env.contains(q[:, 0], q[:, 1]), dtype=bool)]
+        at_wall = math.atan2(-nrm[i, 1], -nrm[i, 0])
+        for qq in q:
+            qs.append(qq)
+            edges.append(i)
+            goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
+    return np.array(qs).reshape(-1, 2), np.array(edges, dtype=int), goals
+
+
+def _with_walls(t: EscapeTable, ratio: float) -> EscapeTable:
+    env, lss = t.verdict.dec.env, t.verdict.dec.lss
+    q, edges, goals = wall_rows(env, lss, ratio)
+    m = len(q)
+    width = t.g_start.shape[1] if t.g_start.ndim == 2 and t.g_start.shape[1] else 1
+    gs = np.full((m, width), np.nan)
+    ge = np.full((m, width), np.nan)
+    for i, (s, e) in enumerate(goals):
+        gs[i, 0], ge[i, 0] = s, e
+    g_start = np.vstack((t.g_start.reshape(len(t), -1) if len(t) else np.zeros((0, width)), gs))
+    g_end = np.vstack((t.g_end.reshape(len(t), -1) if len(t) else np.zeros((0, width)), ge))
+    return EscapeTable(t.verdict, np.vstack((t.q, q)),
+                       t.cell + tuple(env.edge_name(int(i)) for i in edges),
+                       np.concatenate((t.piece, WALL_CODE - edges)),
+                       np.concatenate((t.k_start, np.zeros(m))),
+                       np.concatenate((t.k_end, np.zeros(m))), g_start, g_end, t.reflex,
+                       t.reflex_xy)
+
+
+def l_safe(delta: Any, vt: float, vo: float, lss: float) -> np.ndarray:
+    """``L_g = vt·Lss·Δ/(vo − vt)``: the target's travel bound during a sweep ``Δ`` (rad)."""
+    return vt * lss * np.abs(np.asarray(delta, float)) / (vo - vt)
+
+
+def l_paper(delta: Any, vt: float, vo: float, lss: float) -> np.ndarray:
+    """The paper's ``L`` for a sweep ``Δ`` against the worst straight heading (R3)."""
+    d = np.abs(np.asarray(delta, float))
+    return np.asarray(distance_bound(-d / 2, d / 2, vt, vo, lss), float)
+
+
+@dataclass(frozen=True)
+class EscapePoint:
+    """An escape point within reach of a start: where, whose, the sweep and the distances."""
+
+    kind: str  # "piece" or "vertex"
+    point: tuple[float, float]
+    cell: str | None
+    piece: str | None
+    distance: float  # |p − q|
+    sweep: float  # Δ, rad
+    sense: int  # +1 CCW, −1 CW, 0 for a vertex
+    L: float  # paper's straight-dash bound
+    L_g: float  # safe bound
+    margin: float  # |p − q| − L_g
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
+                "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
+                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin}
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """The analysis of a start ``(x, y, a)`` (see the module docstring)."""
+
+    start: tuple[float, float, float]
+    lss: float
+    vt: float
+    vo: float
+    rod_free: bool
+    cell: str | None
+    survives: bool
+    strategy_exists: bool
+    escape_points: tuple[EscapePoint, ...]
+    conflicts: tuple[tuple[int, int], ...]
+    safe: bool
+    reasons: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        return {"start": list(self.start), "lss": self.lss, "vt": self.vt, "vo": self.vo,
+                "safe": self.safe, "cell": self.cell, "survives": self.survives,
+                "rod_free": self.rod_free, "strategy_exists": self.strategy_exists,
+                "reasons": list(self.reasons),
+                "escape_points": [e.to_dict() for e in self.escape_points],
+                "conflicts": [list(c) for c in self.conflicts]}
+
+
+def _reach(vt: float, vo: float, lss: float) -> float:
+    """Largest ``L_g`` any sweep can need (a half turn each way is at most 2π)."""
+    return float(l_safe(TWO_PI, vt, vo, lss))
+
+
+def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float) -> Assessment:
+    """Analyse the start ``(x, y, a)`` against speeds ``vt < vo`` (see the module docstring).
+
+    Raises
+    ------
+    InvalidParameterError
+        ``vo <= vt`` or non-positive speeds.
+    """
+    dec = verdict.dec
+    vt, vo, lss = check_speeds(vt, vo, dec.lss)
+    env = dec.env
+    p = np.array([x, y], float)
+    reasons: list[str] = []
+    free = bool(env.contains(x, y)) and rod_is_free(env, p, a, lss)
+    cell = dec.cell_at(p, a)[0] if free else None
+    survives = cell is not None and cell in verdict.surviving
+    if not free:
+        reasons.append(f"the rod from ({x:g}, {y:g}) at a={a:g} is not free")
+    elif not verdict.strategy_exists:
+        reasons.append("no cell survives the elimination: no strategy exists on this map "
+                       "(Prop. 1); " + (verdict.story()[0] if verdict.story() else ""))
+    elif cell is None:
+        reasons.append("the target is on a region boundary (a critical curve): the cell is "
+                       "undefined there")
+    elif not survives:
+        reasons.append(f"the rod is in cell {cell}, which the elimination removes: the target "
+                       "can force a loss whatever the observer does (Prop. 1)")
+    points: list[EscapePoint] = []
+    conflicts: list[tuple[int, int]] = []
+    if free and verdict.strategy_exists:
+        table = escape_table_of(verdict, vt / vo)
+        points = _escape_points(table, p, a, vt, vo, lss, _arc_at(env, p, a, lss))
+        for e in points:
+            if e.margin < 0:
+                where = (f"on {e.piece} of {e.cell}" if e.kind == "piece"
+                         else f"at reflex vertex {e.piece} (plus the no-pivot radius "
+                              f"{lss * vt / (vo + vt):.3g})" if e.kind == "vertex"
+                         else f"where the rod would meet wall {e.piece} too steeply to slide")
+                reasons.append(
+                    f"escape point ({e.point[0]:.3g}, {e.point[1]:.3g}) {where} is "
+                    f"{e.distance:.3g} away, closer than L_g = {e.L_g:.3g} (a "
+                    f"{math.degrees(e.sweep):.0f}° {'CCW' if e.sense > 0 else 'CW'} sweep): "
+                    "the target gets there before the rotation finishes")
+                break
+        conflicts = _conflicts(points, vt, vo, lss)
+        for i, j in conflicts[:1]:
+            reasons.append(
+                f"escape points {i} and {j} need opposite sweeps and neither order finishes "
+                "before the target reaches the other (Prop. 3)")
+    safe = free and survives and not reasons
+    if safe:
+        reasons.append(f"the rod is in surviving cell {cell} and every escape point in reach "
+                       "is farther than its L_g")
+    return Assessment((float(x), float(y), float(a)), lss, vt, vo, free, cell, survives,
+                      verdict.strategy_exists, tuple(points), tuple(conflicts), safe,
+                      tuple(reasons))
+
+
+def _arc_at(env: Any, p: np.ndarray, a: float, lss: float) -> tuple[float, float] | None:
+    """The free arc holding rod ``a`` at ``p`` (``None`` when FULL)."""
+    from tether.arcs import free_arcs
+
+    fa = free_arcs(env, p, lss)
+    for arc in fa.arcs:
+        if arc.contains(a):
+            return (arc.start, arc.end)
+    return None
+
+
+def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
+                   lss: float, arc: tuple[float, float] | None = None) -> list[EscapePoint]:
+    """The concerning escape samples within reach, one per piece or vertex (the tightest),
+    sorted by margin."""
+    out: list[EscapePoint] = []
+    if not len(table):
+        return out
+    concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
+    dist = np.hypot(*(table.q - p).T)
+    lg = l_safe(delta, vt, vo, lss)
+    reach = _reach(vt, vo, lss) + lss
+    best: dict[int, int] = {}
+    for i in np.flatnonzero(concern & (dist <= reach)):
+        k = int(table.piece[i])
+        if k not in best or margin[i] < margin[best[k]]:
+            best[k] = int(i)
+    for i in sorted(best.values(), key=lambda i: margin[i]):
+        vertex = bool(table.piece[i] < 0)
+        kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
+        out.append(EscapePoint(kind,
+                               (float(table.q[i, 0]), float(table.q[i, 1])),
+                               None if vertex else table.cell[i], _row_name(int(table.piece[i])),
+                               float(dist[i]), float(delta[i]), int(sense[i]),
+                               float(l_paper(delta[i], vt, vo, lss)), float(lg[i]),
+                               float(margin[i])))
+    return out
+
+
+def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float
+               ) -> list[tuple[int, int]]:
+    """Pairs of piece escape points (indices into ``points``) that conflict (Prop. 3)."""
+    out = []
+    idx = [i for i, e in enumerate(points) if e.kind == "piece"]
+    for ii, i in enumerate(idx):
+        for j in idx[ii + 1:]:
+            ei, ej = points[i], points[j]
+            if ei.sense == ej.sense:
+                continue
+            # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
+            i_first = ej.distance >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
+            j_first = ei.distance >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
+            if not (i_first or j_first):
+                out.append((i, j))
+    return out
+
+
+def is_safe(verdict: Verdict, vt: float, vo: float, points: Any, angles: Any) -> np.ndarray:
+    """Vectorized safe/unsafe over many starts ``(x, y, a)`` (points (m, 2), angles (m,)):
+    the rod in a surviving cell and no concerning escape sample closer than its ``L_g``
+    (the Prop. 3 check is left to :func:`assess`)."""
+    dec = verdict.dec
+    vt, vo, lss = check_speeds(vt, vo, dec.lss)
+    pts = np.asarray(points, float).reshape(-1, 2)
+    ang = np.broadcast_to(np.asarray(angles, float), (len(pts),))
+    cells = dec.cell_at(pts, ang)
+    ok = np.array([c is not None and c in verdict.surviving for c in cells], dtype=bool)
+    if not verdict.strategy_exists or not ok.any():
+        return ok
+    table = escape_table_of(verdict, vt / vo)
+    if not len(table):
+        return ok
+    for i in np.flatnonzero(ok):
+        arc = _arc_at(dec.env, pts[i], float(ang[i]), lss)
+        _, _, _, margin = table.margins(pts[i], float(ang[i]), vt, vo, arc)
+        if np.any(margin < 0):
+            ok[i] = False
+    return ok
+
+
+def critical_distance_field(verdict: Verdict, vt: float, vo: float, a: float, xs: np.ndarray,
+                            ys: np.ndarray, paper: bool = False) -> np.ndarray:
+    """``min_q (|p − q| − L_g(Δ_q))`` over a grid (for the second set of critical curves: its
+    zero level is the locus of target positions at ``L_g`` from the escape points concerning
+    orientation ``a``; with ``paper`` the paper's ``L`` instead)."""
+    table = escape_table_of(verdict, vt / vo)
+    X, Y = np.meshgrid(xs, ys)
+    out = np.full(X.shape, np.inf)
+    if not len(table):
+        return out
+    concern, delta, _ = table.sweeps(a)
+    q = table.q[concern]
+    if not len(q):
+        return out
+    lss = verdict.dec.lss
+    bound = (l_paper(delta[concern], vt, vo, lss) if paper
+             else l_safe(delta[concern], vt, vo, lss)) + table.offsets(vt, vo)[concern]
+    for qi, bi in zip(q, bound, strict=True):
+        out = np.minimum(out, np.hypot(X - qi[0], Y - qi[1]) - bi)
+    return out

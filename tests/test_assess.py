@@ -1,0 +1,111 @@
+"""Start analysis: escape table, margins, is_safe against assess, the second critical curves."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tether.arcs import free_arcs
+from tether.assess import (
+    assess,
+    critical_distance_field,
+    escape_table_of,
+    is_safe,
+    l_paper,
+    l_safe,
+    sweeps,
+)
+from tether.cli import example_path
+from tether.decomposition import decompose
+from tether.environment import load_map
+from tether.errors import InvalidParameterError
+from tether.escape import analyze
+
+_V = {}
+
+
+def verdict(name):
+    if name not in _V:
+        env = load_map(example_path(name))
+        _V[name] = analyze(decompose(env, 2.0))
+    return _V[name]
+
+
+def test_escape_pieces_are_the_splits_with_an_eliminated_side():
+    v = verdict("nonconvex_corner")
+    t = escape_table_of(v)
+    pieces = {int(k) for k in t.piece if k >= 0}
+    expect = set()
+    for (cid, k), parts in v.graph.partners.items():
+        if cid in v.surviving and any(p not in v.surviving for p in parts) \
+                and any(p in v.surviving for p in parts):
+            expect.add(k)
+    assert pieces == expect
+    # each goal lies inside the cell's arc at the sample, and is free there (exact arcs)
+    for i in np.flatnonzero(t.piece >= 0)[::7]:
+        fa = free_arcs(v.dec.env, t.q[i], 2.0)
+        mid = t.g_start[i, 0] + 0.5 * ((t.g_end[i, 0] - t.g_start[i, 0]) % (2 * math.pi))
+        assert fa.contains(mid % (2 * math.pi))
+
+
+def test_sweeps_small_cases():
+    # K = [0, π], goal = [π/2, 3π/4]: from 0.1 sweep CCW 1.4708; from 3 sweep CW 0.6438
+    ks, ke = np.array([0.0]), np.array([math.pi])
+    gs, ge = np.array([[math.pi / 2]]), np.array([[3 * math.pi / 4]])
+    c, d, s = sweeps(ks, ke, gs, ge, 0.1)
+    assert c[0] and d[0] == pytest.approx(math.pi / 2 - 0.1) and s[0] == 1
+    c, d, s = sweeps(ks, ke, gs, ge, 3.0)
+    assert c[0] and d[0] == pytest.approx(3.0 - 3 * math.pi / 4) and s[0] == -1
+    c, _, _ = sweeps(ks, ke, gs, ge, 2.0)  # in the goal
+    assert not c[0]
+    c, _, _ = sweeps(ks, ke, gs, ge, 4.0)  # outside K: another cell's business
+    assert not c[0]
+
+
+def test_bounds_order():
+    d = np.linspace(0.01, 2 * math.pi, 50)
+    for vt, vo in ((0.3, 1.0), (0.6, 1.0), (0.9, 1.0)):
+        assert np.all(l_paper(d, vt, vo, 2.0) <= l_safe(d, vt, vo, 2.0) + 1e-12)
+
+
+def test_assess_reasons_and_is_safe_agree():
+    v = verdict("gallery")
+    rng = np.random.default_rng(4)
+    env = v.dec.env
+    pts, angs = [], []
+    while len(pts) < 25:
+        x, y = rng.uniform((0, 0), (16, 12))
+        if env.contains(x, y) and env.boundary_distance(x, y) > 0.05:
+            pts.append((x, y))
+            angs.append(rng.uniform(0, 2 * math.pi))
+    fast = is_safe(v, 0.3, 1.0, pts, angs)
+    for (x, y), a, f in zip(pts, angs, fast, strict=True):
+        res = assess(v, 0.3, 1.0, x, y, a)
+        assert res.reasons
+        if res.safe:
+            assert f
+        if not f:
+            assert not res.safe
+        d = res.to_dict()
+        for k in ("safe", "cell", "reasons", "escape_points"):
+            assert k in d
+
+
+def test_assess_no_strategy_map():
+    v = verdict("convex_corner")
+    res = assess(v, 0.5, 1.0, 3.0, 3.0, 0.5)
+    assert not res.safe and "Prop. 1" in res.reasons[0]
+
+
+def test_assess_bad_speeds():
+    with pytest.raises(InvalidParameterError):
+        assess(verdict("nonconvex_corner"), 1.0, 1.0, 5.0, 1.0, 1.57)
+
+
+def test_second_critical_curves_are_distance_levels():
+    v = verdict("nonconvex_corner")
+    xs, ys = np.linspace(0.1, 9.9, 40), np.linspace(0.1, 9.9, 40)
+    f = critical_distance_field(v, 0.5, 1.0, 0.0, xs, ys)
+    fp = critical_distance_field(v, 0.5, 1.0, 0.0, xs, ys, paper=True)
+    assert np.isfinite(f).any()
+    assert np.all(fp[np.isfinite(fp)] >= f[np.isfinite(f)] - 1e-9)  # L <= L_g
