@@ -19,20 +19,35 @@ import numpy as np
 
 from tether.environment import Environment
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
-from tether.tolerances import ANGLE_TOL
+from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
 TWO_PI = 2.0 * math.pi
 _GROUP = 16.0  # > 3*pi: offsets separating points' angle ranges in the merge
 
 
-def check_lss(lss: Any) -> float:
-    """Return ``lss`` as a float, or raise :class:`InvalidParameterError` if not finite and > 0."""
+def check_lss(lss: Any, env: Environment | None = None) -> float:
+    """Return ``lss`` as a float, or raise :class:`InvalidParameterError` if not finite and > 0.
+
+    With ``env``, ``lss`` must also lie within ``[LSS_MIN_REL, LSS_MAX_REL]`` times the map's
+    diameter (:mod:`tether.tolerances`): a rod a million times shorter than the map would need
+    curves of billions of points, one far longer than the map sees the same geometry.
+    """
+    if isinstance(lss, bool):
+        raise InvalidParameterError(f"lss must be a number, got {lss!r}")
     try:
         val = float(lss)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InvalidParameterError(f"lss must be a number, got {lss!r}") from None
     if not math.isfinite(val) or val <= 0:
         raise InvalidParameterError(f"lss must be a finite length > 0, got {lss!r}")
+    if env is not None:
+        d = env.diameter
+        lo, hi = LSS_MIN_REL * d, LSS_MAX_REL * d
+        if not lo <= val <= hi:
+            raise InvalidParameterError(
+                f"lss {val:g} is out of range for map {env.name!r} of diameter {d:.6g}: "
+                f"use {lo:.3g} <= lss <= {hi:.3g} ({LSS_MIN_REL:g} to {LSS_MAX_REL:g} times "
+                "the diameter)")
     return val
 
 
@@ -141,9 +156,12 @@ class ArcTable:
 def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str, np.ndarray]:
     """Blocked orientation intervals ``B_i(p)`` for all edges within reach of each point.
 
+    ``env`` is taken as is (call it with :attr:`Environment.internal` and internal points).
+
     Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
-    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in [0, pi)), ``cw_code`` and
-    ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (ANGLE_TOL, pi)),
+    ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    Intervals narrower than ``ANGLE_TOL`` (tangencies) are dropped.
     """
     A, B, tag_a, tag_b = env.oriented_edges
     pidx, eidx = env.edge_index(lss).query(pts)
@@ -167,12 +185,16 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     p2 = w[k] + t2[k, None] * d[k]
     start = np.mod(np.arctan2(p1[:, 1], p1[:, 0]), TWO_PI)
     length = np.arctan2(p1[:, 0] * p2[:, 1] - p1[:, 1] * p2[:, 0], np.einsum("ij,ij->i", p1, p2))
+    # an interval narrower than the angle tolerance is a tangency (the circle grazes the edge,
+    # or the point sits at distance lss of a vertex up to rounding): it blocks nothing
+    wide = length > ANGLE_TOL
+    k, start, length = k[wide], start[wide], length[wide]
     e = eidx[k]
     return {
         "point": pidx[k],
         "edge": e,
         "start": start,
-        "length": np.maximum(length, 0.0),
+        "length": length,
         "cw_code": np.where(r1[k] <= 0, env.n + tag_a[e], e),
         "ccw_code": np.where(r2[k] >= 1, env.n + tag_b[e], e),
     }
@@ -273,7 +295,13 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     pts = _as_points(points)
     if check:
         check_inside(env, pts)
-    return _merge(blocked_intervals(env, pts, lss), len(pts))
+    inner, frame = env.internal, env.frame
+    table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
+    if inner is env:
+        return table
+    cm = env.code_map  # internal feature codes to the file's
+    return ArcTable(table.point, table.start, table.end, cm[table.start_code],
+                    cm[table.end_code], table.full)
 
 
 def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:
@@ -326,6 +354,9 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     lss = check_lss(lss)
     pts = _as_points(points)
     ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+    if not env.is_internal:  # computed in the normalized frame, without straight vertices
+        frame = env.frame
+        return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)
     tol = env.length_tol
     free = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool).copy()
     A, B, tag_a, _ = env.oriented_edges

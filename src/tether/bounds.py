@@ -18,6 +18,7 @@ import numpy as np
 from scipy.special import ellipe, ellipeinc
 
 from tether.errors import InvalidParameterError
+from tether.tolerances import SPEED_GAP_REL, VALUE_MAX
 
 TWO_PI = 2.0 * math.pi
 
@@ -25,17 +26,24 @@ TWO_PI = 2.0 * math.pi
 def check_speeds(vt: Any, vo: Any, lss: Any) -> tuple[float, float, float]:
     """Validate ``0 <= vt < vo`` and ``lss > 0``, all finite; return them as floats.
 
+    Each of ``vt`` (unless 0), ``vo`` and ``lss`` must lie in ``[1/VALUE_MAX, VALUE_MAX]`` and
+    ``vo - vt > SPEED_GAP_REL * vo`` (:mod:`tether.tolerances`), so that every product and
+    quotient computed from them is finite and keeps its digits.
+
     Raises
     ------
     InvalidParameterError
-        If a value is not a finite number, ``vt < 0``, ``vo <= vt`` or ``lss <= 0``.
+        If a value is not a finite number, ``vt < 0``, ``vo <= vt``, ``lss <= 0`` or a value is
+        out of the ranges above.
     """
     vals = []
     for name, v in (("vt", vt), ("vo", vo), ("lss", lss)):
         try:
             f = float(v)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise InvalidParameterError(f"{name} must be a number, got {v!r}") from None
+        if isinstance(v, bool):
+            raise InvalidParameterError(f"{name} must be a number, got {v!r}")
         if not math.isfinite(f):
             raise InvalidParameterError(f"{name} must be finite, got {v!r}")
         vals.append(f)
@@ -49,6 +57,15 @@ def check_speeds(vt: Any, vo: Any, lss: Any) -> tuple[float, float, float]:
         )
     if lss_ <= 0:
         raise InvalidParameterError(f"lss must be a finite length > 0, got {lss_:g}")
+    for name, f in (("vt", vt_), ("vo", vo_), ("lss", lss_)):
+        if f > VALUE_MAX or (0 < f < 1 / VALUE_MAX):
+            raise InvalidParameterError(
+                f"{name} = {f:g} is out of range: use {1 / VALUE_MAX:g} <= {name} <= "
+                f"{VALUE_MAX:g}" + (" (or vt = 0)" if name == "vt" else ""))
+    if vo_ - vt_ <= SPEED_GAP_REL * vo_:
+        raise InvalidParameterError(
+            f"vo must exceed vt by more than {SPEED_GAP_REL:g} × vo, got vo={vo_:.17g}, "
+            f"vt={vt_:.17g}")
     return vt_, vo_, lss_
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -131,22 +132,50 @@ class Curve:
     params: tuple[np.ndarray, ...] = field(repr=False)
     family: Family = field(repr=False)
     index: int = field(repr=False)
+    #: the map's :class:`~tether.environment.Frame` when this curve reports in user coordinates
+    #: (polylines, points and length parameters of C and D in map units); ``None`` when it is
+    #: the internal curve the computation used
+    frame: Any = field(default=None, repr=False)
 
     @property
     def name(self) -> str:
         """E.g. ``"C(V6,E5)"``."""
         return f"{self.kind}({','.join(self.features)})"
 
+    def _param_scale(self) -> float:
+        """Internal parameter per reported parameter (C and D are parametrized by length)."""
+        return self.frame.scale if self.frame is not None and self.kind in "CD" else 1.0
+
     def point(self, t: float) -> np.ndarray:
         """Exact point at parameter ``t``."""
+        q = self._point(float(t) * self._param_scale())
+        return q if self.frame is None else self.frame.to_user(q)
+
+    def _point(self, t: float) -> np.ndarray:
         return self.family.points(np.array([self.index]), np.array([float(t)]))[0]
 
     def rod_angle(self, t: float) -> float:
         """Exact event rod orientation at parameter ``t``, radians."""
-        return float(self.family.rod_angles(np.array([self.index]), np.array([float(t)]))[0])
+        t = float(t) * self._param_scale()
+        return float(self.family.rod_angles(np.array([self.index]), np.array([t]))[0])
 
     def project(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Nearest point of the critical part to ``q``: ``(t, point, unit normal)``, exact."""
+        if self.frame is None:
+            return self._project(np.asarray(q, dtype=float))
+        t, p, n = self._project(self.frame.to_internal(q))
+        return t / self._param_scale(), self.frame.to_user(p), n
+
+    def to_user(self, frame: Any, names: dict[str, str]) -> Curve:
+        """This internal curve reported in user coordinates, its features renamed."""
+        k = frame.scale if self.kind in "CD" else 1.0
+        return Curve(self.id, self.kind, tuple(names.get(f, f) for f in self.features),
+                     (self.domain[0] / k, self.domain[1] / k),
+                     tuple((a / k, b / k) for a, b in self.intervals),
+                     tuple(frame.to_user(p) for p in self.polylines),
+                     tuple(t / k for t in self.params), self.family, self.index, frame)
+
+    def _project(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         fam, c = self.family, self.index
         if self.kind in "ACD":  # a straight line: q(t) = p + t d
             d = fam.d[c]
@@ -159,7 +188,7 @@ class Curve:
             u = np.array([math.cos(t), math.sin(t)])
             return t, fam.p[c] + fam.lss * u, u
         best = None
-        for ts, pts in zip(self.params, self.polylines, strict=True):
+        for ts, pts in zip(*self._internal_polylines(), strict=True):
             # the nearest polyline segment brackets the answer (a vertex would be ambiguous:
             # a conchoid's loop starts and ends at its pole)
             a, b = pts[:-1], pts[1:]
@@ -174,25 +203,33 @@ class Curve:
                 tt = float(tangent @ tangent)
                 if tt == 0:
                     break
-                t_new = min(max(t - float((self.point(t) - q) @ tangent) / tt, lo), hi)
+                t_new = min(max(t - float((self._point(t) - q) @ tangent) / tt, lo), hi)
                 if abs(t_new - t) <= 1e-15 * max(1.0, abs(t)):
                     break
                 t = t_new
-            d = float(np.hypot(*(self.point(t) - q)))
+            d = float(np.hypot(*(self._point(t) - q)))
             if best is None or d < best[0]:
                 best = (d, t)
         t = best[1]
         tangent = self._tangent(t)
         tangent = tangent / max(float(np.hypot(*tangent)), 1e-300)
-        return t, self.point(t), np.array([-tangent[1], tangent[0]])
+        return t, self._point(t), np.array([-tangent[1], tangent[0]])
+
+    def _internal_polylines(self) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """Parameters and polylines in the internal frame."""
+        if self.frame is None:
+            return self.params, self.polylines
+        k = self._param_scale()
+        return (tuple(t * k for t in self.params),
+                tuple(self.frame.to_internal(p) for p in self.polylines))
 
     def _tangent(self, t: float) -> np.ndarray:
         """dq/dt by finite differences taken inside the domain (a conchoid folds back at its
         pole, so a difference straddling a domain end would be meaningless)."""
-        lo, hi = self.domain
+        lo, hi = (x * self._param_scale() for x in self.domain)
         h = 1e-7 * max(1.0, abs(t), hi - lo)
         a, b = (t - h, t + h) if self.kind in "ABCD" else (max(t - h, lo), min(t + h, hi))
-        return (self.point(b) - self.point(a)) / (b - a)
+        return (self._point(b) - self._point(a)) / (b - a)
 
     def to_dict(self) -> dict:
         return {
@@ -619,6 +656,10 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     list of Curve
         In the order A, B, C, D, E, then by feature; curves with no critical part are dropped.
     """
+    if not env.is_internal:  # computed in the normalized frame, reported in the user's
+        names = env.feature_names_map()
+        return [c.to_user(env.frame, names)
+                for c in critical_curves(env.internal, lss * env.frame.scale, rel_tol)]
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []

@@ -354,9 +354,15 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     Raises
     ------
     InvalidParameterError
-        If ``lss`` is not a finite positive number.
+        If ``lss`` is not a finite positive number within the range of
+        :func:`tether.arcs.check_lss` relative to the map's diameter.
     """
-    lss = check_lss(lss)
+    lss = check_lss(lss, env)
+    if not env.is_internal:  # computed in the normalized frame, reported in the user's
+        from tether.userframe import decomposition_to_user
+
+        inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
+        return decomposition_to_user(inner, env, lss)
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)

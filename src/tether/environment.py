@@ -22,7 +22,7 @@ from shapely.geometry import LinearRing, Polygon
 
 from tether.errors import InvalidMapError
 from tether.spatial import EdgeIndex
-from tether.tolerances import REL_LENGTH_TOL
+from tether.tolerances import MAX_MAP_BYTES, MAX_VERTICES, REL_LENGTH_TOL, REL_STRAIGHT_TOL
 
 _JSON_KEYS = {"boundary", "holes", "name"}
 
@@ -31,7 +31,7 @@ def _ring_array(coords: Any, where: str) -> np.ndarray:
     """Turn a list of ``[x, y]`` pairs into an ``(k, 2)`` float array, checking shape and values."""
     try:
         arr = np.asarray(coords, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidMapError(f"{where}: coordinates must be [x, y] number pairs") from exc
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise InvalidMapError(f"{where}: coordinates must be a list of [x, y] pairs")
@@ -44,7 +44,8 @@ def _ring_array(coords: Any, where: str) -> np.ndarray:
 
 
 def _signed_area(ring: np.ndarray) -> float:
-    x, y = ring[:, 0], ring[:, 1]
+    rel = ring - ring.mean(axis=0)  # centred: no cancellation at large offsets
+    x, y = rel[:, 0], rel[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
@@ -76,6 +77,88 @@ def _validate_ring(ring: np.ndarray, where: str, tol: float) -> None:
             xs = m.group(1).split()
             at = " near (" + ", ".join(_fmt(float(v)) for v in xs[:2]) + ")"
         raise InvalidMapError(f"{where}: the ring intersects itself{at}")
+
+
+def _hole_outside_where(outer: Polygon, hole: np.ndarray, first: int) -> str:
+    """Where a hole leaves the boundary: its first vertex outside, or a point it touches."""
+    inside = shapely.contains_xy(outer, hole[:, 0], hole[:, 1])
+    if not np.all(inside):
+        j = int(np.flatnonzero(~inside)[0])
+        on = outer.exterior.distance(shapely.Point(hole[j])) == 0
+        return (f"vertex V{first + j} ({_fmt(hole[j, 0])}, {_fmt(hole[j, 1])}) lies "
+                f"{'on' if on else 'outside'} the boundary")
+    at = outer.exterior.intersection(LinearRing(hole)).representative_point()
+    return f"it touches the boundary near ({_fmt(at.x)}, {_fmt(at.y)})"
+
+
+def _straight_flags(ring: np.ndarray) -> np.ndarray:
+    """Straight vertices of one ring (see :attr:`Environment.straight`): first each vertex
+    against its neighbours, then each run of straight vertices against the chord of the kept
+    vertices around it (so that a long, gently curving chain is not flattened)."""
+    k = len(ring)
+    prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+    flags = _near_chord(ring, prev, nxt)
+    for _ in range(k):
+        if flags.all() or not flags.any():
+            break
+        bad = _worst_in_runs(ring, flags)
+        if not bad:
+            break
+        flags[bad] = False
+    return flags
+
+
+def _near_chord(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether points ``p`` lie within ``REL_STRAIGHT_TOL |b - a|`` of chords ``a-b`` and
+    between their ends."""
+    ab = b - a
+    ap = p - a
+    cross = np.abs(ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0])
+    ll = np.einsum("ij,ij->i", ab, ab)
+    along = np.einsum("ij,ij->i", ab, ap)
+    return (cross <= REL_STRAIGHT_TOL * ll) & (along > 0) & (along < ll)
+
+
+def _worst_in_runs(ring: np.ndarray, flags: np.ndarray) -> list[int]:
+    """For each run of straight vertices whose kept ends' chord does not hold every vertex of
+    the run, the vertex farthest from that chord (to be kept after all)."""
+    k = len(ring)
+    kept = np.flatnonzero(~flags)
+    out = []
+    for a, b in zip(kept, np.roll(kept, -1), strict=True):
+        run = (np.arange(a + 1, a + 1 + (b - a - 1) % k)) % k
+        if len(run) == 0:
+            continue
+        pa = np.repeat(ring[a][None], len(run), axis=0)
+        pb = np.repeat(ring[b][None], len(run), axis=0)
+        ok = _near_chord(ring[run], pa, pb)
+        if not ok.all():
+            ab = ring[b] - ring[a]
+            ap = ring[run] - ring[a]
+            dev = np.abs(ab[0] * ap[:, 1] - ab[1] * ap[:, 0])
+            out.append(int(run[int(np.argmax(np.where(ok, -1.0, dev)))]))
+    return out
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A similarity to the internal frame: ``internal = (user - origin) * scale``; ``scale``
+    is a power of two, so lengths convert exactly and angles are unchanged."""
+
+    origin: np.ndarray
+    scale: float
+
+    def to_internal(self, pts: Any) -> np.ndarray:
+        """User points (m, 2) to internal ones."""
+        return (np.asarray(pts, dtype=float) - self.origin) * self.scale
+
+    def to_user(self, pts: Any) -> np.ndarray:
+        """Internal points (m, 2) to user ones."""
+        return np.asarray(pts, dtype=float) / self.scale + self.origin
+
+    def geometry_to_user(self, geom: Any) -> Any:
+        """A shapely geometry from internal to user coordinates."""
+        return shapely.transform(geom, self.to_user)
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,17 +194,25 @@ class Environment:
         span = float(np.linalg.norm(allpts.max(axis=0) - allpts.min(axis=0)))
         tol = REL_LENGTH_TOL * max(span, 1e-300)
         _validate_ring(boundary, "boundary", tol)
+        if len(allpts) > MAX_VERTICES:
+            raise InvalidMapError(f"{len(allpts)} vertices, more than tether takes "
+                                  f"({MAX_VERTICES})")
         outer = Polygon(boundary)
         hole_polys = []
+        first = len(boundary)
         for k, h in enumerate(holes):
             _validate_ring(h, f"hole {k}", tol)
             hp = Polygon(h)
             if not outer.contains(hp) or outer.exterior.intersects(LinearRing(h)):
-                raise InvalidMapError(f"hole {k}: not strictly inside the boundary")
+                raise InvalidMapError(f"hole {k}: not strictly inside the boundary: "
+                                      f"{_hole_outside_where(outer, h, first)}")
             for j, other in enumerate(hole_polys):
                 if hp.intersects(other):
-                    raise InvalidMapError(f"holes {j} and {k} overlap or touch")
+                    at = hp.intersection(other).representative_point()
+                    raise InvalidMapError(f"holes {j} and {k} overlap or touch near "
+                                          f"({_fmt(at.x)}, {_fmt(at.y)})")
             hole_polys.append(hp)
+            first += len(h)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -215,7 +306,78 @@ class Environment:
         d_out, d_in = self.cone
         # Walking along the oriented boundary (free on the left), a right turn is reflex.
         turn = d_in[:, 1] * d_out[:, 0] - d_in[:, 0] * d_out[:, 1]  # cross(-d_in, d_out)
-        return turn < -1e-12
+        return (turn < -1e-12) & ~self.straight
+
+    @cached_property
+    def straight(self) -> np.ndarray:
+        """Whether each vertex is straight: within ``REL_STRAIGHT_TOL`` of the chord joining
+        the neighbours kept around it (see :mod:`tether.tolerances`), shape (n,). A straight
+        vertex is no feature of the free space: it gets no curves and no regions, and the
+        computation runs on the map without it (:attr:`internal`)."""
+        out = np.zeros(self.n, dtype=bool)
+        start = 0
+        for r in self.rings:
+            out[start:start + len(r)] = _straight_flags(r - r.mean(axis=0))
+            start += len(r)
+        return out
+
+    @cached_property
+    def frame(self) -> Frame:
+        """The normalized internal frame: origin at the bounding box's centre, scale a power of
+        two bringing the diameter near 1 (so that scaling is exact)."""
+        if self.__dict__.get("_is_internal"):
+            return Frame(np.zeros(2), 1.0)
+        x0, y0, x1, y1 = self.bounds
+        origin = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+        # the diameter from the centred box: no cancellation at large offsets
+        diam = math.hypot(x1 - origin[0], y1 - origin[1]) + math.hypot(origin[0] - x0,
+                                                                       origin[1] - y0)
+        return Frame(origin, 2.0 ** -round(math.log2(diam)))
+
+    @cached_property
+    def internal(self) -> Environment:
+        """The map the computation runs on: in :attr:`frame`, without its straight vertices.
+        Its vertex ``j`` is this map's ``vertex_map[j]``, its edge ``k`` starts the wall named
+        after this map's edge ``vertex_map[k]``. The internal map's own internal map is itself.
+        """
+        if self.__dict__.get("_is_internal"):
+            return self
+        keep = ~self.straight
+        rings, start = [], 0
+        for r in self.rings:
+            rings.append(self.frame.to_internal(r[keep[start:start + len(r)]]))
+            start += len(r)
+        try:
+            inner = Environment(rings[0], tuple(rings[1:]), self.name)
+        except InvalidMapError as exc:  # pragma: no cover - removing straight vertices broke it
+            raise InvalidMapError(f"without its straight vertices, {exc}") from None
+        inner.__dict__["_is_internal"] = True
+        inner.__dict__["vertex_map"] = np.arange(inner.n)
+        return inner
+
+    @property
+    def is_internal(self) -> bool:
+        """Whether this map is already in the internal frame (computation runs on it as is)."""
+        return self.internal is self
+
+    @cached_property
+    def vertex_map(self) -> np.ndarray:
+        """For each vertex of :attr:`internal`, its index in this map (file numbering)."""
+        return np.flatnonzero(~self.straight)
+
+    @cached_property
+    def code_map(self) -> np.ndarray:
+        """Feature codes of :attr:`internal` (edge ``k`` = ``k``, vertex ``j`` = ``n' + j``) to
+        this map's codes; an internal edge maps to the first file edge of its wall."""
+        vm = self.vertex_map
+        return np.concatenate((vm, self.n + vm))
+
+    def feature_names_map(self) -> dict[str, str]:
+        """Internal feature names to this map's (file) names, e.g. ``{"E3": "E5"}``."""
+        vm = self.vertex_map.tolist()
+        out = {f"E{k}": f"E{v}" for k, v in enumerate(vm)}
+        out.update({f"V{k}": f"V{v}" for k, v in enumerate(vm)})
+        return out
 
     @property
     def reflex_indices(self) -> np.ndarray:
@@ -296,6 +458,7 @@ class Environment:
             "edges": self.n,
             "holes": len(self.holes),
             "reflex_vertices": [self.vertex_name(j) for j in self.reflex_indices],
+            "straight_vertices": [self.vertex_name(j) for j in np.flatnonzero(self.straight)],
             "area": self.area,
             "bounding_box": list(self.bounds),
         }
@@ -318,83 +481,264 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 # ---------------------------------------------------------------------- readers
+#: Integer literals longer than this are rejected while parsing (coordinates are ordinary
+#: numbers; Python refuses to convert integers of thousands of digits anyway).
+_MAX_INT_DIGITS = 400
+
+
+def _show(value: Any) -> str:
+    """A short JSON-like rendering of a value for messages: ``"3"``, ``true``, ``an object``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if value is None:
+        return "null"
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    if isinstance(value, str):
+        text = json.dumps(value)
+        return text if len(text) <= 30 else text[:27] + '..."'
+    return repr(value)[:30]
+
+
+def _number(value: Any, path: str) -> float:
+    """A JSON number as a finite float; booleans, strings, null... rejected with the path."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InvalidMapError(f"{path}: expected a number, got {_show(value)}")
+    try:
+        f = float(value)
+    except OverflowError:
+        raise InvalidMapError(f"{path}: number too large for a coordinate") from None
+    if not math.isfinite(f):
+        raise InvalidMapError(f"{path}: non-finite coordinate {_show(value)}")
+    return f
+
+
+def _ring_list(value: Any, path: str, *, extra_dims: bool = False) -> list[list[float]]:
+    """Check a JSON ring (a list of ``[x, y]`` pairs) element by element, naming the field.
+
+    With ``extra_dims`` (GeoJSON positions), positions may carry a third or fourth number
+    (altitude, measure), which is checked and dropped.
+    """
+    if not isinstance(value, list):
+        raise InvalidMapError(f"{path}: expected a list of [x, y] pairs, got {_show(value)}")
+    if len(value) > MAX_VERTICES:
+        raise InvalidMapError(f"{path}: {len(value)} vertices, more than tether takes "
+                              f"({MAX_VERTICES})")
+    out = []
+    for i, pt in enumerate(value):
+        where = f"{path}[{i}]"
+        if not isinstance(pt, list):
+            raise InvalidMapError(f"{where}: expected an [x, y] pair, got {_show(pt)}")
+        if len(pt) != 2 and not (extra_dims and 2 <= len(pt) <= 4):
+            raise InvalidMapError(f"{where}: expected an [x, y] pair, got {len(pt)} values (a "
+                                  "ring is a list of [x, y] pairs)")
+        out.append([_number(v, f"{where}[{k}]") for k, v in enumerate(pt)][:2])
+    return out
+
+
+def _rings_list(value: Any, path: str, *, extra_dims: bool = False) -> list[list[list[float]]]:
+    """A JSON list of rings, checked with :func:`_ring_list`."""
+    if not isinstance(value, list):
+        raise InvalidMapError(f"{path}: expected a list of rings, got {_show(value)}")
+    rings = [_ring_list(r, f"{path}[{k}]", extra_dims=extra_dims) for k, r in enumerate(value)]
+    total = sum(len(r) for r in rings)
+    if total > MAX_VERTICES:
+        raise InvalidMapError(f"{path}: {total} vertices in all, more than tether takes "
+                              f"({MAX_VERTICES})")
+    return rings
+
+
 def from_dict(data: Any, where: str = "map") -> Environment:
     """Build an :class:`Environment` from the JSON map form, rejecting unknown keys.
 
     Raises
     ------
     InvalidMapError
-        If keys are missing or unknown, or the geometry is invalid.
+        If keys are missing or unknown, a value has the wrong JSON type (the message names the
+        field, e.g. ``holes[0][2][1]: expected a number, got "3"``), or the geometry is invalid.
     """
     if not isinstance(data, dict):
-        raise InvalidMapError(f"{where}: expected a JSON object with 'boundary' and 'holes'")
+        raise InvalidMapError(f"{where}: expected a JSON object with 'boundary' and 'holes', "
+                              f"got {_show(data)}")
     unknown = set(data) - _JSON_KEYS
     if unknown:
         raise InvalidMapError(f"{where}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
     if "boundary" not in data:
         raise InvalidMapError(f"{where}: missing key 'boundary'")
-    holes = data.get("holes", [])
-    if not isinstance(holes, list):
-        raise InvalidMapError(f"{where}: 'holes' must be a list of rings")
     name = data.get("name", "")
     if not isinstance(name, str):
-        raise InvalidMapError(f"{where}: 'name' must be a string")
+        raise InvalidMapError(f"{where}: name: expected a string, got {_show(name)}")
     try:
-        return Environment(data["boundary"], tuple(holes), name)
+        boundary = _ring_list(data["boundary"], "boundary")
+        holes = _rings_list(data.get("holes", []), "holes")
+        if len(boundary) + sum(map(len, holes)) > MAX_VERTICES:
+            raise InvalidMapError(f"more than {MAX_VERTICES} vertices in all")
+        return Environment(boundary, tuple(holes), name)
     except InvalidMapError as exc:
         raise InvalidMapError(f"{where}: {exc}") from None
+
+
+_GEOMETRY_TYPES = {"Point", "MultiPoint", "LineString", "MultiLineString", "Polygon",
+                   "MultiPolygon", "GeometryCollection"}
 
 
 def from_geojson(data: Any, where: str = "map", name: str = "") -> Environment:
-    """Build an :class:`Environment` from a GeoJSON Polygon, Feature or one-feature collection."""
-    if not isinstance(data, dict) or "type" not in data:
-        raise InvalidMapError(f"{where}: not a GeoJSON object")
-    kind = data["type"]
-    if kind == "FeatureCollection":
-        feats = data.get("features")
-        if not isinstance(feats, list) or len(feats) != 1:
-            raise InvalidMapError(f"{where}: a FeatureCollection must hold exactly one feature")
-        return from_geojson(feats[0], where, name)
-    if kind == "Feature":
-        props = data.get("properties") or {}
-        nm = props.get("name", name) if isinstance(props, dict) else name
-        return from_geojson(data.get("geometry"), where, str(nm))
-    if kind != "Polygon":
-        raise InvalidMapError(f"{where}: GeoJSON geometry must be a Polygon, got {kind!r}")
-    rings = data.get("coordinates")
-    if not isinstance(rings, list) or not rings:
-        raise InvalidMapError(f"{where}: Polygon has no coordinates")
+    """Build an :class:`Environment` from a GeoJSON Polygon, Feature or one-feature collection.
+
+    A Feature's geometry must be a Polygon (not another Feature); positions may carry an
+    altitude, which is dropped. Messages name the field (``features[0].geometry.type``).
+    """
     try:
-        return Environment(rings[0], tuple(rings[1:]), name)
+        return _from_geojson(data, "", name)
     except InvalidMapError as exc:
         raise InvalidMapError(f"{where}: {exc}") from None
+
+
+def _from_geojson(data: Any, path: str, name: str) -> Environment:
+    here = path or "GeoJSON"
+    if not isinstance(data, dict):
+        raise InvalidMapError(f"{here}: expected a GeoJSON object, got {_show(data)}")
+    kind = data.get("type")
+    if not isinstance(kind, str):
+        raise InvalidMapError(f"{path + '.' if path else ''}type: expected a string, got "
+                              f"{_show(kind)}")
+    dot = path + "." if path else ""
+    if kind == "FeatureCollection":
+        if path:
+            raise InvalidMapError(f"{here}: a FeatureCollection cannot be nested")
+        feats = data.get("features")
+        if not isinstance(feats, list) or len(feats) != 1:
+            got = f"{len(feats)} features" if isinstance(feats, list) else _show(feats)
+            raise InvalidMapError(f"{dot}features: a FeatureCollection must hold exactly one "
+                                  f"feature, got {got}")
+        return _from_geojson(feats[0], f"{dot}features[0]", name)
+    if kind == "Feature":
+        if path.endswith("geometry"):
+            raise InvalidMapError(f"{here}: expected a Polygon geometry, got a Feature "
+                                  "(a Feature cannot be nested in a Feature)")
+        props = data.get("properties") or {}
+        if not isinstance(props, dict):
+            raise InvalidMapError(f"{dot}properties: expected an object or null, got "
+                                  f"{_show(props)}")
+        nm = props.get("name", name)
+        if not isinstance(nm, str):
+            raise InvalidMapError(f"{dot}properties.name: expected a string, got {_show(nm)}")
+        if "geometry" not in data or data["geometry"] is None:
+            raise InvalidMapError(f"{dot}geometry: missing (a Feature needs a Polygon)")
+        return _from_geojson(data["geometry"], f"{dot}geometry", nm)
+    if kind != "Polygon":
+        what = "geometry" if kind in _GEOMETRY_TYPES else "GeoJSON type"
+        raise InvalidMapError(f"{dot}type: must be a Polygon, got the {what} {kind!r}")
+    rings = _rings_list(data.get("coordinates"), f"{dot}coordinates", extra_dims=True)
+    if not rings:
+        raise InvalidMapError(f"{dot}coordinates: the Polygon has no rings")
+    return Environment(rings[0], tuple(rings[1:]), name)
+
+
+_WKT_KEYWORD = re.compile(r"\s*(?:SRID=\d+;\s*)?([A-Za-z]+)")
 
 
 def from_wkt(text: str, where: str = "map", name: str = "") -> Environment:
-    """Build an :class:`Environment` from a WKT ``POLYGON``."""
+    """Build an :class:`Environment` from a WKT ``POLYGON`` (Z and M values are dropped)."""
+    m = _WKT_KEYWORD.match(text)
+    if not m:
+        start = " ".join(text.split())[:30]
+        raise InvalidMapError(f"{where}: not WKT: expected POLYGON ((x y, ...)), got "
+                              f"{start!r}" if start else f"{where}: the file is empty")
+    keyword = m.group(1).upper()
+    if keyword != "POLYGON":
+        raise InvalidMapError(f"{where}: WKT must be a POLYGON, got {keyword} (a type tether "
+                              "does not take)")
     try:
         geom = shapely.from_wkt(text.strip())
-    except shapely.errors.GEOSException as exc:
-        raise InvalidMapError(f"{where}: malformed WKT ({exc})") from None
+    except (shapely.errors.GEOSException, ValueError) as exc:
+        msg = " ".join(str(exc).split())
+        msg = msg if len(msg) <= 120 else msg[:117] + "..."
+        raise InvalidMapError(f"{where}: malformed WKT ({msg})") from None
     if geom is None or geom.geom_type != "Polygon" or geom.is_empty:
-        kind = "empty" if geom is None else geom.geom_type
-        raise InvalidMapError(f"{where}: WKT must be a POLYGON, got {kind}")
+        kind = "empty" if geom is None or geom.is_empty else geom.geom_type
+        raise InvalidMapError(f"{where}: WKT must be a non-empty POLYGON, got {kind}")
     rings = [np.asarray(geom.exterior.coords)[:, :2]]
     rings += [np.asarray(r.coords)[:, :2] for r in geom.interiors]
+    if sum(map(len, rings)) > MAX_VERTICES:
+        raise InvalidMapError(f"{where}: more than {MAX_VERTICES} vertices in all")
     try:
         return Environment(rings[0], tuple(rings[1:]), name)
     except InvalidMapError as exc:
         raise InvalidMapError(f"{where}: {exc}") from None
+
+
+def _decode(raw: bytes, where: str, json_like: bool) -> str:
+    """Decode a map file: UTF-8 (with or without BOM); UTF-16/32 with a BOM, or JSON in
+    UTF-16/32 without one. Binary and other encodings are rejected with the offending byte."""
+    for bom, bom_codec in ((b"\xff\xfe\x00\x00", "utf-32"), (b"\x00\x00\xfe\xff", "utf-32"),
+                       (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"),
+                       (b"\xef\xbb\xbf", "utf-8-sig")):
+        if raw.startswith(bom):
+            codec = bom_codec
+            break
+    else:
+        codec = json.detect_encoding(raw) if json_like and b"\x00" in raw[:4] else "utf-8"
+    try:
+        text = raw.decode(codec)
+    except UnicodeDecodeError as exc:
+        byte = raw[exc.start]
+        line = raw[:exc.start].count(b"\n") + 1
+        if b"\x00" in raw[:4096] or _looks_binary(raw):
+            raise InvalidMapError(f"{where}: a binary file, not a map (byte 0x{byte:02x} at "
+                                  f"offset {exc.start})") from None
+        raise InvalidMapError(f"{where}: not {codec.upper()} text (byte 0x{byte:02x} at line "
+                              f"{line}, offset {exc.start}); save the map as UTF-8") from None
+    if "\x00" in text:
+        raise InvalidMapError(f"{where}: a binary file, not a map (NUL character at offset "
+                              f"{text.index(chr(0))})")
+    return text
+
+
+def _looks_binary(raw: bytes) -> bool:
+    head = raw[:4096]
+    controls = sum(b < 9 or 13 < b < 32 for b in head)
+    return controls > len(head) // 20
+
+
+def _parse_int(text: str) -> int:
+    if len(text) > _MAX_INT_DIGITS:
+        raise InvalidMapError(f"an integer of {len(text)} digits; coordinates must be ordinary "
+                              f"numbers (at most {_MAX_INT_DIGITS} digits)")
+    return int(text)
+
+
+def _parse_json(text: str, where: str) -> Any:
+    try:
+        return json.loads(text, parse_int=_parse_int)
+    except json.JSONDecodeError as exc:
+        raise InvalidMapError(
+            f"{where}: malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
+    except InvalidMapError as exc:
+        raise InvalidMapError(f"{where}: {exc}") from None
+    except RecursionError:
+        raise InvalidMapError(f"{where}: JSON nested too deeply (a map needs 3 or 4 levels of "
+                              "arrays)") from None
+    except ValueError as exc:  # e.g. Python's limit on integer digits
+        raise InvalidMapError(f"{where}: unreadable JSON ({' '.join(str(exc).split())})") \
+            from None
 
 
 def load_map(path: str | Path) -> Environment:
     """Read a map file: ``.json`` (tether's form or GeoJSON), ``.geojson`` or ``.wkt``.
 
+    Files must be text: UTF-8 (UTF-16/32 JSON is also read), at most ``MAX_MAP_BYTES`` bytes
+    and ``MAX_VERTICES`` vertices (:mod:`tether.tolerances`).
+
     Raises
     ------
     InvalidMapError
-        If the file is missing, of an unknown format, malformed, or the polygon is invalid. The
-        message names the file and, for JSON, the line and column.
+        If the file is missing, of an unknown format, binary, too large, malformed, of the wrong
+        JSON types, or the polygon is invalid. The message names the file and, for JSON, the
+        line and column or the field (``holes[0][2][1]``).
     """
     p = Path(path)
     where = str(path)
@@ -403,17 +747,21 @@ def load_map(path: str | Path) -> Environment:
         raise InvalidMapError(f"{where}: unknown map format {suffix or '(none)'!r}; "
                               "use .json, .geojson or .wkt")
     try:
-        text = p.read_text()
+        if p.is_dir():
+            raise InvalidMapError(f"{where}: is a folder, not a map file")
+        size = p.stat().st_size
+        if size > MAX_MAP_BYTES:
+            raise InvalidMapError(f"{where}: {size} bytes, larger than tether reads "
+                                  f"({MAX_MAP_BYTES} bytes)")
+        raw = p.read_bytes()
     except OSError as exc:
-        raise InvalidMapError(f"{where}: cannot read ({exc.strerror})") from None
+        raise InvalidMapError(f"{where}: cannot read ({exc.strerror or exc})") from None
+    if not raw.strip():
+        raise InvalidMapError(f"{where}: the file is empty")
+    text = _decode(raw, where, json_like=suffix != ".wkt")
     if suffix == ".wkt":
         return from_wkt(text, where, p.stem)
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InvalidMapError(
-            f"{where}: malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-        ) from None
+    data = _parse_json(text, where)
     if isinstance(data, dict) and "type" in data:
         return from_geojson(data, where, p.stem)
     env = from_dict(data, where)

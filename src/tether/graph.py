@@ -55,14 +55,15 @@ class ConnectivityGraph:
         return f"ConnectivityGraph(cells={len(self.dec.cells)}, edges={len(self.edge_list)})"
 
 
-def _overlap(s1: Any, e1: Any, s2: Any, e2: Any) -> Any:
+def _overlap(s1: Any, e1: Any, s2: Any, e2: Any, full1: Any = False, full2: Any = False
+             ) -> Any:
     """Length (radians) of the intersection of CCW arcs ``(s1, e1)`` and ``(s2, e2)``;
-    vectorized. An arc with ``e == s`` (mod 2π) is the full circle."""
+    vectorized. ``full1``/``full2`` flag full-circle arcs (a FULL point); an arc whose end is
+    given as ``start + 2π`` is full too. Arcs are never recognized as full by comparing reduced
+    ends: a free arc is always longer than ``ANGLE_TOL`` and shorter than ``2π - ANGLE_TOL``."""
     s1, e1, s2, e2 = (np.asarray(x, dtype=float) for x in (s1, e1, s2, e2))
-    l1 = np.mod(e1 - s1, TWO_PI)
-    l1 = np.where(l1 == 0, TWO_PI, l1)
-    l2 = np.mod(e2 - s2, TWO_PI)
-    l2 = np.where(l2 == 0, TWO_PI, l2)
+    l1 = _arc_length(s1, e1, full1)
+    l2 = _arc_length(s2, e2, full2)
     d21 = np.mod(s2 - s1, TWO_PI)  # arc 2 starting inside arc 1
     d12 = np.mod(s1 - s2, TWO_PI)  # arc 1 starting inside arc 2
     a = np.where(d21 < l1, np.minimum(l1 - d21, l2), 0.0)
@@ -71,9 +72,16 @@ def _overlap(s1: Any, e1: Any, s2: Any, e2: Any) -> Any:
     return float(out) if out.ndim == 0 else out
 
 
+def _arc_length(s: np.ndarray, e: np.ndarray, full: Any) -> np.ndarray:
+    """CCW length of arcs from ``s`` to ``e`` (radians, in (0, 2π]); ``full`` forces 2π."""
+    raw = e - s
+    length = np.where(raw > 0, np.minimum(raw, TWO_PI), np.mod(raw, TWO_PI))
+    return np.where(np.asarray(full, dtype=bool), TWO_PI, length)
+
+
 def _arc_rows(dec: Decomposition, pts: np.ndarray) -> dict[str, np.ndarray]:
     """All free arcs at the points as flat arrays sorted by point; a FULL point contributes
-    one full-circle arc with feature codes -1."""
+    one full-circle arc (``full`` flag set, from 0 to 2π) with feature codes -1."""
     table = free_arcs_many(dec.env, pts, dec.lss, check=False)
     full = np.flatnonzero(table.full)
     point = np.concatenate((table.point, full))
@@ -81,7 +89,9 @@ def _arc_rows(dec: Decomposition, pts: np.ndarray) -> dict[str, np.ndarray]:
     return {
         "point": point[order],
         "start": np.concatenate((table.start, np.zeros(len(full))))[order],
-        "end": np.concatenate((table.end, np.zeros(len(full))))[order],
+        "end": np.concatenate((table.end, np.full(len(full), TWO_PI)))[order],
+        "full": np.concatenate((np.zeros(len(table.point), bool),
+                                np.ones(len(full), bool)))[order],
         "start_code": np.concatenate((table.start_code, np.full(len(full), -1)))[order],
         "end_code": np.concatenate((table.end_code, np.full(len(full), -1)))[order],
     }
@@ -115,7 +125,7 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
         within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
         pair_b = np.repeat(first[m + piece_of_a], nb) + within
         ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
-                      rows["end"][pair_b])
+                      rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
         keep = np.flatnonzero(ov > ANGLE_TOL)
         names = [feature_name(dec.env, code) for code in range(2 * dec.env.n)]
         known = {c.id for c in dec.cells}

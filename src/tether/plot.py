@@ -34,11 +34,12 @@ def _ax(ax: Any) -> Any:
 
 
 def save(fig: Figure, path: str | Path, dpi: int = 120) -> None:
-    """Save a figure whole: written to a temporary name, then renamed."""
-    path = Path(path)
-    tmp = path.with_name(path.stem + ".part" + path.suffix)
-    fig.savefig(tmp, dpi=dpi)
-    tmp.replace(path)
+    """Save a figure whole: written to a temporary file with the same extension, then renamed
+    (:func:`tether.output.atomic_output`); nothing is left behind if saving fails."""
+    from tether.output import atomic_output
+
+    with atomic_output(Path(path)) as tmp:
+        fig.savefig(tmp, dpi=dpi)
 
 
 def _draw_trace(ax: Any, sol: Any, t_end: float, n_rods: int = 9) -> list:

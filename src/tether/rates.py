@@ -75,3 +75,37 @@ def vertex_end_rate(v: Any, p: Any, vertex: Any) -> np.ndarray:
     d = np.asarray(vertex, dtype=float) - np.asarray(p, dtype=float)
     cross = d[..., 0] * v[..., 1] - d[..., 1] * v[..., 0]
     return -cross / (d[..., 0] ** 2 + d[..., 1] ** 2)
+
+
+def step_rate_interval(v: Any, a: Any, lss: float, vo: float, dt: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The rod rates that keep the observer's *chord* over a step of ``dt`` s within ``vo·dt``.
+
+    A sampled controller holds ``v`` and ``ȧ`` over the step: the target moves by ``v·dt`` and
+    the rod turns by ``h = ȧ·dt``, so the observer moves by
+    ``D = v·dt + lss·(u(a + h) − u(a))``. With ``w = v·dt − lss·u(a)``, ``|D| <= vo·dt`` iff
+    ``cos(a + h − φ_w) <= k`` where ``φ_w = arg w`` and
+    ``k = ((vo·dt)² − |w|² − lss²) / (2·lss·|w|)``: an interval of ``h`` containing 0 whenever
+    ``|v| <= vo``. Exact, vectorized; it tends to :func:`rate_interval` as ``dt → 0``.
+
+    Returns
+    -------
+    lo, hi : ndarray
+        Bounds on ``ȧ`` (rad/s); when every turn is feasible (``k >= 1``) the bounds are ``∓π/dt``.
+    """
+    v = np.asarray(v, dtype=float)
+    a = np.asarray(a, dtype=float)
+    c, s = np.cos(a), np.sin(a)
+    vr = (v[..., 0] * c + v[..., 1] * s) * dt  # radial and tangential travel over the step
+    vs = (-v[..., 0] * s + v[..., 1] * c) * dt
+    # |w| − lss and 1 + k in forms free of cancellation (the interval is narrow when dt is small)
+    wn = np.hypot(lss - vr, vs)
+    w_minus_l = (vr * vr + vs * vs - 2.0 * lss * vr) / (wn + lss)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        half = ((vo * dt) ** 2 - w_minus_l ** 2) / (4.0 * lss * wn)  # (1 + k) / 2
+    beta = 2.0 * np.arcsin(np.sqrt(np.clip(half, 0.0, 1.0)))
+    delta = np.arctan2(vs, lss - vr)
+    full = half >= 1.0
+    lo = np.where(full, -np.pi / dt, np.minimum(-beta - delta, 0.0) / dt)
+    hi = np.where(full, np.pi / dt, np.maximum(beta - delta, 0.0) / dt)
+    return lo, hi

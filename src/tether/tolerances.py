@@ -1,5 +1,10 @@
 """The numerical tolerances of tether, one per kind of quantity.
 
+All computation happens in a normalized internal frame (:attr:`tether.environment.Environment.
+frame`): the map translated to its bounding box's centre and scaled by a power of two (exact) to
+a diameter near 1, so every tolerance below is relative to the map and a map gives the same
+answer wherever it sits. Results are reported back in the user's coordinates.
+
 Lengths are compared with ``REL_LENGTH_TOL * diameter`` where ``diameter`` is the diagonal of
 the map's bounding box (see :attr:`tether.environment.Environment.length_tol`); angles with
 ``ANGLE_TOL`` radians. Computed points (curve crossings, contacts) are always compared with
@@ -17,3 +22,37 @@ ANGLE_TOL = 1e-9
 #: drawn within ``REL_CURVE_TOL * diameter`` of its exact shape. Regions thinner than a few
 #: times this are below tether's geometric resolution.
 REL_CURVE_TOL = 1e-6
+
+# ---------------------------------------------------------------------- valid ranges
+# Inputs outside these ranges are rejected with one line (InvalidParameterError /
+# InvalidMapError) instead of exhausting memory or losing every digit; see docs/conventions.md.
+
+#: ``lss`` must lie within ``[LSS_MIN_REL, LSS_MAX_REL] ×`` the map's diameter. Below, the
+#: critical curves would need more than ~1e9 polyline points; above, every rod reaches every
+#: wall and the geometry is that of lss = 1e3 × diameter anyway.
+LSS_MIN_REL = 1e-3
+LSS_MAX_REL = 1e3
+
+#: Speeds (``vt``, ``vo``), lengths (``lss`` in ``bound``/``plot-motion``) are at most this in
+#: absolute value, and positive ones at least ``1 / VALUE_MAX``: far from the float limits so
+#: that products and quotients of three of them stay finite and keep their digits.
+VALUE_MAX = 1e12
+
+#: ``vo`` must exceed ``vt`` by this fraction of ``vo`` (the safe bound divides by ``vo - vt``).
+SPEED_GAP_REL = 1e-9
+
+#: Rotation angles (``--from``, ``--to``) are at most this many radians in absolute value.
+ANGLE_MAX = 1e4
+
+#: Maps: at most this many vertices in all, and files at most this many bytes.
+MAX_VERTICES = 100_000
+MAX_MAP_BYTES = 64 * 2**20
+
+#: ``tether check --samples`` per region.
+SAMPLES_RANGE = (1, 100_000)
+
+#: A vertex is *straight* (no feature of the free space) when its distance to the chord joining
+#: its neighbours is at most this times the chord's length (an interior angle within about
+#: ``4 * REL_STRAIGHT_TOL`` radians of pi). Straight vertices produce no curves and no regions;
+#: the walls they join keep the file's name of their first edge.
+REL_STRAIGHT_TOL = 1e-7

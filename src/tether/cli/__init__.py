@@ -11,15 +11,24 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+import traceback
+import warnings
 from collections.abc import Callable, Sequence
 
+import numpy as np
+
+from tether import __version__
 from tether.cli.common import example_path
 from tether.errors import TetherError
 
 __all__ = ["GROUPS", "build_parser", "example_path", "main"]
 
+EXIT_OK = 0
+EXIT_CHECK_FAILED = 1
 EXIT_USAGE = 2
+EXIT_INTERNAL = 3
 
 #: Modules of :mod:`tether.cli` that add subcommands, in the order of ``tether --help``.
 GROUPS = [
@@ -28,11 +37,20 @@ GROUPS = [
 ]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors: ``tether CMD: error: ... (see tether CMD --help)``."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        _say(f"{self.prog}: error: {one_line(message)} (see '{self.prog} --help')")
+        raise SystemExit(EXIT_USAGE)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="tether",
         description="Keep a moving target in sight at a fixed distance inside a polygonal map.",
     )
+    p.add_argument("--version", action="version", version=f"tether {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name: str, fn: Callable, help_: str) -> argparse.ArgumentParser:
@@ -45,14 +63,69 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def one_line(text: object) -> str:
+    """Collapse a message (GEOS and numpy messages may span lines) to a single line."""
+    return " ".join(str(text).split()) or "(no message)"
+
+
+def _debug() -> bool:
+    return os.environ.get("TETHER_DEBUG", "") not in ("", "0")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``tether`` command; returns the exit status."""
+    """Entry point of the ``tether`` command; returns the exit status.
+
+    Exit statuses: 0 success; 1 a check found disagreements; 2 a user error (bad map, bad
+    parameter, bad output path, bad arguments), printed as one line ``tether: error: ...``;
+    3 an internal error (a bug in tether), printed as one line ``tether: internal error: ...``
+    (set ``TETHER_DEBUG=1`` for the traceback). Numerical warnings are never printed.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help/--version (0) or a usage error (2)
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            if not _debug():
+                warnings.simplefilter("ignore")
+            return int(args.func(args) or 0)
     except TetherError as exc:
-        print(f"tether: error: {exc}", file=sys.stderr)
+        _say(f"tether: error: {one_line(exc)}")
         return EXIT_USAGE
     except BrokenPipeError:
+        _silence_stdout()
         return 0
+    except KeyboardInterrupt:
+        _say("tether: interrupted")
+        return 130
+    except RecursionError:
+        if _debug():
+            traceback.print_exc()
+        _say("tether: error: input too deeply nested or too complex")
+        return EXIT_USAGE
+    except MemoryError:
+        _say("tether: error: out of memory: the input or the parameters ask for too much")
+        return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: never a traceback
+        if _debug():
+            traceback.print_exc()
+        _say(f"tether: internal error: {type(exc).__name__}: {one_line(exc)} "
+             "(please report it; TETHER_DEBUG=1 shows the traceback)")
+        return EXIT_INTERNAL
+
+
+def _say(line: str) -> None:
+    try:
+        print(line, file=sys.stderr)
+    except (OSError, ValueError):
+        pass
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe, point stdout at devnull so the interpreter's final flush is quiet."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass

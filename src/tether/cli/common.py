@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
@@ -25,15 +26,78 @@ def deg(a: float) -> str:
 
 
 def float_arg(text: str) -> float:
+    """argparse type: a float (the library rejects non-finite values with a named message)."""
     try:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
 
 
+def finite_arg(text: str) -> float:
+    """argparse type: a finite float (``nan``, ``inf`` and overflowing literals rejected)."""
+    val = float_arg(text)
+    if not math.isfinite(val):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return val
+
+
+def float_range(lo: float | None = None, hi: float | None = None, *,
+                lo_open: bool = False) -> Callable[[str], float]:
+    """argparse type: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+
+    def parse(text: str) -> float:
+        val = finite_arg(text)
+        low_bad = lo is not None and (val <= lo if lo_open else val < lo)
+        if low_bad or (hi is not None and val > hi):
+            left = "(" if lo_open else "["
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is out of range {left}{'-inf' if lo is None else f'{lo:g}'}, "
+                f"{'inf' if hi is None else f'{hi:g}'}]")
+        return val
+
+    parse.__name__ = "number"
+    return parse
+
+
+def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
+    """argparse type: an integer in ``[lo, hi]`` (at most 20 digits)."""
+
+    def parse(text: str) -> int:
+        t = text.strip()
+        if len(t) > 20:
+            raise argparse.ArgumentTypeError(f"not an integer of at most 20 digits: "
+                                             f"{text[:24]!r}...")
+        try:
+            val = int(t)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if (lo is not None and val < lo) or (hi is not None and val > hi):
+            raise argparse.ArgumentTypeError(
+                f"{val} is out of range [{'-inf' if lo is None else lo}, "
+                f"{'inf' if hi is None else hi}]")
+        return val
+
+    parse.__name__ = "integer"
+    return parse
+
+
+LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diameter "
+            "(its bounding box diagonal)")
+
+
 def add_map_lss(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=float_arg, required=True, help="rod length (map units)")
+    sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
+
+
+def load_map_lss(args: argparse.Namespace):
+    """Load ``args.map`` and check ``args.lss`` against its diameter; return the map."""
+    from tether.arcs import check_lss
+    from tether.environment import load_map
+
+    env = load_map(args.map)
+    check_lss(args.lss, env)
+    return env
 
 
 def add_speeds(sp: argparse.ArgumentParser, required: bool) -> None:
@@ -44,3 +108,12 @@ def add_speeds(sp: argparse.ArgumentParser, required: bool) -> None:
                     **({} if required else {"default": 2.0}))
     sp.add_argument("--lss", type=float_arg, help="rod length (map units)", **kw,
                     **({} if required else {"default": 1.0}))
+
+
+def check_plot_arg(args: argparse.Namespace, attr: str = "plot") -> None:
+    """Validate an optional image output argument (``--plot``) before any computation."""
+    from tether.output import IMAGE_KINDS, check_output_path
+
+    value = getattr(args, attr, None)
+    if value is not None:
+        check_output_path(value, IMAGE_KINDS)

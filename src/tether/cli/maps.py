@@ -4,9 +4,20 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
-from tether.cli.common import add_map_lss, deg, example_path, float_arg, print_json
+from tether.cli.common import (
+    LSS_HELP,
+    add_map_lss,
+    check_plot_arg,
+    deg,
+    example_path,
+    finite_arg,
+    float_arg,
+    int_range,
+    load_map_lss,
+    print_json,
+)
+from tether.tolerances import SAMPLES_RANGE
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -42,9 +53,8 @@ def format_arcs(fa) -> str:
 
 def cmd_arcs(args: argparse.Namespace) -> int:
     from tether.arcs import free_arcs
-    from tether.environment import load_map
 
-    env = load_map(args.map)
+    env = load_map_lss(args)
     fa = free_arcs(env, args.at, args.lss)
     if args.json:
         print_json(fa.to_dict())
@@ -58,10 +68,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from tether.decomposition import decompose
     from tether.environment import load_map
     from tether.escape import analyze
+    from tether.output import make_output_dir
     from tether.plot import plot_verdict, save
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_output_dir(args.out)
     env = load_map(example_path("gallery"))
     info = env.summary()
     print(f"== tether demo: the bundled map {info['name']!r} ==")
@@ -91,14 +101,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def _decompose(args: argparse.Namespace):
     from tether.decomposition import decompose
-    from tether.environment import load_map
     from tether.progress import Progress
 
-    env = load_map(args.map)
+    env = load_map_lss(args)
     return decompose(env, args.lss, progress=Progress("decompose"))
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
+    check_plot_arg(args)
     dec = _decompose(args)
     if args.plot:
         from tether.plot import new_axes, plot_decomposition, save
@@ -125,6 +135,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 def cmd_analyze(args: argparse.Namespace) -> int:
     from tether.escape import analyze
 
+    check_plot_arg(args)
     dec = _decompose(args)
     verdict = analyze(dec)
     if args.plot:
@@ -185,8 +196,8 @@ def register(add) -> None:
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
     sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
-    sp.add_argument("--lss", type=float_arg, required=True, help="rod length (map units)")
-    sp.add_argument("--at", nargs=2, type=float_arg, required=True, metavar=("X", "Y"),
+    sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
+    sp.add_argument("--at", nargs=2, type=finite_arg, required=True, metavar=("X", "Y"),
                     help="target point")
     sp.add_argument("--json", action="store_true", help="print JSON")
 
@@ -204,6 +215,10 @@ def register(add) -> None:
 
     sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")
     add_map_lss(sp)
-    sp.add_argument("--samples", type=int, default=20, help="sample points per region")
-    sp.add_argument("--seed", type=int, default=0, help="random seed")
+    sp.add_argument("--samples", type=int_range(*SAMPLES_RANGE), default=20,
+                    help=f"sample points per region, {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]} "
+                    "(default 20)")
+    sp.add_argument("--seed", type=int_range(0, 2**32 - 1), default=0,
+                    help="seed of the random sample points, 0 to 2**32-1 (default 0): the same "
+                    "seed gives the same points")
     sp.add_argument("--json", action="store_true", help="print JSON")

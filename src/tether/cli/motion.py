@@ -5,12 +5,16 @@ from __future__ import annotations
 import argparse
 import math
 
-from tether.cli.common import add_speeds, float_arg, print_json
+from tether.cli.common import add_speeds, check_plot_arg, float_arg, print_json
+from tether.errors import InvalidParameterError
+from tether.tolerances import ANGLE_MAX
 
 
 def cmd_bound(args: argparse.Namespace) -> int:
     from tether.bounds import bound_report
 
+    check_plot_arg(args)
+    check_angles(args)
     rep = bound_report(args.theta0, args.thetaf, args.vt, args.vo, args.lss)
     if args.plot:
         from tether.plot import bound_figure, save
@@ -30,11 +34,26 @@ def cmd_bound(args: argparse.Namespace) -> int:
     return 0
 
 
+def check_angles(args: argparse.Namespace) -> None:
+    """Reject ``--from``/``--to`` beyond ``ANGLE_MAX`` radians (where every digit of the angle
+    that matters for the rotation is lost)."""
+    for flag, v in (("--from", args.theta0), ("--to", args.thetaf)):
+        if not math.isfinite(v) or abs(v) > ANGLE_MAX:
+            raise InvalidParameterError(f"{flag} {v:g} is out of range: use an angle in "
+                                        f"radians within ±{ANGLE_MAX:g}")
+
+
 def cmd_plot_motion(args: argparse.Namespace) -> int:
     from tether import plot
     from tether.bounds import check_speeds
+    from tether.output import IMAGE_KINDS, check_output_path
 
+    check_output_path(args.out, IMAGE_KINDS)
     check_speeds(args.vt, args.vo, args.lss)
+    check_angles(args)
+    if args.vt == 0:
+        raise InvalidParameterError("plot-motion needs vt > 0: a target that does not move "
+                                    "draws no motion")
     fig, ax = plot.new_axes()
     if args.kind == "tractrix":
         plot.plot_tractrix(ax, args.lss, args.vt)

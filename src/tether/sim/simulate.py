@@ -1,0 +1,423 @@
+"""The simulator: a target against a controller, with a monitor independent of both.
+
+State ``(p, a)``: target position and rod orientation; the observer is ``p + lss·u(a)``, so the
+distance is exact at every sample and never integrated. Each step of ``dt`` s the target picks
+``v`` (clipped to ``|v| <= vt``), the controller picks the rod rate, and both are held over the
+step: ``p ← p + v·dt``, ``a ← a + ȧ·dt``.
+
+The **monitor** looks only at the states, never at what the controller believes: after every step
+the rod must be free (:func:`tether.arcs.rod_is_free`), the observer in the free space, and the
+observer's chord ``|O' − O|`` at most ``vo·dt``. The first failure is located by bisection on the
+step, and the run ends ``lost`` at that time with the reason in words. Mode switches (when the
+controller offers ``mode_at``) and piece crossings (when the world has a decomposition) are
+located the same way and logged as events.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tether.arcs import rod_is_free
+from tether.errors import InvalidParameterError, OutsideFreeSpaceError
+from tether.sim.protocols import Command, Controller, Target, World
+
+#: The monitor accepts observer chords up to ``vo·dt·(1 + SPEED_TOL)``.
+SPEED_TOL = 1e-6
+#: Bisection steps used to locate an event inside a step (2^-30 of a step).
+LOCATE_ITERS = 30
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened at time ``t`` (s): ``kind`` is ``mode``, ``crossing`` or
+    ``loss``; ``detail`` says what in words."""
+
+    t: float
+    kind: str
+    detail: str
+
+    def to_dict(self) -> dict:
+        return {"t": self.t, "kind": self.kind, "detail": self.detail}
+
+
+@dataclass(frozen=True)
+class MonitorStats:
+    """What the monitor measured over the run.
+
+    ``max_speed_ratio`` is the largest observer chord over ``vo·dt``; ``min_clearance`` the
+    smallest distance from the observer to the obstacle boundary (map units; 0 in contact);
+    ``max_distance_error`` the largest deviation from ``lss`` of the target–observer distance at
+    mid-step when both move in straight lines between samples (map units; zero at the samples).
+    """
+
+    max_speed_ratio: float
+    min_clearance: float
+    max_distance_error: float
+
+    def to_dict(self) -> dict:
+        return {"max_speed_ratio": self.max_speed_ratio, "min_clearance": self.min_clearance,
+                "max_distance_error": self.max_distance_error}
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """Samples of a run: times (s), target ``p`` (n, 2), rod ``a`` (rad), observer (n, 2), and
+    per step (n − 1 rows) the mode, the rod rate (rad/s) and the chord speed ratio."""
+
+    t: np.ndarray
+    p: np.ndarray
+    a: np.ndarray
+    observer: np.ndarray
+    mode: tuple[str, ...]
+    rate: np.ndarray
+    speed_ratio: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def to_dict(self) -> dict:
+        return {"t": self.t.tolist(), "target": self.p.tolist(), "a": self.a.tolist(),
+                "observer": self.observer.tolist(), "mode": list(self.mode),
+                "rate": self.rate.tolist(), "speed_ratio": self.speed_ratio.tolist()}
+
+
+@dataclass(frozen=True, eq=False)
+class SimResult:
+    """Outcome of :func:`simulate`: ``held`` for the whole duration or ``lost`` at ``lost_at``
+    (s) with ``reason``; time per mode (s), monitor statistics, events and the trace."""
+
+    outcome: str
+    lost_at: float | None
+    reason: str | None
+    duration: float
+    dt: float
+    seed: int
+    start: tuple[float, float, float]
+    controller: str
+    target: str
+    mode_time: dict[str, float]
+    monitor: MonitorStats
+    events: tuple[Event, ...]
+    trace: Trace = field(repr=False)
+
+    @property
+    def held(self) -> bool:
+        return self.outcome == "held"
+
+    @property
+    def modes(self) -> list[str]:
+        """The sequence of modes, consecutive repeats collapsed."""
+        seq: list[str] = []
+        for m in self.trace.mode:
+            if not seq or seq[-1] != m:
+                seq.append(m)
+        return seq
+
+    def to_dict(self, trace: bool = False) -> dict:
+        d = {"outcome": self.outcome, "lost_at": self.lost_at, "reason": self.reason,
+             "duration": self.duration, "dt": self.dt, "seed": self.seed,
+             "start": list(self.start), "controller": self.controller, "target": self.target,
+             "mode_time": dict(self.mode_time), "modes": self.modes,
+             "monitor": self.monitor.to_dict(), "steps": len(self.trace) - 1,
+             "events": [e.to_dict() for e in self.events]}
+        if trace:
+            d["trace"] = self.trace.to_dict()
+        return d
+
+
+def _u(a: float) -> np.ndarray:
+    return np.array([math.cos(a), math.sin(a)])
+
+
+def _name(obj: Any) -> str:
+    return str(getattr(obj, "name", type(obj).__name__))
+
+
+class Monitor:
+    """The independent checks of one step (see the module docstring)."""
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self.env = world.env
+        self.lss = world.lss
+        self.max_ratio = 0.0
+        self.min_clear = math.inf
+        self.max_derr = 0.0
+
+    def observer(self, p: np.ndarray, a: float) -> np.ndarray:
+        return p + self.lss * _u(a)
+
+    def ok(self, p: np.ndarray, a: float) -> bool:
+        """Whether the configuration is admissible: observer in the free space, rod free."""
+        o = self.observer(p, a)
+        return bool(self.env.contains(o[0], o[1])) and rod_is_free(self.env, p, a, self.lss)
+
+    def why(self, p: np.ndarray, a: float) -> str:
+        """Words for an inadmissible configuration: which wall or vertex is in the way."""
+        env = self.env
+        o = self.observer(p, a)
+        if not bool(env.contains(o[0], o[1])):
+            A, B, _, _ = env.oriented_edges
+            i = int(np.argmin(_seg_dist(o, A, B)))
+            return f"observer pushed into {env.edge_name(i)}"
+        verts = env.vertices
+        d = _seg_dist_points(verts, p, o)
+        refl = env.reflex
+        d = np.where(refl, d, d + 1e9)
+        j = int(np.argmin(d))
+        return f"rod occluded by {env.vertex_name(j)}"
+
+    def measure(self, p0: np.ndarray, a0: float, p1: np.ndarray, a1: float, dt: float) -> float:
+        """Record the step's statistics; return the chord speed ratio."""
+        o0, o1 = self.observer(p0, a0), self.observer(p1, a1)
+        ratio = float(np.linalg.norm(o1 - o0)) / (self.world.vo * dt)
+        self.max_ratio = max(self.max_ratio, ratio)
+        mid = 0.5 * (o0 + o1) - 0.5 * (p0 + p1)
+        self.max_derr = max(self.max_derr, abs(float(np.linalg.norm(mid)) - self.lss))
+        self.min_clear = min(self.min_clear,
+                             float(self.env.boundary_distance(o1[0], o1[1])))
+        return ratio
+
+    def stats(self) -> MonitorStats:
+        return MonitorStats(self.max_ratio, self.min_clear if math.isfinite(self.min_clear)
+                            else 0.0, self.max_derr)
+
+
+def _seg_dist(o: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    e = B - A
+    t = np.clip(np.einsum("ij,ij->i", o - A, e) / np.einsum("ij,ij->i", e, e), 0, 1)
+    return np.linalg.norm(A + t[:, None] * e - o, axis=1)
+
+
+def _seg_dist_points(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    e = b - a
+    t = np.clip((pts - a) @ e / float(e @ e), 0, 1)
+    return np.linalg.norm(a + t[:, None] * e - pts, axis=1)
+
+
+def check_start(world: World, x: float, y: float, a: float) -> None:
+    """Raise a :class:`~tether.errors.TetherError` unless ``(x, y, a)`` is a valid start:
+    target in the free space, rod free, ``vo > vt``."""
+    if not world.vo > world.vt:
+        raise InvalidParameterError(f"vo must exceed vt (vo={world.vo:g}, vt={world.vt:g})")
+    if not all(math.isfinite(float(c)) for c in (x, y, a)):
+        raise InvalidParameterError("start must be three finite numbers x y a")
+    env = world.env
+    if not bool(env.contains(x, y)) or float(env.boundary_distance(x, y)) <= env.length_tol:
+        raise OutsideFreeSpaceError(f"start target ({x:g}, {y:g}) is not inside the free space")
+    if not rod_is_free(env, (x, y), a, world.lss):
+        raise OutsideFreeSpaceError(
+            f"start rod from ({x:g}, {y:g}) at a={a:g} rad (length {world.lss:g}) is not free")
+
+
+def _clip_speed(v: Any, vt: float) -> np.ndarray:
+    v = np.asarray(v, dtype=float).reshape(2)
+    if not np.all(np.isfinite(v)):
+        return np.zeros(2)
+    n = float(np.hypot(v[0], v[1]))
+    return v * (vt / n) if n > vt else v
+
+
+def _keep_inside(world: World, p: np.ndarray, v: np.ndarray, dt: float) -> np.ndarray:
+    """Shrink ``v`` so that the target stays strictly inside the free space over the step (the
+    walls stop a target; targets are expected to steer clear of them themselves)."""
+    env = world.env
+    margin = 1e3 * env.length_tol
+    for _ in range(12):
+        q = p + v * dt
+        if bool(env.contains(q[0], q[1])) and float(env.boundary_distance(q[0], q[1])) > margin:
+            return v
+        v = 0.5 * v
+    return np.zeros(2)
+
+
+def _locate(bad: Callable[[np.ndarray, float], bool], p: np.ndarray, v: np.ndarray, a: float,
+            rate: float, h: float) -> float:
+    """Smallest fraction ``s`` of the step at which ``bad(p + s·v·h, a + s·rate·h)`` holds
+    (false at 0, true at 1), by bisection."""
+    lo, hi = 0.0, 1.0
+    for _ in range(LOCATE_ITERS):
+        mid = 0.5 * (lo + hi)
+        if bad(p + mid * h * v, a + mid * h * rate):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def simulate(world: World, controller: Controller, target: Target,
+             start: tuple[float, float, float], duration: float = 20.0, dt: float = 0.02,
+             seed: int = 0, monitor: bool = True,
+             progress: Callable[[str, float], None] | None = None) -> SimResult:
+    """Run ``target`` against ``controller`` from ``start = (x, y, a)`` for ``duration`` s.
+
+    Parameters
+    ----------
+    world : World
+        Map, rod length and speeds (and the decomposition/verdict when computed).
+    controller, target : Controller, Target
+        Objects following :mod:`tether.sim.protocols`.
+    start : (x, y, a)
+        Target position (map units) and rod orientation (radians).
+    duration, dt : float
+        Simulated time and step, seconds.
+    seed : int
+        Seeds the target's generator.
+    monitor : bool
+        Check every step (the default). Without it only the controller's own infeasibility ends
+        a run, which is useful only to measure the controller's cost.
+    progress : callable, optional
+        ``progress(stage, fraction)`` for long runs.
+
+    Raises
+    ------
+    InvalidParameterError, OutsideFreeSpaceError
+        Bad speeds or step, or a start that is not a free rod in the free space.
+    """
+    if not (dt > 0 and duration >= 0 and math.isfinite(dt) and math.isfinite(duration)):
+        raise InvalidParameterError(f"need dt > 0 and duration >= 0 (dt={dt}, duration={duration})")
+    x, y, a = (float(c) for c in start)
+    check_start(world, x, y, a)
+    rng = np.random.default_rng(seed)
+    p = np.array([x, y])
+    controller.reset(world, p.copy(), a)
+    target.reset(world, p.copy(), a, rng)
+    mon = Monitor(world)
+    dec = world.decomposition
+    region = int(dec.region_at(p)[0]) if dec is not None else -1
+    mode_at = getattr(controller, "mode_at", None)
+
+    nsteps = int(math.ceil(duration / dt - 1e-9))
+    ts, ps, as_ = [0.0], [p.copy()], [a]
+    modes: list[str] = []
+    rates: list[float] = []
+    ratios: list[float] = []
+    events: list[Event] = []
+    mode_time: dict[str, float] = {}
+    outcome, lost_at, reason = "held", None, None
+    prev_mode = None
+    t = 0.0
+    for k in range(nsteps):
+        h = min(dt, duration - t)
+        if h <= 0:
+            break
+        v = _clip_speed(target.velocity(t, p.copy(), a), world.vt)
+        v = _keep_inside(world, p, v, h)
+        cmd: Command = controller.step(p.copy(), v, a, h)
+        if not cmd.feasible or not math.isfinite(cmd.rate):
+            outcome, lost_at = "lost", t
+            reason = cmd.reason or "no admissible rod rate (the controller gave up)"
+            events.append(Event(t, "loss", reason))
+            break
+        rate = float(cmd.rate)
+        p1 = p + v * h
+        a1 = a + rate * h
+        mode = cmd.mode
+        if prev_mode is not None and mode != prev_mode:
+            te = t
+            if mode_at is not None and mode_at(p, v, a) == prev_mode:
+                s = _locate(lambda q, b, m=prev_mode, v=v: mode_at(q, v, b) != m, p, v, a, rate, h)
+                te = t + s * h
+            events.append(Event(te, "mode", f"{prev_mode} -> {mode}"))
+        prev_mode = mode
+        ratio = mon.measure(p, a, p1, a1, h)
+        lost_now = None
+        if monitor:
+            if ratio > 1.0 + SPEED_TOL:
+                lost_now = (t, f"rate needed beyond vo: the observer's chord was {ratio:.6g} "
+                               f"times vo·dt")
+            elif not mon.ok(p1, a1):
+                s = _locate(lambda q, b: not mon.ok(q, b), p, v, a, rate, h)
+                ps_, as_s = p + s * v * h, a + s * rate * h
+                words = mon.why(ps_, as_s)
+                if dec is not None:
+                    r1 = int(dec.region_at(p1)[0])
+                    if r1 != region and region >= 0 and r1 >= 0:
+                        piece = _piece_between(dec, region, r1)
+                        words = (f"no continuation across {piece} (R{region} -> R{r1}): "
+                                 f"{words}")
+                lost_now = (t + s * h, words)
+        if dec is not None and lost_now is None:
+            r1 = int(dec.region_at(p1)[0])
+            if r1 >= 0 and r1 != region:
+                if region >= 0:
+                    s = _locate(lambda q, b, r=region: int(dec.region_at(q)[0]) != r,
+                                p, v, a, 0.0, h)
+                    events.append(Event(t + s * h, "crossing",
+                                        f"{_piece_between(dec, region, r1)}: R{region} -> R{r1}"))
+                region = r1
+        modes.append(mode)
+        rates.append(rate)
+        ratios.append(ratio)
+        mode_time[mode] = mode_time.get(mode, 0.0) + h
+        if lost_now is not None:
+            outcome, lost_at, reason = "lost", lost_now[0], lost_now[1]
+            events.append(Event(lost_at, "loss", reason))
+            p, a, t = p1, a1, t + h
+            ts.append(t)
+            ps.append(p.copy())
+            as_.append(a)
+            break
+        p, a, t = p1, a1, t + h
+        ts.append(t)
+        ps.append(p.copy())
+        as_.append(a)
+        if progress is not None and k % 200 == 0:
+            progress("simulate", t / duration if duration else 1.0)
+    if progress is not None:
+        progress("simulate", 1.0)
+    P = np.array(ps).reshape(-1, 2)
+    A = np.array(as_, dtype=float)
+    O = P + world.lss * np.column_stack((np.cos(A), np.sin(A)))
+    trace = Trace(np.array(ts), P, A, O, tuple(modes), np.array(rates), np.array(ratios))
+    return SimResult(outcome, lost_at, reason, float(duration), float(dt), int(seed),
+                     (x, y, float(start[2])), _name(controller), _name(target),
+                     {m: round(s, 12) for m, s in mode_time.items()}, mon.stats(),
+                     tuple(events), trace)
+
+
+def _piece_between(dec: Any, r0: int, r1: int) -> str:
+    """Name of a piece between regions ``r0`` and ``r1`` (``P?`` if they only touch)."""
+    for pc in dec.pieces:
+        if set(pc.regions) == {r0, r1}:
+            return pc.name
+    return "P?"
+
+
+# ------------------------------------------------------------------------------ traces
+def save_trace(result: SimResult, path: str | Path) -> None:
+    """Write the run's trace to ``path``: ``.json`` (result and trace), ``.csv`` (one row per
+    sample: t, x, y, a, ox, oy, mode, rate, speed_ratio) or ``.npz`` (arrays)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    tr = result.trace
+    if suffix == ".json":
+        path.write_text(json.dumps(result.to_dict(trace=True), indent=1) + "\n")
+    elif suffix == ".csv":
+        with path.open("w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["t", "x", "y", "a", "ox", "oy", "mode", "rate", "speed_ratio"])
+            for i in range(len(tr)):
+                step = i < len(tr.mode)
+                w.writerow([repr(float(tr.t[i])), repr(float(tr.p[i, 0])),
+                            repr(float(tr.p[i, 1])), repr(float(tr.a[i])),
+                            repr(float(tr.observer[i, 0])), repr(float(tr.observer[i, 1])),
+                            tr.mode[i] if step else "",
+                            repr(float(tr.rate[i])) if step else "",
+                            repr(float(tr.speed_ratio[i])) if step else ""])
+    elif suffix == ".npz":
+        with path.open("wb") as fh:
+            np.savez(fh, t=tr.t, p=tr.p, a=tr.a, observer=tr.observer,
+                     mode=np.array(tr.mode, dtype=str), rate=tr.rate,
+                     speed_ratio=tr.speed_ratio,
+                     result=np.array(json.dumps(result.to_dict())))
+    else:
+        raise InvalidParameterError(f"{path}: trace must end in .json, .csv or .npz")

@@ -1,0 +1,51 @@
+"""Reporting in the user's frame: a decomposition computed on :attr:`Environment.internal`
+(normalized frame, no straight vertices) converted back to the map's coordinates and feature
+names (file numbering). Angles are unchanged by the frame; lengths scale by a power of two."""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from tether.decomposition import FREE, Cell, Decomposition, Piece, Region, cell_name
+from tether.environment import Environment
+
+
+def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) -> Decomposition:
+    """The decomposition ``inner`` of ``env.internal`` as a decomposition of ``env`` for rod
+    length ``lss`` (map units): regions, pieces and curves in map coordinates, features and
+    cells named after the file, structures in the file's feature codes."""
+    frame = env.frame
+    names = env.feature_names_map()
+    names[FREE] = FREE
+    code_map = env.code_map
+    k2 = frame.scale * frame.scale
+
+    def rename_cell(cid: str) -> str:
+        r, s, e = cid.strip("()").split(",")
+        return cell_name(int(r[1:]), names[s], names[e])
+
+    def structure(st):
+        if isinstance(st, str):
+            return st
+        return frozenset((int(code_map[a]), int(code_map[b])) for a, b in st)
+
+    regions = []
+    for r in inner.regions:
+        poly = frame.geometry_to_user(r.polygon)
+        shapely.prepare(poly)
+        pt = frame.to_user(np.array(r.point))
+        regions.append(Region(r.id, poly, r.area / k2, (float(pt[0]), float(pt[1])),
+                              structure(r.structure), tuple(rename_cell(c) for c in r.cells)))
+    cells = tuple(Cell(rename_cell(c.id), c.region, names[c.start_feature],
+                       names[c.end_feature]) for c in inner.cells)
+    pieces = []
+    for p in inner.pieces:
+        q = frame.to_user(np.array(p.sample))
+        pieces.append(Piece(p.id, p.regions, p.curves, p.kind,
+                            tuple(names.get(f, f) for f in p.features),
+                            frame.geometry_to_user(p.geometry), (float(q[0]), float(q[1])),
+                            p.normal, p.eps / frame.scale))
+    curves = tuple(c.to_user(frame, names) for c in inner.curves)
+    return Decomposition(env, lss, curves, tuple(regions), cells, tuple(pieces),
+                         inner.curve_tol / frame.scale, inner.unresolved_pieces)
