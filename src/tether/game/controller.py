@@ -16,8 +16,20 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import rod_is_free_many
-from tether.rates import observer_velocity, rate_interval
+from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, World
+
+
+def kernel_of(world: World) -> Any:
+    """``world.extra["kernel"]``, computed (default grid, 1/100 of the map's size, 180
+    orientations) and stored there when missing."""
+    k = world.extra.get("kernel")
+    if k is None:
+        from tether.game.kernel import surveillance_kernel
+
+        k = surveillance_kernel(world.env, world.lss, world.vt, world.vo)
+        world.extra["kernel"] = k
+    return k
 
 
 class KernelController:
@@ -26,10 +38,15 @@ class KernelController:
     Parameters
     ----------
     kernel : Kernel, optional
-        The kernel to follow; by default ``world.extra["kernel"]`` at :meth:`reset`.
+        The kernel to follow; by default ``world.extra["kernel"]`` at :meth:`reset` (computed
+        and stored there if missing, see :func:`kernel_of`).
     candidates : int
         Number of rates sampled evenly in ``Ω`` (plus 0 and the follow law, its midpoint).
+        ``Ω`` is the exact interval of the simulator's step (its chord stays within ``vo·dt``,
+        :func:`tether.rates.step_rate_interval`).
     """
+
+    name = "kernel"
 
     def __init__(self, kernel: Any = None, candidates: int = 33) -> None:
         self.kernel = kernel
@@ -39,9 +56,7 @@ class KernelController:
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
         self.world = world
         if self.kernel is None:
-            self.kernel = world.extra.get("kernel")
-        if self.kernel is None:
-            raise ValueError("KernelController needs a kernel (argument or world.extra['kernel'])")
+            self.kernel = kernel_of(world)
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
         k = self.kernel
@@ -49,7 +64,8 @@ class KernelController:
         lss, vo = world.lss, world.vo
         p = np.asarray(p, dtype=float)
         v = np.asarray(v, dtype=float)
-        lo, hi = (float(x) for x in rate_interval(v, a, lss, vo))
+        lo, hi = (float(x) for x in step_rate_interval(v, a, lss, vo, dt))
+        lo, hi = max(lo, -np.pi / dt), min(hi, np.pi / dt)
         rates = np.unique(np.r_[np.linspace(lo, hi, self.candidates), 0.0, (lo + hi) / 2])
         rates = rates[(rates >= lo) & (rates <= hi)]
         nxt = p + v * dt

@@ -5,7 +5,7 @@ headings at full speed ``vt``; for each, the observer's best answer is the rate 
 state one game step ahead (``h/vt``) is deepest in the kernel; the evader takes the heading
 whose best answer is shallowest (most negative: farthest outside the kernel). Headings whose
 game step would leave the free space are not tried. The kernel is ``world.extra["kernel"]``
-unless given.
+unless given (computed and stored there when missing).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from tether.game.controller import kernel_of
 from tether.rates import rate_interval
 from tether.sim.protocols import World
 
@@ -32,6 +33,8 @@ class KernelEvader:
         Observer rates sampled in ``Ω`` for each heading.
     """
 
+    name = "kernel-evader"
+
     def __init__(self, kernel: Any = None, directions: int = 32, candidates: int = 25) -> None:
         self.kernel = kernel
         self.directions = int(directions)
@@ -43,9 +46,7 @@ class KernelEvader:
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
         self.world = world
         if self.kernel is None:
-            self.kernel = world.extra.get("kernel")
-        if self.kernel is None:
-            raise ValueError("KernelEvader needs a kernel (argument or world.extra['kernel'])")
+            self.kernel = kernel_of(world)
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
         k = self.kernel

@@ -164,10 +164,19 @@ class RandomTarget:
 
 TargetFactory = Callable[..., Any]
 
+
+def _kernel_evader(world: World, **options: Any) -> Any:
+    """The surveillance kernel's evader (:class:`tether.game.evader.KernelEvader`); reads the
+    kernel from ``world.extra["kernel"]`` unless ``kernel=`` is given."""
+    from tether.game.evader import KernelEvader
+
+    return KernelEvader(**options)
+
 #: Target kinds by name: ``TARGETS[kind](world, **options)``.
 TARGETS: dict[str, TargetFactory] = {
     "path": PathTarget,
     "random": RandomTarget,
+    "kernel-evader": _kernel_evader,
 }
 
 
