@@ -1,0 +1,265 @@
+"""The surveillance kernel (issue #11): grid, kernel, look-ups, controller and evader.
+
+Every check compares against something computed another way: the exact rod test, the
+surviving cells of ``analyze`` (Prop. 1), set inclusion across speeds, a second resolution,
+and the simulator's independent monitor.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from tether.arcs import free_arcs, rod_is_free_many
+from tether.decomposition import decompose
+from tether.environment import Environment, load_map
+from tether.errors import InvalidParameterError
+from tether.escape import analyze
+from tether.game import build_grid, load_kernel, surveillance_kernel
+from tether.game.controller import KernelController
+from tether.game.evader import KernelEvader
+from tether.sim.protocols import World
+from tether.sim.simulate import simulate
+from tether.sim.targets import TARGETS, make_target
+
+EX = Path(__file__).resolve().parents[1] / "src" / "tether" / "examples"
+
+
+def env_of(name: str) -> Environment:
+    return load_map(EX / f"{name}.json")
+
+
+@pytest.fixture(scope="module")
+def room_kernels():
+    """The 10 × 10 room (``nonconvex_corner``), lss 1, coarse grid, three speed ratios."""
+    env = env_of("nonconvex_corner")
+    grid = build_grid(env, 1.0, 0.25, 72)
+    return {r: surveillance_kernel(env, 1.0, r, 1.0, grid=grid) for r in (0.3, 0.6, 0.9)}
+
+
+def test_free_mask_and_runs_match_the_rod_test():
+    env = env_of("gallery")
+    g = build_grid(env, 2.0, 0.4, 64)
+    rng = np.random.default_rng(1)
+    i = rng.integers(0, g.n_points, 3000)
+    k = rng.integers(0, g.n_a, 3000)
+    exact = rod_is_free_many(env, g.points[i], g.angles[k], 2.0)
+    # a bin centre within 1e-6 of an arc end (a grazing contact) may go either way
+    for b in np.flatnonzero(g.free[i, k] != exact):
+        ends = [e for arc in free_arcs(env, g.points[i[b]], 2.0).arcs for e in (arc.start,
+                                                                              arc.end)]
+        gap = np.abs(np.mod(np.array(ends) - g.angles[k[b]] + math.pi, 2 * math.pi) - math.pi)
+        assert gap.min() < 1e-6
+    # every bin of a run is free, and so is the rotation between bin centres (sampled)
+    for ii, kk in zip(i[:300], k[:300], strict=True):
+        if not g.free[ii, kk]:
+            continue
+        lo, hi = int(g.run_lo[ii, kk]), int(g.run_hi[ii, kk])
+        if hi - lo >= g.n_a:
+            continue
+        sweep = (kk + np.linspace(lo, hi, 4 * (hi - lo) + 1)) * g.delta
+        assert rod_is_free_many(env, np.repeat(g.points[ii][None], len(sweep), 0), sweep,
+                                2.0).all()
+        assert g.free[ii, np.mod(kk + np.arange(lo, hi + 1), g.n_a)].all()
+
+
+def test_bad_parameters_raise():
+    env = env_of("gallery")
+    with pytest.raises(InvalidParameterError):
+        surveillance_kernel(env, 1.0, 1.0, 0.5)
+    with pytest.raises(InvalidParameterError):
+        surveillance_kernel(env, 1.0, 0.5, 1.0, h=0.5, scheme="nearest-ish")
+    with pytest.raises(InvalidParameterError):
+        build_grid(env, 1.0, -1.0, 90)
+    with pytest.raises(InvalidParameterError):
+        build_grid(env, 1.0, 0.5, 4)
+    with pytest.raises(InvalidParameterError):
+        surveillance_kernel(env, 1.0, 0.5, 1.0, h=0.5, directions=5)
+
+
+def test_empty_on_a_map_without_strategy():
+    # the rectangle at lss 1 has no strategy (Prop. 1): no kernel, however fast the observer
+    env = env_of("rectangle")
+    for scheme in ("inner", "outer"):
+        k = surveillance_kernel(env, 1.0, 1e-3, 1.0, h=0.06, orientations=72, scheme=scheme)
+        assert k.converged and k.kernel_states == 0 and k.free_states > 0
+        assert len(k.no_safe_start) == k.grid.n_points
+
+
+def _compare_with_surviving_cells(env, lss, h, n_a, samples, seed=0):
+    """Kernel bins vs surviving cells at grid points more than two cells from every region
+    boundary (critical curves and walls); returns (mismatches, compared)."""
+    ver = analyze(decompose(env, lss))
+    k = surveillance_kernel(env, lss, 1e-3, 1.0, h=h, orientations=n_a)
+    g = k.grid
+    reg = ver.dec.region_at(g.points)
+    ok = np.flatnonzero(reg >= 0)
+    bnd = shapely.boundary(np.array([r.polygon for r in ver.dec.regions], dtype=object)[reg[ok]])
+    far = ok[shapely.distance(shapely.points(g.points[ok]), bnd) > 2 * h]
+    rng = np.random.default_rng(seed)
+    bad = total = 0
+    for i in rng.choice(far, size=min(samples, len(far)), replace=False):
+        bins = np.flatnonzero(g.free[i])
+        safe = np.array(ver.is_safe(np.repeat(g.points[i][None], len(bins), 0), g.angles[bins]))
+        bad += int((safe != k.kernel[i, bins]).sum())
+        total += len(bins)
+    return bad, total, ver, k
+
+
+def test_fast_observer_kernel_is_the_surviving_cells_gallery():
+    bad, total, ver, k = _compare_with_surviving_cells(env_of("gallery"), 2.0, 0.32, 72, 60)
+    assert total > 1000 and bad == 0
+    assert ver.strategy_exists and k.kernel_states > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name,lss", [("convex_corner", 2.0), ("nonconvex_corner", 1.0),
+                                      ("gallery", 1.0), ("convex_corner", 1.0)])
+def test_fast_observer_kernel_is_the_surviving_cells(name, lss):
+    bad, total, ver, k = _compare_with_surviving_cells(env_of(name), lss, 0.15, 90, 150)
+    assert total > 1000 and bad == 0
+    assert (k.kernel_states > 0) == ver.strategy_exists
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(4))
+def test_fast_observer_kernel_is_the_surviving_cells_random_maps(seed):
+    rng = np.random.default_rng(seed)
+    w, hgt = rng.uniform(4, 8, 2)
+    hx, hy = rng.uniform(1.5, w - 2.5), rng.uniform(1.5, hgt - 2.5)
+    hw, hh = rng.uniform(0.5, 1.0, 2)
+    env = Environment(boundary=[[0, 0], [w, 0], [w, hgt], [0, hgt]],
+                      holes=[[[hx, hy], [hx, hy + hh], [hx + hw, hy + hh], [hx + hw, hy]]],
+                      name=f"random{seed}")
+    lss = float(rng.uniform(0.6, 1.4))
+    bad, total, ver, k = _compare_with_surviving_cells(env, lss, 0.1, 90, 120, seed)
+    assert total > 500 and bad == 0
+    assert (k.kernel_states > 0) == ver.strategy_exists
+
+
+def test_monotone_in_speed_ratio(room_kernels):
+    k3, k6, k9 = room_kernels[0.3], room_kernels[0.6], room_kernels[0.9]
+    assert all(k.converged for k in (k3, k6, k9))
+    assert not (k6.kernel & ~k3.kernel).any()
+    assert not (k9.kernel & ~k6.kernel).any()
+    assert k3.kernel_states > k6.kernel_states > 0
+
+
+def test_outer_scheme_contains_inner():
+    env = env_of("nonconvex_corner")
+    grid = build_grid(env, 1.0, 0.25, 72)
+    inner = surveillance_kernel(env, 1.0, 0.6, 1.0, grid=grid, scheme="inner")
+    outer = surveillance_kernel(env, 1.0, 0.6, 1.0, grid=grid, scheme="outer")
+    assert not (inner.kernel & ~outer.kernel).any()
+    assert outer.kernel_states >= inner.kernel_states
+
+
+def test_kernel_is_a_fixed_point(room_kernels):
+    """Recompute one iteration from the result by brute force over sampled states."""
+    k = room_kernels[0.6]
+    g = k.grid
+    rng = np.random.default_rng(3)
+    moves = g.moves(k.directions)
+    from tether.rates import rate_interval
+
+    idx = np.argwhere(k.kernel)
+    for i, b in idx[rng.choice(len(idx), 200, replace=False)]:
+        for disp, src, dst in moves:
+            hit = np.flatnonzero(src == i)
+            if len(hit) == 0:
+                continue
+            j = dst[hit[0]]
+            dist = float(np.hypot(*disp))
+            tau = dist / k.vt
+            lo, hi = rate_interval(disp / dist * k.vt, g.angles[b], k.lss, k.vo)
+            reach = [m for m in range(-g.n_a, g.n_a + 1)
+                     if tau * lo - 1e-9 <= m * g.delta <= tau * hi + 1e-9]
+            ok = False
+            for m in reach:  # rotate at p within the run, then translate; or the other way
+                if g.run_lo[i, b] <= m <= g.run_hi[i, b] and k.kernel[j, (b + m) % g.n_a]:
+                    ok = True
+                    break
+                if (g.free[j, b] and g.run_lo[j, b] <= m <= g.run_hi[j, b]
+                        and k.kernel[j, (b + m) % g.n_a]):
+                    ok = True
+                    break
+            assert ok
+
+
+def test_lookups_and_margin(room_kernels):
+    k = room_kernels[0.6]
+    g = k.grid
+    rng = np.random.default_rng(2)
+    i = rng.integers(0, g.n_points, 500)
+    a = rng.uniform(0, 2 * math.pi, 500)
+    pts = g.points[i] + rng.uniform(-0.4, 0.4, (500, 2)) * g.h
+    inside = k.contains(pts, a)
+    assert np.array_equal(inside, k.kernel[i, g.bin_at(a)])
+    m = k.margin(pts, a)
+    assert np.all((m > 0) == inside)
+    assert np.all(np.abs(m) <= math.pi)
+    sf = k.safe_fraction()
+    assert sf.shape == (g.n_points,) and np.nanmax(sf) <= 1 and np.nanmin(sf) >= 0
+    assert not k.contains([[-100.0, -100.0]], 0.0)[0]
+    d = k.to_dict()
+    for key in ("grid", "states", "free_states", "kernel_states", "iterations", "converged",
+                "seconds"):
+        assert key in d
+    assert d["grid"]["shape"] == list(g.shape)
+
+
+def test_critical_distance_is_where_the_line_leaves_the_kernel(room_kernels):
+    k = room_kernels[0.6]
+    out = k.critical_distance((5.0, 0.2), (5.0, 5.0), -math.pi / 2, goal=0.0)
+    ls = out["l_star"]
+    assert ls is not None and 0 < ls < 4.8
+    below = k.contains([[5.0, 0.2 + ls - 2 * k.grid.h]], -math.pi / 2)[0]
+    above = k.contains([[5.0, 0.2 + ls + 2 * k.grid.h]], -math.pi / 2)[0]
+    assert above and not below
+    assert out["L"] <= out["L_g"]
+
+
+def test_save_and_load(tmp_path, room_kernels):
+    k = room_kernels[0.3]
+    path = tmp_path / "k.npz"
+    k.save(path)
+    k2 = load_kernel(path)
+    assert np.array_equal(k.kernel, k2.kernel)
+    assert k2.grid.shape == k.grid.shape and k2.vt == k.vt and k2.scheme == k.scheme
+    assert k2.to_dict()["kernel_states"] == k.kernel_states
+
+
+def test_kernel_evader_is_a_target_kind():
+    assert "kernel-evader" in TARGETS
+
+
+def _starts(k, inside: bool, n: int, seed: int, margin_cells: float = 2.0):
+    """Start states deeper than ``margin_cells`` cells inside (or outside) the kernel, free."""
+    d = k.depth[k.grid.ij[:, 1], k.grid.ij[:, 0], :-1]
+    m = margin_cells * k.grid.h
+    sel = (d > m) if inside else ((d < -m) & k.grid.free)
+    idx = np.argwhere(sel)
+    rng = np.random.default_rng(seed)
+    pick = idx[rng.choice(len(idx), size=min(n, len(idx)), replace=False)]
+    return [(*k.grid.points[i], float(k.grid.angles[b])) for i, b in pick]
+
+
+@pytest.mark.slow
+def test_kernel_controller_holds_and_evader_wins_room():
+    env = env_of("nonconvex_corner")
+    k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.1, orientations=180)
+    w = World(env, 1.0, 0.6, 1.0, extra={"kernel": k})
+    for start in _starts(k, True, 3, 0):
+        for kind in sorted(TARGETS):
+            if kind == "path":
+                continue
+            r = simulate(w, KernelController(), make_target(kind, w), start, duration=15.0,
+                         dt=0.02, seed=1)
+            assert r.held, (kind, start, r.reason)
+    for start in _starts(k, False, 5, 1):
+        r = simulate(w, KernelController(), KernelEvader(), start, duration=15.0, dt=0.02)
+        assert not r.held, start
