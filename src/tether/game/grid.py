@@ -130,6 +130,34 @@ class StateGrid:
             out.append((disp, src, dst))
         return out
 
+    def continuations(self, directions: int
+                      ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """For each target move, where the rod's free run can be carried to.
+
+        Returns, per lattice direction, ``(disp, src, dst, c_lo, c_hi)``: for a free state
+        ``(src[m], k)`` the bins ``k + c_lo[m, k] .. k + c_hi[m, k]`` (offsets, int16) at
+        ``dst[m]`` are reachable by a continuous free motion with unlimited rotation: rotate
+        within the run at the start, translate half a step at a fixed orientation free at the
+        move's midpoint, rotate within the run there, translate on, rotate within the run at
+        the end. The runs met on the way are taken as their hull (optimistic only where an
+        arc splits within the step: within a cell of a critical curve). ``c_lo > c_hi`` when
+        nothing can be carried. Without the midpoint an arc that turns faster than its width
+        per step (the target passing close to a reflex vertex) would be cut for nothing.
+        """
+        n_a = self.n_a
+        out = []
+        for disp, src, dst in self.moves(directions):
+            k = np.arange(n_a)[None, :]
+            lo = k + self.run_lo[src].astype(np.int64)
+            hi = k + self.run_hi[src].astype(np.int64)
+            mids = self.points[src] + disp / 2
+            mfree, mlo, mhi = _runs(self.env, mids, self.lss, n_a)
+            lo, hi = _carry(lo, hi, k, mfree, mlo, mhi)
+            lo, hi = _carry(lo, hi, k, self.free[dst], self.run_lo[dst], self.run_hi[dst])
+            out.append((disp, src, dst, np.clip(lo - k, -n_a - 1, n_a).astype(np.int16),
+                        np.clip(hi - k, -n_a - 1, n_a).astype(np.int16)))
+        return out
+
 
 def lattice(env: Environment, h: float) -> tuple[tuple[float, float], int, int]:
     """Origin and size ``(nx, ny)`` of the lattice of spacing ``h`` centred on the bounding box."""
@@ -178,6 +206,31 @@ def build_grid(env: Environment, lss: float, h: float, orientations: int) -> Sta
     free, run_lo, run_hi = _runs(env, pts, lss, n_a)
     return StateGrid(env, lss, origin, float(h), (ny, nx, n_a), index, pts,
                      np.column_stack([ix, iy]), free, run_lo, run_hi)
+
+
+def _carry(lo: np.ndarray, hi: np.ndarray, k: np.ndarray, free: np.ndarray, run_lo: np.ndarray,
+           run_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Carry unwrapped bin intervals ``[lo, hi]`` (rows of states) to the next point: the hull
+    of the runs there that meet the interval (``lo > hi`` stays empty)."""
+    n_a = free.shape[1]
+    lo = np.clip(lo, k - n_a, k + n_a)
+    hi = np.clip(hi, k - n_a, k + n_a)
+    tri = np.tile(free, (1, 3))  # tripled circle: unwrapped bin x at column x + n_a
+    cols = np.arange(3 * n_a)[None, :]
+    big = 10 * n_a
+    nxt = np.minimum.accumulate(np.where(tri, cols, big)[:, ::-1], axis=1)[:, ::-1]
+    prv = np.maximum.accumulate(np.where(tri, cols, -big), axis=1)
+    rows = np.arange(len(free))[:, None]
+    x0 = np.clip(lo + n_a, 0, 3 * n_a - 1)
+    x1 = np.clip(hi + n_a, 0, 3 * n_a - 1)
+    y0 = nxt[rows, x0]
+    y1 = prv[rows, x1]
+    ok = (lo <= hi) & (y0 <= x1) & (y0 < big)
+    y0 = np.where(ok, y0, n_a) - n_a  # back to unwrapped bins
+    y1 = np.where(ok, y1, n_a) - n_a
+    new_lo = y0 + run_lo[rows, np.mod(y0, n_a)]
+    new_hi = y1 + run_hi[rows, np.mod(y1, n_a)]
+    return np.where(ok, new_lo, k + 1), np.where(ok, new_hi, k)
 
 
 def _runs(env: Environment, pts: np.ndarray, lss: float, n_a: int

@@ -23,11 +23,15 @@ The discretization, and which way each choice errs
   vanish as ``h → 0`` and ``n_a → ∞`` at a fixed ratio ``h·n_a`` (refine the two together:
   with ``n_a`` fixed and ``h → 0`` the inner scheme degenerates, since ``τ·vo/lss`` falls below
   one bin; :attr:`Kernel.rate_bins` reports the number of bins a saturated rotation covers).
-* **Free along the sweep.** The rod must stay free: either it rotates first, within its exact
-  free arc at ``p``, then translates to ``p'`` at the new orientation, or it translates first
-  (the old orientation free at ``p'``) and then rotates within its arc at ``p'``. The arcs are
-  exact at the grid points; the translation over one cell is not checked in between, which
-  errs **optimistically** only within a cell of a critical curve.
+* **Free along the sweep.** The rod must stay free: the orientations it can be carried to at
+  ``p'`` are those of the runs met by rotating within the exact free arc at ``p``, translating
+  to the move's midpoint, rotating within the arc there, and translating on
+  (:meth:`~tether.game.grid.StateGrid.continuations`); the rate bound then cuts that set to
+  ``a + τ_d·Ω``. The arcs are exact at the three points; the half-step translations are not
+  checked in between and split arcs are taken as their hull, which errs **optimistically**
+  only within a cell of a critical curve. (Without the midpoint, an arc that turns by more
+  than its width in one step, as when the target passes close to a reflex vertex, was cut
+  for nothing: a spurious trap that emptied whole kernels.)
 
 Implementation: "some bin of an interval is in ``K_n``" is a difference of prefix sums along
 the orientation axis (three copies of the circle, so wrapped intervals are plain ranges); one
@@ -352,9 +356,11 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
     n_a = grid.n_a
     P = grid.n_points
     moves = []
-    for disp, src, dst in grid.moves(directions):
+    for disp, src, dst, c_lo, c_hi in grid.continuations(directions):
         L, H = _offsets(grid, lss, vt, vo, disp, scheme)
-        moves.append((src, dst, L, H))
+        lo = np.maximum(L[None, :], c_lo)
+        hi = np.minimum(H[None, :], c_hi)
+        moves.append((src, dst, lo, hi))
     K = grid.free.copy()
     C = _prefix(K)
     dirty = K.any(axis=1)
@@ -364,18 +370,11 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
     while iterations < max_iterations:
         iterations += 1
         newK = K.copy()
-        for src, dst, L, H in moves:
+        for src, dst, lo, hi in moves:
             sel = dirty[src] & K[src].any(axis=1) if len(src) else np.zeros(0, dtype=bool)
-            s, j = src[sel], dst[sel]
-            if len(s) == 0:
+            if not sel.any():
                 continue
-            lo1 = np.maximum(L[None, :], grid.run_lo[s])
-            hi1 = np.minimum(H[None, :], grid.run_hi[s])
-            ok = _any_in(C, j, lo1, hi1, n_a)
-            lo2 = np.maximum(L[None, :], grid.run_lo[j])
-            hi2 = np.minimum(H[None, :], grid.run_hi[j])
-            ok |= grid.free[j] & _any_in(C, j, lo2, hi2, n_a)
-            newK[s] &= ok
+            newK[src[sel]] &= _any_in(C, dst[sel], lo[sel], hi[sel], n_a)
         changed = np.flatnonzero((newK != K).any(axis=1))
         K = newK
         history.append(int(K.sum()))
