@@ -673,4 +673,173 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
                                 (float(fam.lo[c]), float(fam.hi[c])),
                                 tuple((float(a), float(b)) for a, b in ivs),
                                 tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
-    return curves
+    return _share_lines(curves, env.length_tol)
+
+
+def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
+    """Make straight curves (A, C, D) on one supporting line share their vertices.
+
+    Offsets of parallel edges at the same distance, an edge's extension and a line through two
+    reflex vertices on it, ...: such curves coincide, but computed separately they differ in
+    the last bits, and how the noder splits two almost coincident segments depends on the map's
+    position and rotation. Here every polyline of a line gets all the vertices of the line's
+    other curves that lie within its span (the very same coordinates), so that the overlapping
+    stretches are identical segments, which the noder merges exactly. ``tol`` (map units) is how
+    far apart two lines may be and still be one line, and two vertices along it one vertex.
+    """
+    straight = [k for k, c in enumerate(curves) if c.kind in "ACD"]
+    if len(straight) < 2:
+        return curves
+    fam_d = np.array([curves[k].family.d[curves[k].index] for k in straight])
+    fam_p = np.array([curves[k].family.p[curves[k].index] for k in straight])
+    u = fam_d / np.linalg.norm(fam_d, axis=1)[:, None]
+    flip = (u[:, 0] < 0) | ((u[:, 0] == 0) & (u[:, 1] < 0))
+    u[flip] *= -1
+    theta = np.arctan2(u[:, 1], u[:, 0])  # in (-pi/2, pi/2]
+    offset = u[:, 0] * fam_p[:, 1] - u[:, 1] * fam_p[:, 0]  # signed distance of the line to 0
+    out = list(curves)
+    for group in _line_groups(theta, offset, tol):
+        if len(group) < 2:
+            continue
+        base = fam_p[group[0]]
+        uu = u[group[0]]
+        # every vertex of the group's polylines, by position along the line
+        pts = np.vstack([p for g in group for p in curves[straight[g]].polylines])
+        along = (pts - base) @ uu
+        order = np.argsort(along, kind="stable")
+        pts, along = pts[order], along[order]
+        distinct = np.r_[True, np.diff(along) > tol]
+        pts, along = pts[distinct], along[distinct]
+        for g in group:
+            k = straight[g]
+            c = curves[k]
+            fam, i = c.family, c.index
+            dd = fam.d[i]
+            polys, params = [], []
+            for poly in c.polylines:
+                a = (poly - base) @ uu
+                lo, hi = a.min(), a.max()
+                inner = (along > lo + tol) & (along < hi - tol)
+                merged = np.vstack((poly[[int(np.argmin(a))]], pts[inner],
+                                    poly[[int(np.argmax(a))]]))
+                if a[0] > a[-1]:
+                    merged = merged[::-1]
+                polys.append(merged)
+                params.append((merged - fam.p[i]) @ dd / (dd @ dd))
+            out[k] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(polys),
+                           tuple(params), fam, i, c.frame)
+    return out
+
+
+def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list[int]]:
+    """Groups of lines (direction angle in (-pi/2, pi/2], signed offset, map units) that are
+    one line: angles within ``ANGLE_TOL``-ish of each other and offsets within ``tol``."""
+    from tether.tolerances import ANGLE_TOL
+
+    # directions near +-pi/2 are the same direction: fold them together
+    th = np.where(theta > np.pi / 2 - 1e-9, theta - np.pi, theta)
+    off = np.where(theta > np.pi / 2 - 1e-9, -offset, offset)
+    order = np.argsort(th, kind="stable")
+    groups = []
+    start = 0
+    for j in range(1, len(order) + 1):
+        if j == len(order) or th[order[j]] - th[order[j - 1]] > ANGLE_TOL:
+            run = order[start:j]
+            run = run[np.argsort(off[run], kind="stable")]
+            cut = np.flatnonzero(np.diff(off[run]) > tol) + 1
+            groups += [g.tolist() for g in np.split(run, cut)]
+            start = j
+    return groups
+
+
+def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vectorized :meth:`Curve.project`: for each row ``k`` the nearest point of the critical
+    part of ``curves[cid[k]]`` to ``q[k]`` (shape (m, 2), map units). Returns parameters (m,),
+    points (m, 2) and unit normals (m, 2), exact up to the Gauss-Newton convergence of the
+    conchoids (12 steps from the nearest polyline segment, as :meth:`Curve.project`)."""
+    cid = np.asarray(cid, dtype=int)
+    q = np.asarray(q, dtype=float).reshape(-1, 2)
+    t = np.zeros(len(cid))
+    pts = np.zeros((len(cid), 2))
+    nrm = np.zeros((len(cid), 2))
+    kinds = np.array([c.kind for c in curves])[cid] if len(cid) else np.zeros(0, str)
+    index = np.array([c.index for c in curves], dtype=int)
+    fams = {c.kind: c.family for c in curves}
+    for kind, fam in fams.items():
+        rows = np.flatnonzero(kinds == kind)
+        if len(rows) == 0:
+            continue
+        c = index[cid[rows]]
+        if kind in "ACD":
+            d = fam.d[c]
+            tt = np.einsum("ij,ij->i", q[rows] - fam.p[c], d) / np.einsum("ij,ij->i", d, d)
+            t[rows] = tt
+            pts[rows] = fam.p[c] + tt[:, None] * d
+            nrm[rows] = np.column_stack((-d[:, 1], d[:, 0])) / np.hypot(d[:, 0], d[:, 1])[:, None]
+        elif kind == "B":
+            r = q[rows] - fam.p[c]
+            tt = np.arctan2(r[:, 1], r[:, 0])
+            u = np.column_stack((np.cos(tt), np.sin(tt)))
+            t[rows], pts[rows], nrm[rows] = tt, fam.p[c] + fam.lss * u, u
+        else:
+            t[rows], pts[rows], nrm[rows] = _project_conchoids(curves, cid[rows], q[rows])
+    return t, pts, nrm
+
+
+def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`project_many` for conchoid rows: the nearest polyline segment of each row's curve
+    brackets the answer, then Gauss-Newton on ``(q(t) - q)·q'(t) = 0`` inside the bracket."""
+    uc, inv = np.unique(cid, return_inverse=True)
+    # every polyline segment of the involved curves, grouped by curve
+    seg_a, seg_b, seg_lo, seg_hi, seg_c = [], [], [], [], []
+    for k, c in enumerate(uc.tolist()):
+        for ts, p in zip(curves[c].params, curves[c].polylines, strict=True):
+            seg_a.append(p[:-1])
+            seg_b.append(p[1:])
+            seg_lo.append(ts[:-1])
+            seg_hi.append(ts[1:])
+            seg_c.append(np.full(len(p) - 1, k))
+    a, b = np.vstack(seg_a), np.vstack(seg_b)
+    lo_all, hi_all, sc = map(np.concatenate, (seg_lo, seg_hi, seg_c))
+    count = np.bincount(sc, minlength=len(uc))
+    first = np.cumsum(count) - count
+    nseg = count[inv]
+    row = np.repeat(np.arange(len(cid)), nseg)
+    seg = np.repeat(first[inv], nseg) + (np.arange(len(row))
+                                         - np.repeat(np.cumsum(nseg) - nseg, nseg))
+    ab = b[seg] - a[seg]
+    u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
+                / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    dist = np.hypot(*(a[seg] + u[:, None] * ab - q[row]).T)
+    order = np.lexsort((dist, row))
+    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]  # nearest segment per row
+    s = seg[best]
+    lo, hi = lo_all[s], hi_all[s]
+    t = lo + u[best] * (hi - lo)
+    fam = curves[int(cid[0])].family
+    c = np.array([curves[k].index for k in cid.tolist()], dtype=int)
+    dlo = fam.lo[c]
+    dhi = fam.hi[c]
+    for _ in range(12):
+        tangent = _tangents(fam, c, t, dlo, dhi)
+        tt = np.einsum("ij,ij->i", tangent, tangent)
+        step = np.where(tt > 0, np.einsum("ij,ij->i", fam.points(c, t) - q, tangent)
+                        / np.maximum(tt, 1e-300), 0.0)
+        t_new = np.clip(t - step, lo, hi)
+        done = np.abs(t_new - t) <= 1e-15 * np.maximum(1.0, np.abs(t))
+        t = t_new
+        if done.all():
+            break
+    tangent = _tangents(fam, c, t, dlo, dhi)
+    tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
+    return t, fam.points(c, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+
+
+def _tangents(fam: Family, c: np.ndarray, t: np.ndarray, dlo: np.ndarray, dhi: np.ndarray
+              ) -> np.ndarray:
+    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``)."""
+    h = 1e-7 * np.maximum(np.maximum(1.0, np.abs(t)), dhi - dlo)
+    a, b = np.maximum(t - h, dlo), np.minimum(t + h, dhi)
+    return (fam.points(c, b) - fam.points(c, a)) / (b - a)[:, None]

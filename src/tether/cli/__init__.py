@@ -34,6 +34,7 @@ EXIT_INTERNAL = 3
 GROUPS = [
     "maps",
     "motion",
+    "ros",
     "kernel",
 ]
 

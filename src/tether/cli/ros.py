@@ -1,0 +1,212 @@
+"""Commands for real robot maps: ``convert`` (ROS occupancy map or any map to a polygon file)
+and ``sweep`` (the verdict over a range of ``lss``, on local processes or a Dask cluster)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from tether.cli.common import finite_arg, float_arg, int_range, print_json
+from tether.errors import InvalidParameterError, TetherError
+from tether.output import IMAGE_KINDS
+
+_MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
+
+
+def _check_output(path: str, kinds: tuple[str, ...]) -> Path:
+    """Validate an output path before computing (:func:`tether.output.check_output_path`)."""
+    from tether.output import check_output_path
+
+    return check_output_path(path, kinds)
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write ``text`` whole or not at all (:func:`tether.output.atomic_output`)."""
+    from tether.output import atomic_output
+
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(text)
+
+
+# ---------------------------------------------------------------------- reading
+def _load(args: argparse.Namespace):
+    """The map of ``args.map``, with the ROS options applied to a ``.yaml`` map."""
+    from tether.environment import load_map
+    from tether.occupancy import read_ros_map
+
+    ros_opts = (args.seed, args.simplify, args.min_hole_area)
+    if Path(args.map).suffix.lower() in (".yaml", ".yml"):
+        return read_ros_map(args.map, args.seed, args.simplify, args.min_hole_area)
+    if any(o is not None for o in ros_opts):
+        raise InvalidParameterError("--seed, --simplify and --min-hole-area apply to ROS maps "
+                                    "(.yaml) only")
+    return load_map(args.map)
+
+
+def _add_ros_options(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument("--seed", nargs=2, type=finite_arg, metavar=("X", "Y"),
+                    help="ROS map: a point of the free space wanted (metres, map frame); "
+                         "default: the largest free component")
+    sp.add_argument("--simplify", type=float_arg, metavar="M",
+                    help="ROS map: simplification tolerance in metres (default: one cell)")
+    sp.add_argument("--min-hole-area", type=float_arg, metavar="A",
+                    help="ROS map: drop holes smaller than A square metres (default: 4 cells)")
+
+
+# ---------------------------------------------------------------------- convert
+def map_text(env, suffix: str) -> str:
+    """The map ``env`` as the text of a ``.json``, ``.geojson`` or ``.wkt`` file."""
+    import shapely
+
+    if suffix == ".json":
+        return json.dumps(env.to_dict(), indent=1) + "\n"
+    if suffix == ".geojson":
+        rings = [[*r.tolist(), r[0].tolist()] for r in env.rings]
+        feature = {"type": "Feature", "properties": {"name": env.name},
+                   "geometry": {"type": "Polygon", "coordinates": rings}}
+        return json.dumps(feature, indent=1) + "\n"
+    return shapely.to_wkt(env.polygon, rounding_precision=-1) + "\n"
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    out = _check_output(args.out, _MAP_KINDS)
+    suffix = out.suffix.lower()
+    if suffix == ".yaml" and args.resolution is None:
+        raise InvalidParameterError("writing a ROS map (.yaml) needs --resolution (metres)")
+    if suffix != ".yaml" and args.resolution is not None:
+        raise InvalidParameterError("--resolution applies to a ROS map output (.yaml) only")
+    env = _load(args)
+    if suffix == ".yaml":
+        from tether.occupancy import rasterize
+
+        grid = rasterize(env, args.resolution)
+        img = grid.save(out)
+        print(f"wrote {out} and {img}: {grid.shape[1]} x {grid.shape[0]} cells of "
+              f"{grid.resolution:g} m")
+        return 0
+    _write_text(out, map_text(env, suffix))
+    print(f"wrote {out}: {env.n} vertices, {len(env.holes)} holes, area {env.area:.6g}")
+    return 0
+
+
+# ---------------------------------------------------------------------- sweep
+def _executor(args: argparse.Namespace):
+    """The executor asked for (``None``: serial), and a function to shut it down."""
+    if args.dask and args.workers:
+        raise InvalidParameterError("give --workers or --dask, not both")
+    if args.workers is not None:
+        if args.workers < 1:
+            raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
+        from concurrent.futures import ProcessPoolExecutor
+
+        ex = ProcessPoolExecutor(max_workers=args.workers)
+        return ex, ex.shutdown
+    if args.dask:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise TetherError("--dask needs the cluster extra: pip install 'tether[cluster]'") \
+                from None
+        try:
+            client = Client(args.dask, timeout=args.dask_timeout)
+        except (OSError, TimeoutError) as exc:
+            raise TetherError(f"cannot reach the Dask scheduler at {args.dask!r} ({exc})") \
+                from None
+        return client.get_executor(), client.close
+    return None, lambda: None
+
+
+def format_sweep(res) -> str:
+    """The sweep as a table, its intervals, and the longest lss with a strategy."""
+    kernel = any(r.safe_fraction is not None for r in res.rows)
+    head = f"{'lss':>9}  {'verdict':<11} {'regions':>7} {'cells':>6} {'surviving':>9}"
+    lines = [f"map {res.map_name!r}: {len(res.rows)} lss values "
+             f"({sum(r.refined for r in res.rows)} by bisection"
+             + (f" to {res.tol:.3g}" if res.tol else "") + ")",
+             head + ("  safe" if kernel else "")]
+    for r in res.rows:
+        word = "error" if r.strategy_exists is None else \
+            ("strategy" if r.strategy_exists else "none")
+        c = r.counts
+        line = (f"{r.lss:9.4f}{'*' if r.refined else ' '} {word:<11} {c.get('regions', ''):>7} "
+                f"{c.get('cells', ''):>6} {c.get('surviving_cells', ''):>9}")
+        if kernel:
+            line += "  " + ("-" if r.safe_fraction is None else f"{r.safe_fraction:.3f}")
+        if r.error:
+            line += f"  ({r.error})"
+        lines.append(line)
+    if not res.intervals:
+        lines.append("no evaluated lss has a strategy")
+    for iv in res.intervals:
+        lo = f"{iv.lo:.4g}" if iv.below is None else f"({iv.below:.4g}..{iv.lo:.4g}]"
+        hi = f"{iv.hi:.4g}" if iv.above is None else f"[{iv.hi:.4g}..{iv.above:.4g})"
+        lines.append(f"strategy can exist for lss from {lo} to {hi}")
+    if res.longest is not None:
+        lines.append(f"longest lss with a strategy: {res.longest:.4g}")
+    if res.errors:
+        lines.append(f"{len(res.errors)} lss values failed (see the rows marked error)")
+    return "\n".join(lines)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from tether.progress import Progress
+    from tether.sweep import parse_lss_range, sweep
+
+    if args.json and args.csv:
+        raise InvalidParameterError("give --json or --csv, not both")
+    plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
+    values = parse_lss_range(args.lss)
+    env = _load(args)
+    executor, close = _executor(args)
+    try:
+        res = sweep(env, values, executor, args.vt, args.vo, args.tol,
+                    progress=Progress("sweep"))
+    finally:
+        close()
+    if plot is not None:
+        from tether.plot import save
+        from tether.plot_sweep import plot_sweep
+
+        arts = plot_sweep(res)
+        save(arts[0].figure if arts else None, plot)
+    if args.json:
+        print_json(res.to_dict())
+    elif args.csv:
+        sys.stdout.write(res.to_csv())
+    else:
+        print(format_sweep(res))
+    return 0
+
+
+def register(add) -> None:
+    """Add this group's subcommands; ``add(name, fn, help)`` returns the subparser."""
+    sp = add("convert", cmd_convert,
+             "convert a map (a ROS occupancy map .yaml among them) to .json, .geojson, .wkt or "
+             "a ROS map .yaml")
+    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("out", help="output file (.json, .geojson, .wkt, or .yaml with --resolution)")
+    _add_ros_options(sp)
+    sp.add_argument("--resolution", type=float_arg, metavar="M",
+                    help="cell size of a ROS map output (.yaml), metres")
+
+    sp = add("sweep", cmd_sweep,
+             "verdict over a range of lss and the intervals with a strategy (bisection)")
+    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("--lss", required=True, metavar="RANGE",
+                    help="START:STOP:STEP (both ends included), a list 0.5,1,2, or a number")
+    sp.add_argument("--vt", type=float_arg, help="target speed bound (with --vo: kernel column)")
+    sp.add_argument("--vo", type=float_arg, help="observer speed bound (> vt)")
+    sp.add_argument("--tol", type=float_arg,
+                    help="bisection tolerance on interval ends (default: step/8; 0: none)")
+    out = sp.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="print JSON")
+    out.add_argument("--csv", action="store_true", help="print CSV")
+    sp.add_argument("--plot", metavar="FILE", help="draw the sweep to an image file")
+    sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
+                    help="run on N local processes (1 to 1024)")
+    sp.add_argument("--dask", metavar="ADDRESS",
+                    help="run on a Dask cluster (scheduler address; extra [cluster])")
+    sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
+    _add_ros_options(sp)

@@ -1,0 +1,342 @@
+"""Sweeps over the rod length: the verdict for many ``lss``, and the intervals with a strategy.
+
+A user's question is "what is the longest following distance this building allows?".
+:func:`sweep` answers it by running the whole pipeline (decompose, analyze) at every ``lss`` of
+a list, then refining each end of every interval of ``lss`` with a strategy by bisection down to a
+tolerance. Each evaluation is independent, so the work goes to any
+:class:`concurrent.futures.Executor`: serially in this process (``executor=None``), on local
+processes (:class:`~concurrent.futures.ProcessPoolExecutor`), or on a Dask cluster through
+``distributed.Client(address).get_executor()``. This module never imports dask.
+
+The verdict is not monotone in ``lss`` in general: a sampled sweep finds the intervals its samples
+hit; an interval narrower than the sample step, between two samples without a strategy, can be
+missed. The ends reported are exact to the tolerance only for the transitions the samples bracket.
+
+With the speeds ``vt`` and ``vo`` given and :mod:`tether.game` installed, every row also carries
+the surveillance kernel's safe fraction (``surveillance_kernel(...).safe_fraction()``, averaged
+over target points when it is per point).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tether.environment import Environment
+from tether.errors import InvalidParameterError
+
+__all__ = ["Interval", "SweepResult", "SweepRow", "evaluate", "parse_lss_range", "sweep"]
+
+_COUNT_KEYS = ("regions", "cells", "pieces", "edges", "surviving_cells")
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """The pipeline's result at one rod length.
+
+    ``strategy_exists`` is ``None`` when the run failed (``error`` says why); ``refined`` marks
+    rows evaluated by the bisection rather than from the user's list; ``seconds`` is wall time.
+    """
+
+    lss: float
+    strategy_exists: bool | None
+    counts: dict = field(default_factory=dict)
+    safe_fraction: float | None = None
+    error: str | None = None
+    refined: bool = False
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"lss": self.lss, "strategy_exists": self.strategy_exists, "counts": self.counts,
+                "safe_fraction": self.safe_fraction, "error": self.error,
+                "refined": self.refined, "seconds": round(self.seconds, 4)}
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A maximal run of evaluated ``lss`` with a strategy: ``[lo, hi]`` (both evaluated).
+
+    ``below`` / ``above`` are the nearest evaluated lengths *without* a strategy on each side
+    (``None`` at the ends of the sweep): the true end lies between ``below`` and ``lo`` (and
+    between ``hi`` and ``above``), a gap at most the tolerance where bisection ran.
+    """
+
+    lo: float
+    hi: float
+    below: float | None
+    above: float | None
+
+    def to_dict(self) -> dict:
+        return {"lo": self.lo, "hi": self.hi, "below": self.below, "above": self.above}
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Rows sorted by ``lss`` (sampled and refined), intervals with a strategy, settings."""
+
+    map_name: str
+    rows: tuple[SweepRow, ...]
+    intervals: tuple[Interval, ...]
+    tol: float | None
+    vt: float | None = None
+    vo: float | None = None
+
+    @property
+    def longest(self) -> float | None:
+        """The longest evaluated ``lss`` with a strategy (``None`` if none has one)."""
+        return max((iv.hi for iv in self.intervals), default=None)
+
+    @property
+    def errors(self) -> list[SweepRow]:
+        return [r for r in self.rows if r.error is not None]
+
+    def to_dict(self) -> dict:
+        return {"map": self.map_name, "tol": self.tol, "vt": self.vt, "vo": self.vo,
+                "longest_lss_with_strategy": self.longest,
+                "intervals": [iv.to_dict() for iv in self.intervals],
+                "rows": [r.to_dict() for r in self.rows]}
+
+    def to_csv(self) -> str:
+        """One line per row: lss, verdict, counts, safe fraction, refined flag, error."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["lss", "strategy_exists", *_COUNT_KEYS, "safe_fraction", "refined",
+                    "error"])
+        for r in self.rows:
+            verdict = "" if r.strategy_exists is None else str(r.strategy_exists).lower()
+            w.writerow([repr(r.lss), verdict, *(r.counts.get(k, "") for k in _COUNT_KEYS),
+                        "" if r.safe_fraction is None else f"{r.safe_fraction:.6g}",
+                        str(r.refined).lower(), r.error or ""])
+        return buf.getvalue()
+
+    def plot(self, ax: Any = None) -> Any:
+        """The sweep figure (see :func:`tether.plot_sweep.plot_sweep`)."""
+        from tether.plot_sweep import plot_sweep
+
+        return plot_sweep(self, ax)
+
+    def __repr__(self) -> str:
+        return (f"SweepResult(map={self.map_name!r}, rows={len(self.rows)}, "
+                f"intervals={[(iv.lo, iv.hi) for iv in self.intervals]})")
+
+
+# ---------------------------------------------------------------------- one evaluation
+def _kernel_fraction(env: Environment, lss: float, vt: float, vo: float) -> float | None:
+    """The kernel's safe fraction if :mod:`tether.game` provides ``surveillance_kernel``."""
+    try:
+        from tether.game import surveillance_kernel  # type: ignore[attr-defined]
+    except ImportError:
+        try:
+            from tether.game.kernel import surveillance_kernel  # type: ignore[no-redef]
+        except ImportError:
+            return None
+    frac = surveillance_kernel(env, lss, vt, vo).safe_fraction()
+    return float(np.mean(np.asarray(frac, dtype=float)))
+
+
+def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | None = None,
+             refined: bool = False) -> SweepRow:
+    """Decompose and analyze the map ``env_data`` (:meth:`Environment.to_dict`) at ``lss``.
+
+    A module-level function of plain arguments, so that any executor (local processes, Dask
+    workers) can run it. A failure becomes a row with ``error`` set, never an exception: one bad
+    length does not lose the whole sweep.
+    """
+    from tether.decomposition import decompose
+    from tether.escape import analyze
+
+    t0 = time.perf_counter()
+    try:
+        env = Environment(env_data["boundary"], tuple(env_data["holes"]),
+                          env_data.get("name", ""))
+        verdict = analyze(decompose(env, lss))
+        frac = None if vt is None or vo is None else _kernel_fraction(env, lss, vt, vo)
+        return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac,
+                        refined=refined, seconds=time.perf_counter() - t0)
+    except Exception as exc:  # noqa: BLE001 - reported in the row
+        return SweepRow(float(lss), None, {}, None, f"{type(exc).__name__}: {exc}",
+                        refined=refined, seconds=time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------------- the sweep
+class _Runner:
+    """Runs :func:`evaluate` for a batch of lengths on an executor (or in this process)."""
+
+    def __init__(self, env: Environment, executor: Executor | None, vt: float | None,
+                 vo: float | None, progress: Callable[[str, float], None] | None) -> None:
+        self.data = env.to_dict()
+        self.executor = executor
+        self.vt, self.vo = vt, vo
+        self.progress = progress
+        self.done = 0
+        self.total = 0
+
+    def _tick(self, row: SweepRow) -> None:
+        self.done += 1
+        if self.progress is not None:
+            self.progress(f"lss {row.lss:.4g}", min(self.done / max(self.total, 1), 0.99))
+
+    def run(self, values: Sequence[float], refined: bool) -> list[SweepRow]:
+        args = (self.data,)
+        if self.executor is None:
+            rows = []
+            for v in values:
+                rows.append(evaluate(*args, v, self.vt, self.vo, refined))
+                self._tick(rows[-1])
+            return rows
+        futures: list[Future] = [self.executor.submit(evaluate, *args, v, self.vt, self.vo,
+                                                      refined) for v in values]
+        rows = []
+        for f in futures:
+            rows.append(f.result())
+            self._tick(rows[-1])
+        return rows
+
+
+def _intervals(rows: Sequence[SweepRow]) -> tuple[Interval, ...]:
+    out = []
+    i = 0
+    while i < len(rows):
+        if rows[i].strategy_exists:
+            j = i
+            while j + 1 < len(rows) and rows[j + 1].strategy_exists:
+                j += 1
+            below = rows[i - 1].lss if i > 0 else None
+            above = rows[j + 1].lss if j + 1 < len(rows) else None
+            out.append(Interval(rows[i].lss, rows[j].lss, below, above))
+            i = j + 1
+        else:
+            i += 1
+    return tuple(out)
+
+
+def _brackets(rows: Sequence[SweepRow], tol: float) -> list[tuple[float, float]]:
+    """Adjacent pairs of rows whose verdicts differ (strategy vs not) and lie > tol apart."""
+    out = []
+    for a, b in zip(rows, rows[1:], strict=False):
+        if bool(a.strategy_exists) != bool(b.strategy_exists) and b.lss - a.lss > tol:
+            out.append((a.lss, b.lss))
+    return out
+
+
+def _check_values(lss_values: Iterable[float]) -> list[float]:
+    vals = sorted({float(v) for v in lss_values})
+    if not vals:
+        raise InvalidParameterError("the sweep needs at least one lss value")
+    bad = [v for v in vals if not (math.isfinite(v) and v > 0)]
+    if bad:
+        raise InvalidParameterError(f"lss values must be finite and > 0, got {bad[0]:g}")
+    return vals
+
+
+def _check_speeds(vt: float | None, vo: float | None) -> None:
+    if (vt is None) != (vo is None):
+        raise InvalidParameterError("give both vt and vo, or neither")
+    if vt is not None and not (math.isfinite(vt) and math.isfinite(vo) and 0 < vt < vo):
+        raise InvalidParameterError(f"need 0 < vt < vo, got vt {vt:g}, vo {vo:g}")
+
+
+def sweep(env: Environment, lss_values: Iterable[float], executor: Executor | None = None,
+          vt: float | None = None, vo: float | None = None, tol: float | None = None,
+          progress: Callable[[str, float], None] | None = None) -> SweepResult:
+    """The verdict at every ``lss`` in ``lss_values``, and the intervals of ``lss`` with a
+    strategy, their ends refined by bisection.
+
+    Parameters
+    ----------
+    env : Environment
+    lss_values : iterable of float
+        Rod lengths to evaluate, map units, > 0 (sorted and deduplicated).
+    executor : concurrent.futures.Executor, optional
+        Where to run the evaluations; default: serially in this process.
+    vt, vo : float, optional
+        Target and observer speed bounds (both or neither, ``0 < vt < vo``); with them, rows
+        carry the surveillance kernel's safe fraction when :mod:`tether.game` is installed.
+    tol : float, optional
+        Bisection tolerance on each interval end, map units; default: an eighth of the smallest
+        step between the given values. ``0`` turns the refinement off.
+    progress : callable, optional
+        Called as ``progress(stage, fraction_done)``.
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    InvalidParameterError
+        If a length is not positive, the speeds are inconsistent or ``tol`` is negative.
+    """
+    vals = _check_values(lss_values)
+    _check_speeds(vt, vo)
+    if tol is None:
+        tol = float(np.min(np.diff(vals))) / 8 if len(vals) > 1 else 0.0
+    if not (math.isfinite(tol) and tol >= 0):
+        raise InvalidParameterError(f"tol must be a finite number >= 0, got {tol!r}")
+    runner = _Runner(env, executor, vt, vo, progress)
+    runner.total = len(vals)
+    rows = runner.run(vals, refined=False)
+    rows.sort(key=lambda r: r.lss)
+    brackets = _brackets(rows, tol) if tol > 0 else []
+    if brackets:
+        steps = max(math.ceil(math.log2((b - a) / tol)) for a, b in brackets)
+        runner.total += steps * len(brackets)
+    while brackets:
+        mids = [(a + b) / 2 for a, b in brackets]
+        rows.extend(runner.run(mids, refined=True))
+        rows.sort(key=lambda r: r.lss)
+        brackets = _brackets_within(rows, brackets, tol)
+    if progress is not None:
+        progress("done", 1.0)
+    rows_t = tuple(rows)
+    return SweepResult(env.name, rows_t, _intervals(rows_t), tol or None, vt, vo)
+
+
+def _brackets_within(rows: Sequence[SweepRow], old: list[tuple[float, float]], tol: float
+                     ) -> list[tuple[float, float]]:
+    """The changing pairs that still need bisection, inside the previous brackets only."""
+    out = []
+    for a, b in _brackets(rows, tol):
+        if any(lo <= a and b <= hi for lo, hi in old):
+            out.append((a, b))
+    return out
+
+
+# ---------------------------------------------------------------------- lss ranges
+def parse_lss_range(text: str) -> list[float]:
+    """Parse ``START:STOP:STEP`` (both ends included, to within a millionth of a step), a
+    comma-separated list ``0.5,1,2`` or a single number into a list of lengths.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the text is malformed, a step is not positive or the range holds over 10,000 values.
+    """
+    text = text.strip()
+    try:
+        if ":" in text:
+            parts = [float(p) for p in text.split(":")]
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, step = parts
+            if not (math.isfinite(step) and step > 0):
+                raise InvalidParameterError(f"lss range {text!r}: the step must be > 0")
+            if stop < start:
+                raise InvalidParameterError(f"lss range {text!r}: STOP is below START")
+            n = int(math.floor((stop - start) / step + 1e-6)) + 1
+            if n > 10_000:
+                raise InvalidParameterError(f"lss range {text!r} holds {n} values; "
+                                            "at most 10,000")
+            return [round(start + k * step, 12) for k in range(n)]
+        return [float(p) for p in text.split(",") if p.strip()]
+    except ValueError:
+        raise InvalidParameterError(f"lss {text!r}: expected START:STOP:STEP, a comma-separated "
+                                    "list or a number") from None
