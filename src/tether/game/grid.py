@@ -17,7 +17,7 @@ The target moves between lattice neighbours: 8 directions (axis and diagonal nei
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -66,6 +66,7 @@ class StateGrid:
     free: np.ndarray
     run_lo: np.ndarray
     run_hi: np.ndarray
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_a(self) -> int:
@@ -143,7 +144,13 @@ class StateGrid:
         arc splits within the step: within a cell of a critical curve). ``c_lo > c_hi`` when
         nothing can be carried. Without the midpoint an arc that turns faster than its width
         per step (the target passing close to a reflex vertex) would be cut for nothing.
+        Computed once per ``directions`` and cached on the grid.
         """
+        if directions not in self._cache:
+            self._cache[directions] = self._continuations(directions)
+        return self._cache[directions]
+
+    def _continuations(self, directions: int) -> list:
         n_a = self.n_a
         out = []
         for disp, src, dst in self.moves(directions):
