@@ -271,3 +271,17 @@ def test_kernel_controller_holds_and_evader_wins_room():
     for start in _starts(k, False, 5, 1):
         r = simulate(w, KernelController(), KernelEvader(), start, duration=15.0, dt=0.02)
         assert not r.held, start
+
+
+@pytest.mark.slow
+def test_refinement_converges_gallery():
+    """Two resolutions (h and n_a refined together) agree on the safe fraction."""
+    env = env_of("gallery")
+    coarse = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.32, orientations=90)
+    fine = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.16, orientations=180)
+    assert abs(coarse.safe_fraction_total() - fine.safe_fraction_total()) < 0.03
+    # and the fine kernel, read at the coarse grid's states, mostly agrees with it
+    g = coarse.grid
+    idx = np.argwhere(g.free)
+    agree = fine.contains(g.points[idx[:, 0]], g.angles[idx[:, 1]]) == coarse.kernel[g.free]
+    assert agree.mean() > 0.95
