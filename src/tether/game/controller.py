@@ -21,13 +21,17 @@ from tether.sim.protocols import Command, World
 
 
 def kernel_of(world: World) -> Any:
-    """``world.extra["kernel"]``, computed (default grid, 1/100 of the map's size, 180
-    orientations) and stored there when missing."""
+    """``world.extra["kernel"]``, computed and stored there when missing: on a coarse grid
+    (1/50 of the map's size, 90 orientations, about a second); compute a finer one with
+    :func:`~tether.game.kernel.surveillance_kernel` and put it in ``world.extra`` for real
+    use."""
     k = world.extra.get("kernel")
     if k is None:
         from tether.game.kernel import surveillance_kernel
 
-        k = surveillance_kernel(world.env, world.lss, world.vt, world.vo)
+        x0, y0, x1, y1 = world.env.bounds
+        k = surveillance_kernel(world.env, world.lss, world.vt, world.vo,
+                                h=max(x1 - x0, y1 - y0) / 50, orientations=90)
         world.extra["kernel"] = k
     return k
 
