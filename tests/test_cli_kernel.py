@@ -44,3 +44,26 @@ def test_kernel_bad_input_exit_2(capsys, extra, message, tmp_path, monkeypatch):
     assert main([*BASE, *extra]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_kernel_figures(tmp_path):
+    import math
+
+    from tether.environment import load_map
+    from tether.game import surveillance_kernel
+    from tether.game.controller import KernelController
+    from tether.plot import save
+    from tether.plot_kernel import kernel_figure, plot_kernel_run
+    from tether.sim.protocols import World
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    env = load_map(example_path("nonconvex_corner"))
+    k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.5, orientations=36)
+    save(kernel_figure(k, angles=(0.0, math.pi)), tmp_path / "k.png")
+    w = World(env, 1.0, 0.6, 1.0, extra={"kernel": k})
+    r = simulate(w, KernelController(), make_target("kernel-evader", w), (5.0, 5.0, 0.0),
+                 duration=2.0, dt=0.05)
+    arts = plot_kernel_run(k, r)
+    assert arts
+    assert (tmp_path / "k.png").stat().st_size > 0

@@ -87,3 +87,24 @@ def kernel_figure(kernel: Any, angles: tuple[float, ...] = (0.0, math.pi / 2, ma
     fig.suptitle("surveillance kernel — green: safe, orange: free but the target wins, "
                  "grey: rod blocked", fontsize=9)
     return fig
+
+
+def plot_kernel_run(kernel: Any, result: Any, ax: Any = None) -> list:
+    """A simulator run (:class:`~tether.sim.simulate.SimResult`) drawn over the safe-fraction
+    map: target path, observer path, a few rods, and where the run was lost if it was."""
+    from tether.plot import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR
+
+    ax = _ax(ax)
+    arts = plot_safe_fraction(kernel, ax, colorbar=False)
+    tr = result.trace
+    p, o = tr.p, tr.observer
+    arts += ax.plot(p[:, 0], p[:, 1], color=TARGET_COLOUR, lw=1.5, label="target", zorder=4)
+    arts += ax.plot(o[:, 0], o[:, 1], color=OBSERVER_COLOUR, lw=1.5, label="observer", zorder=4)
+    for i in np.linspace(0, len(p) - 1, 8).astype(int):
+        arts += ax.plot([p[i, 0], o[i, 0]], [p[i, 1], o[i, 1]], color=ROD_COLOUR, lw=1, zorder=4)
+    if not result.held:
+        arts.append(ax.scatter(*p[-1], marker="x", color="tab:red", s=60, zorder=5,
+                               label=f"lost at t = {result.lost_at:.2f} s"))
+    ax.legend(loc="upper right", fontsize=7)
+    ax.set_title(f"{result.controller} vs {result.target}: {result.outcome}")
+    return arts
