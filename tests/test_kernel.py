@@ -260,14 +260,17 @@ def _starts(k, inside: bool, n: int, seed: int, margin_cells: float = 2.0):
 def test_kernel_controller_holds_and_evader_wins_room():
     env = env_of("nonconvex_corner")
     k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.1, orientations=180)
-    w = World(env, 1.0, 0.6, 1.0, extra={"kernel": k})
+    ver = analyze(decompose(env, 1.0))
+    w = World(env, 1.0, 0.6, 1.0, decomposition=ver.dec, verdict=ver, extra={"kernel": k})
+    failures = []
     for start in _starts(k, True, 3, 0):
         for kind in sorted(TARGETS):
-            if kind == "path":
-                continue
-            r = simulate(w, KernelController(), make_target(kind, w), start, duration=15.0,
-                         dt=0.02, seed=1)
-            assert r.held, (kind, start, r.reason)
+            opts = {"waypoints": [[9.5, 0.5], [0.5, 0.5], [0.5, 9.5]]} if kind == "path" else {}
+            r = simulate(w, KernelController(), make_target(kind, w, **opts), start,
+                         duration=15.0, dt=0.02, seed=1)
+            if not r.held:
+                failures.append((kind, start, r.reason))
+    assert not failures
     for start in _starts(k, False, 5, 1):
         r = simulate(w, KernelController(), KernelEvader(), start, duration=15.0, dt=0.02)
         assert not r.held, start
