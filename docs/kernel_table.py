@@ -90,18 +90,22 @@ def main() -> None:
             if PaperController is not None and kin.kernel_states:
                 w = World(env, lss, r, 1.0, decomposition=ver.dec, verdict=ver,
                           extra={"kernel": kin})
-                held = total = 0
+                held = {"random": 0, "kernel-evader": 0}
+                total = dict.fromkeys(held, 0)
                 for s in starts(kin, True, 4, rng):
-                    for kind in ("random", "kernel-evader"):
+                    for kind in held:
+                        total[kind] += 1
                         try:
                             res = simulate(w, PaperController(w), make_target(kind, w), s,
                                            duration=15.0, dt=0.02, seed=1)
-                        except Exception:  # noqa: BLE001 - reported as a failure
-                            total += 1
+                        except Exception as exc:  # noqa: BLE001 - reported as a failure
+                            print(name, r, kind, s, "error:", exc)
                             continue
-                        held += res.held
-                        total += 1
-                paper_hold = f"{held}/{total}"
+                        held[kind] += res.held
+                        if not res.held:
+                            print(name, r, kind, s, "lost:", res.lost_at, res.reason)
+                paper_hold = (f"random {held['random']}/{total['random']}, evader "
+                              f"{held['kernel-evader']}/{total['kernel-evader']}")
             # kernel ⊆ Prop. 1: sampled kernel states (with a cell) outside surviving cells
             kidx = np.argwhere(kin.kernel)
             if len(kidx):
@@ -166,9 +170,13 @@ def write(rows, conv, sims, seconds) -> None:
     for name, _lss, r, p1, p23, kin, kout, it, sec, ph, sub in rows:
         out.append(f"| {name} | {r:g} | {p1:.1f} | {p23} | {kin:.1f} | {kout:.1f} | {sub} | "
                    f"{it} | {sec:.1f} | {ph} |")
-    out += ["",
-            "`n/a`: `tether.assess` / `PaperController` (issue #10) were not on this branch when "
-            "the table was generated; rerun the script once they are.",
+    note = ("`n/a` in (b) and the last column: `tether.assess` / `PaperController` (issue "
+            "#10) were not importable when the table was generated; rerun the script once they "
+            "are." if paper_is_safe is None else
+            "The last column: the paper's controller (`PaperController`, issue #10) from four "
+            "starts more than two cells inside the kernel, against the `random` target and the "
+            "kernel's evader, 15 s at `dt` = 0.02 s (`n/a` where the kernel is empty).")
+    out += ["", note,
             "",
             "**Reading.** Prop. 1 ignores speeds, so it is the same in every row; the kernel "
             "can only be smaller (it is the exact answer of the discrete game), up to the "
