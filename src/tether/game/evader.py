@@ -2,8 +2,12 @@
 
 It follows the :class:`~tether.sim.protocols.Target` protocol. Each step it tries ``directions``
 headings at full speed ``vt``; for each, the observer's best answer is the rate in ``Ω`` whose
-state one game step ahead (``h/vt``) is deepest in the kernel; the evader takes the heading
-whose best answer is shallowest (most negative: farthest outside the kernel). Headings whose
+state one game step ahead (``h/vt``) has the highest :attr:`~tether.game.kernel.Kernel.level`
+(the iteration that removed it from the kernel: the discrete game's time-to-win), ties broken
+by the kernel depth; the evader takes the heading whose best answer is lowest. From a state
+of level ``n`` the discrete game guarantees a heading whose every answer has a level below
+``n``, so the evader wins in at most ``n`` game steps there (up to the differences between
+the discrete and the continuous game). Headings whose
 game step would leave the free space are not tried. The kernel is ``world.extra["kernel"]``
 unless given (computed and stored there when missing).
 """
@@ -64,6 +68,10 @@ class KernelEvader:
         s = np.linspace(0.0, 1.0, self.candidates)
         rates = lo[:, None] + (hi - lo)[:, None] * s[None, :]  # (headings, candidates)
         pts = np.repeat(ahead, self.candidates, axis=0)
-        d = k.depth_at(pts, (a + rates * tau).ravel()).reshape(rates.shape)
-        best = d.max(axis=1)
+        ang = (a + rates * tau).ravel()
+        lev = k.level_at(pts, ang).reshape(rates.shape).astype(float)
+        d = k.depth_at(pts, ang).reshape(rates.shape)
+        # the observer's best answer per heading: highest level, then deepest
+        score = lev + 1e-3 * np.tanh(d)
+        best = score.max(axis=1)
         return v[int(np.argmin(best))]

@@ -58,6 +58,8 @@ from tether.rates import rate_interval
 
 TWO_PI = 2.0 * math.pi
 SCHEMES = ("inner", "outer")
+#: ``Kernel.level`` of the states that are never removed.
+IN_KERNEL = np.iinfo(np.int32).max
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +67,11 @@ class Kernel:
     """Result of :func:`surveillance_kernel`.
 
     ``kernel[i, k]`` says whether state (grid point ``i``, bin ``k``) is in the kernel;
-    ``history`` is the number of kernel states after each iteration.
+    ``history`` is the number of kernel states after each iteration; ``level[i, k]`` the
+    iteration that removed the state (0: not free, :data:`IN_KERNEL` for kernel states). From
+    a state of level ``n`` the target has a move after which every observer answer has a
+    level below ``n``: the discrete game's winning strategy, which :class:`KernelEvader`
+    follows.
     """
 
     grid: StateGrid = field(repr=False)
@@ -79,6 +85,7 @@ class Kernel:
     converged: bool
     seconds: float
     history: tuple[int, ...] = field(default=(), repr=False)
+    level: np.ndarray | None = field(default=None, repr=False)
 
     # ----- counts -------------------------------------------------------------------------
     @property
@@ -126,6 +133,18 @@ class Kernel:
         out = np.zeros(len(pts), dtype=bool)
         ok = i >= 0
         out[ok] = self.kernel[i[ok], k[ok]]
+        return out
+
+    def level_at(self, points: Any, angles: Any) -> np.ndarray:
+        """:attr:`level` of the nearest state (0 off the grid's points)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+        i = self.grid.point_at(pts)
+        k = self.grid.bin_at(ang)
+        out = np.zeros(len(pts), dtype=np.int64)
+        ok = i >= 0
+        lev = self.level if self.level is not None else np.where(self.kernel, IN_KERNEL, 0)
+        out[ok] = lev[i[ok], k[ok]]
         return out
 
     def margin(self, points: Any, angles: Any) -> np.ndarray:
@@ -249,6 +268,7 @@ class Kernel:
         g = self.grid
         np.savez_compressed(
             path, kernel=np.packbits(self.kernel, axis=1), n_a=g.n_a,
+            level=self.level if self.level is not None else np.zeros((0, g.n_a), np.int32),
             params=np.array([self.lss, self.vt, self.vo, g.h, self.seconds]),
             meta=np.array(json.dumps({
                 "scheme": self.scheme, "directions": self.directions,
@@ -267,11 +287,14 @@ def load_kernel(path: str | Path) -> Kernel:
         lss, vt, vo, h, seconds = (float(x) for x in z["params"])
         meta = json.loads(str(z["meta"]))
         packed = z["kernel"]
+        level = z["level"] if "level" in z.files else None
     env = from_dict(meta["map"])
     grid = build_grid(env, lss, h, n_a)
     kern = np.unpackbits(packed, axis=1, count=n_a).astype(bool)
+    if level is not None and level.shape != kern.shape:
+        level = None
     return Kernel(grid, kern, lss, vt, vo, meta["scheme"], meta["directions"],
-                  meta["iterations"], meta["converged"], seconds, tuple(meta["history"]))
+                  meta["iterations"], meta["converged"], seconds, tuple(meta["history"]), level)
 
 
 def _offsets(grid: StateGrid, lss: float, vt: float, vo: float, disp: np.ndarray, scheme: str
@@ -362,6 +385,7 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
         hi = np.minimum(H[None, :], c_hi)
         moves.append((src, dst, lo, hi))
     K = grid.free.copy()
+    level = np.where(K, IN_KERNEL, 0).astype(np.int32)
     C = _prefix(K)
     dirty = K.any(axis=1)
     history = [int(K.sum())]
@@ -376,6 +400,7 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
                 continue
             newK[src[sel]] &= _any_in(C, dst[sel], lo[sel], hi[sel], n_a)
         changed = np.flatnonzero((newK != K).any(axis=1))
+        level[changed] = np.where(K[changed] & ~newK[changed], iterations, level[changed])
         K = newK
         history.append(int(K.sum()))
         if len(changed) == 0:
@@ -388,4 +413,4 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
         for src, dst, _, _ in moves:
             dirty[src[was[dst]]] = True
     return Kernel(grid, K, lss, vt, vo, scheme, directions, iterations, converged,
-                  time.perf_counter() - t0, tuple(history))
+                  time.perf_counter() - t0, tuple(history), level)
