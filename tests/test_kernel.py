@@ -288,3 +288,36 @@ def test_refinement_converges_gallery():
     idx = np.argwhere(g.free)
     agree = fine.contains(g.points[idx[:, 0]], g.angles[idx[:, 1]]) == coarse.kernel[g.free]
     assert agree.mean() > 0.95
+
+
+def test_levels_give_the_target_a_winning_move(room_kernels):
+    """From a state removed at iteration n, some target move leaves the observer only
+    answers removed earlier (level < n): the evader's strategy is well founded."""
+    from tether.game.kernel import IN_KERNEL
+    from tether.rates import rate_interval
+
+    k = room_kernels[0.6]
+    g = k.grid
+    lev = k.level
+    assert np.all(lev[~g.free] == 0) and np.all(lev[k.kernel] == IN_KERNEL)
+    removed = np.argwhere(g.free & ~k.kernel)
+    assert np.all((lev[g.free & ~k.kernel] >= 1) & (lev[g.free & ~k.kernel] <= k.iterations))
+    rng = np.random.default_rng(4)
+    conts = g.continuations(k.directions)
+    for i, b in removed[rng.choice(len(removed), 100, replace=False)]:
+        n = lev[i, b]
+        found = False
+        for disp, src, dst, c_lo, c_hi in conts:
+            hit = np.flatnonzero(src == i)
+            if len(hit) == 0:
+                continue
+            m = hit[0]
+            dist = float(np.hypot(*disp))
+            tau = dist / k.vt
+            lo, hi = rate_interval(disp / dist * k.vt, g.angles[b], k.lss, k.vo)
+            reach = [o for o in range(int(c_lo[m, b]), int(c_hi[m, b]) + 1)
+                     if tau * lo - 1e-9 <= o * g.delta <= tau * hi + 1e-9]
+            if all(lev[dst[m], (b + o) % g.n_a] < n for o in reach):
+                found = True
+                break
+        assert found, (i, b, n)
