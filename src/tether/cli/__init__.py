@@ -36,6 +36,7 @@ GROUPS = [
     "motion",
     "strategy",
     "ros",
+    "kernel",
 ]
 
 

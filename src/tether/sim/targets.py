@@ -439,3 +439,14 @@ def make_target(kind: str, world: World, **options: Any) -> Any:
 def unit(x: float, y: float) -> np.ndarray:
     n = math.hypot(x, y)
     return np.array([x / n, y / n]) if n > 0 else np.zeros(2)
+
+
+def _kernel_evader(world: World, **options: Any) -> Any:
+    """The surveillance kernel's evader (:class:`tether.game.evader.KernelEvader`); reads the
+    kernel from ``world.extra["kernel"]`` unless ``kernel=`` is given."""
+    from tether.game.evader import KernelEvader
+
+    return KernelEvader(**options)
+
+
+TARGETS["kernel-evader"] = _kernel_evader

@@ -1,0 +1,95 @@
+"""``tether kernel``: the surveillance kernel of the bounded-speed game on a grid (issue #11)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from tether.cli.common import (
+    LSS_HELP,
+    check_plot_arg,
+    finite_arg,
+    float_arg,
+    int_range,
+    load_map_lss,
+    print_json,
+)
+
+
+def cmd_kernel(args: argparse.Namespace) -> int:
+    from tether.bounds import check_speeds
+    from tether.game import surveillance_kernel
+
+    check_plot_arg(args)
+    if args.save is not None:
+        from tether.output import check_output_path
+
+        check_output_path(args.save, (".npz",))
+    env = load_map_lss(args)
+    check_speeds(args.vt, args.vo, args.lss)
+    if args.h is not None and not (math.isfinite(args.h) and args.h > 0):
+        from tether.errors import InvalidParameterError
+
+        raise InvalidParameterError(f"--h must be a finite number > 0, got {args.h}")
+    k = surveillance_kernel(env, args.lss, args.vt, args.vo, h=args.h,
+                            orientations=args.orientations, directions=args.directions,
+                            scheme=args.scheme)
+    out = k.to_dict()
+    if args.at is not None:
+        x, y, a = args.at
+        out["at"] = {"x": x, "y": y, "a": a, "in_kernel": bool(k.contains([[x, y]], a)[0]),
+                     "margin": float(k.margin([[x, y]], a)[0])}
+    if args.save is not None:
+        from tether.output import atomic_output
+
+        with atomic_output(args.save) as tmp:
+            with open(tmp, "wb") as fh:
+                k.save(fh)
+    if args.plot:
+        from tether.plot import save
+        from tether.plot_kernel import kernel_figure
+
+        save(kernel_figure(k), args.plot)
+    if args.json:
+        print_json(out)
+        return 0
+    g = out["grid"]
+    print(f"map {out['map']!r}, lss {k.lss:g}, vt {k.vt:g}, vo {k.vo:g} ({k.scheme} scheme)")
+    print(f"  grid h {g['h']:.4g}, {g['orientations']} orientations, shape {g['shape']}: "
+          f"{out['states']} states, {out['free_states']} free")
+    print(f"  kernel: {out['kernel_states']} states ({100 * out['safe_fraction']:.1f}% of the "
+          f"free ones); {out['no_safe_start_points']} target points with no safe start")
+    state = "converged" if out["converged"] else "NOT converged"
+    print(f"  {out['iterations']} iterations, {state}, {out['seconds']:.2f} s")
+    if "at" in out:
+        at = out["at"]
+        verdict = "IN the kernel" if at["in_kernel"] else "outside the kernel"
+        print(f"  ({at['x']:g}, {at['y']:g}, {at['a']:g} rad) is {verdict}, "
+              f"margin {at['margin']:+.4f} rad")
+    return 0
+
+
+def register(add) -> None:
+    """Add this group's subcommands; ``add(name, fn, help)`` returns the subparser."""
+    sp = add("kernel", cmd_kernel,
+             "the surveillance kernel: the states from which the observer can keep the target "
+             "in sight forever (bounded-speed game on a grid)")
+    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
+    sp.add_argument("--vt", type=float_arg, required=True, help="target speed bound")
+    sp.add_argument("--vo", type=float_arg, required=True, help="observer speed bound (> vt)")
+    sp.add_argument("--h", type=float_arg, default=None,
+                    help="lattice spacing (map units; default 1/100 of the map's larger side)")
+    sp.add_argument("--orientations", type=int_range(8, 3600), default=180,
+                    help="orientation bins (default 180)")
+    sp.add_argument("--directions", type=int, choices=(8, 16), default=8,
+                    help="target headings of the discrete game (default 8)")
+    sp.add_argument("--scheme", choices=("inner", "outer"), default="inner",
+                    help="rounding of the observer's rates: inner = conservative (default), "
+                         "outer = optimistic")
+    sp.add_argument("--at", nargs=3, type=finite_arg, metavar=("X", "Y", "A"),
+                    help="also report whether (x, y, a) (a in radians) is in the kernel")
+    sp.add_argument("--json", action="store_true", help="print JSON")
+    sp.add_argument("--plot", metavar="FILE",
+                    help="draw the safe fraction and slices of the kernel to an image file")
+    sp.add_argument("--save", metavar="FILE.npz", help="save the kernel (numpy .npz)")

@@ -1,0 +1,110 @@
+"""Figures of the surveillance kernel (:mod:`tether.game`): the plane coloured by the safe
+fraction of orientations, and slices of the kernel at chosen orientations.
+
+Like :mod:`tether.plot`, functions take ``ax=None`` / ``fig=None``, return the artists or the
+figure, and never call ``plt.show()``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
+
+from tether.plot import _ax, plot_map
+
+#: Slice colours: blocked rod, free but outside the kernel, in the kernel.
+SLICE_COLOURS = ("0.85", "tab:orange", "tab:green")
+
+
+def _extent(kernel: Any) -> tuple[float, float, float, float]:
+    g = kernel.grid
+    ny, nx, _ = g.shape
+    x0, y0 = g.origin
+    return (x0 - g.h / 2, x0 + (nx - 0.5) * g.h, y0 - g.h / 2, y0 + (ny - 0.5) * g.h)
+
+
+def _lattice(kernel: Any, values: np.ndarray, fill: float = np.nan) -> np.ndarray:
+    """Scatter per-point values onto the (ny, nx) lattice."""
+    g = kernel.grid
+    ny, nx, _ = g.shape
+    out = np.full((ny, nx), fill, dtype=float)
+    out[g.ij[:, 1], g.ij[:, 0]] = values
+    return out
+
+
+def plot_safe_fraction(kernel: Any, ax: Any = None, colorbar: bool = True) -> list:
+    """The plane coloured by the fraction of each point's free orientations in the kernel;
+    points with free orientations but no safe one are marked with red dots."""
+    ax = _ax(ax)
+    img = ax.imshow(_lattice(kernel, kernel.safe_fraction()), origin="lower",
+                    extent=_extent(kernel), vmin=0, vmax=1, cmap="viridis",
+                    interpolation="nearest", zorder=1)
+    arts: list = [img]
+    arts += plot_map(kernel.grid.env, ax, labels=False)
+    bad = kernel.no_safe_start
+    if len(bad):
+        arts.append(ax.scatter(bad[:, 0], bad[:, 1], s=2, color="tab:red",
+                               label="no safe orientation"))
+    if colorbar:
+        ax.figure.colorbar(img, ax=ax, label="safe fraction of free orientations")
+    ax.set_title(f"kernel: vt/vo = {kernel.vt / kernel.vo:.2g}, lss = {kernel.lss:g}")
+    ax.set_aspect("equal")
+    return arts
+
+
+def plot_kernel_slice(kernel: Any, angle: float, ax: Any = None) -> list:
+    """The slice of the kernel at the orientation bin nearest ``angle`` (radians): grey where
+    the rod is blocked, orange where it is free but outside the kernel, green inside."""
+    ax = _ax(ax)
+    g = kernel.grid
+    k = int(g.bin_at(np.array([angle]))[0])
+    code = g.free[:, k].astype(float) + kernel.kernel[:, k]
+    img = ax.imshow(_lattice(kernel, code), origin="lower", extent=_extent(kernel),
+                    cmap=ListedColormap(list(SLICE_COLOURS)), vmin=-0.5, vmax=2.5,
+                    interpolation="nearest", zorder=1)
+    arts: list = [img]
+    arts += plot_map(g.env, ax, labels=False)
+    ax.set_title(f"a = {math.degrees(g.angles[k]):.0f}°")
+    ax.set_aspect("equal")
+    return arts
+
+
+def kernel_figure(kernel: Any, angles: tuple[float, ...] = (0.0, math.pi / 2, math.pi,
+                                                             3 * math.pi / 2),
+                  fig: Any = None) -> Figure:
+    """Safe fraction beside slices of the kernel at ``angles`` (radians)."""
+    if fig is None:
+        fig = Figure(figsize=(4.2 * (1 + math.ceil(len(angles) / 2)), 7.0), layout="constrained")
+    ncols = 1 + math.ceil(len(angles) / 2)
+    gs = fig.add_gridspec(2, ncols)
+    plot_safe_fraction(kernel, fig.add_subplot(gs[:, 0]))
+    for n, a in enumerate(angles):
+        plot_kernel_slice(kernel, a, fig.add_subplot(gs[n % 2, 1 + n // 2]))
+    fig.suptitle("surveillance kernel — green: safe, orange: free but the target wins, "
+                 "grey: rod blocked", fontsize=9)
+    return fig
+
+
+def plot_kernel_run(kernel: Any, result: Any, ax: Any = None) -> list:
+    """A simulator run (:class:`~tether.sim.simulate.SimResult`) drawn over the safe-fraction
+    map: target path, observer path, a few rods, and where the run was lost if it was."""
+    from tether.plot import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR
+
+    ax = _ax(ax)
+    arts = plot_safe_fraction(kernel, ax, colorbar=False)
+    tr = result.trace
+    p, o = tr.p, tr.observer
+    arts += ax.plot(p[:, 0], p[:, 1], color=TARGET_COLOUR, lw=1.5, label="target", zorder=4)
+    arts += ax.plot(o[:, 0], o[:, 1], color=OBSERVER_COLOUR, lw=1.5, label="observer", zorder=4)
+    for i in np.linspace(0, len(p) - 1, 8).astype(int):
+        arts += ax.plot([p[i, 0], o[i, 0]], [p[i, 1], o[i, 1]], color=ROD_COLOUR, lw=1, zorder=4)
+    if not result.held:
+        arts.append(ax.scatter(*p[-1], marker="x", color="tab:red", s=60, zorder=5,
+                               label=f"lost at t = {result.lost_at:.2f} s"))
+    ax.legend(loc="upper right", fontsize=7)
+    ax.set_title(f"{result.controller} vs {result.target}: {result.outcome}")
+    return arts

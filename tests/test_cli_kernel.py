@@ -1,0 +1,69 @@
+"""``tether kernel``: JSON keys of the issue, --at, --save/--plot, exit 2 on bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tether.cli import example_path, main
+from tether.game import load_kernel
+
+BASE = ["kernel", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "--vo", "1",
+        "--h", "0.5", "--orientations", "36"]
+
+
+def test_kernel_json_and_at(capsys, tmp_path):
+    npz = tmp_path / "k.npz"
+    png = tmp_path / "k.png"
+    assert main([*BASE, "--json", "--at", "3", "2", "1.0", "--save", str(npz),
+                 "--plot", str(png)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("states", "free_states", "kernel_states", "iterations", "converged", "seconds"):
+        assert key in out
+    assert set(out["grid"]) >= {"h", "orientations", "shape"}
+    assert out["grid"]["orientations"] == 36
+    assert out["at"]["in_kernel"] is True and out["at"]["margin"] > 0
+    assert load_kernel(npz).kernel_states == out["kernel_states"]
+    assert png.stat().st_size > 0
+
+
+def test_kernel_text(capsys):
+    assert main(BASE) == 0
+    assert "kernel:" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--vt", "2"], "vo must exceed vt"),
+    (["--h", "-1"], "h must be"),
+    (["--save", "k.txt"], ".npz"),
+    (["--plot", "k.xyz"], "extension"),
+])
+def test_kernel_bad_input_exit_2(capsys, extra, message, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main([*BASE, *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_kernel_figures(tmp_path):
+    import math
+
+    from tether.environment import load_map
+    from tether.game import surveillance_kernel
+    from tether.game.controller import KernelController
+    from tether.plot import save
+    from tether.plot_kernel import kernel_figure, plot_kernel_run
+    from tether.sim.protocols import World
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    env = load_map(example_path("nonconvex_corner"))
+    k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.5, orientations=36)
+    save(kernel_figure(k, angles=(0.0, math.pi)), tmp_path / "k.png")
+    w = World(env, 1.0, 0.6, 1.0, extra={"kernel": k})
+    r = simulate(w, KernelController(), make_target("kernel-evader", w), (5.0, 5.0, 0.0),
+                 duration=2.0, dt=0.05)
+    arts = plot_kernel_run(k, r)
+    assert arts
+    assert (tmp_path / "k.png").stat().st_size > 0
