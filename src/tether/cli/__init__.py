@@ -39,10 +39,12 @@ GROUPS = [
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors: ``tether CMD: error: ... (see tether CMD --help)``."""
+    """argparse whose usage errors are one line: ``tether: error: CMD: ...``."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        _say(f"{self.prog}: error: {one_line(message)} (see '{self.prog} --help')")
+        command = self.prog.partition(" ")[2]
+        where = f"{command}: " if command else ""
+        _say(f"tether: error: {where}{one_line(message)} (see '{self.prog} --help')")
         raise SystemExit(EXIT_USAGE)
 
 
