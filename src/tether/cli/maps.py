@@ -176,7 +176,8 @@ def format_verdict(verdict) -> str:
     lines = [f"map {verdict.dec.env.name!r}, lss {verdict.dec.lss:g}: {head}",
              f"  {c['regions']} regions, {c['cells']} cells, {c['edges']} edges in G; "
              f"{c['surviving_cells']} cells survive the elimination "
-             f"({len(verdict.eliminated)} eliminated in {verdict.rounds} rounds)"]
+             f"({len(verdict.eliminated)} eliminated in {verdict.rounds} "
+             f"round{'' if verdict.rounds == 1 else 's'})"]
     if verdict.witness_region is not None:
         lines.append(f"  witness region: R{verdict.witness_region}")
     lines += ["  " + s for s in verdict.story()]
