@@ -278,3 +278,26 @@ def test_garbage_bytes_never_a_traceback(tmp_path_factory, raw):
         except TetherError as exc:
             assert "\n" not in str(exc)
     assert sorted(os.listdir(folder)) == ["m.json", "m.wkt"]
+
+
+def test_every_command_has_a_help_example(capsys):
+    from tether.cli import EXAMPLES, build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for name in sub.choices:
+        assert EXAMPLES.get(name, "").startswith(f"tether {name}"), name
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["info", "--help"])
+    out = capsys.readouterr().out
+    assert "example:" in out and "map files:" in out
+
+
+@pytest.mark.parametrize("name", ["info", "arcs", "analyze", "bound"])
+def test_help_examples_run(capsys, monkeypatch, name):
+    import shlex
+    from pathlib import Path
+
+    from tether.cli import EXAMPLES
+
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    assert main(shlex.split(EXAMPLES[name])[1:]) == 0

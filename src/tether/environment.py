@@ -502,9 +502,11 @@ class Environment:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    tmp.replace(path)
+    """Write ``text`` to ``path`` whole or not at all (:func:`tether.output.atomic_output`)."""
+    from tether.output import atomic_output
+
+    with atomic_output(path) as tmp:
+        tmp.write_text(text)
 
 
 # ---------------------------------------------------------------------- readers

@@ -206,7 +206,8 @@ def escape_story(v: Verdict) -> list[str]:
     dec = v.dec
     if v.strategy_exists:
         lines = [f"{len(v.surviving)} of {len(dec.cells)} cells survive the elimination "
-                 f"({len(v.eliminated)} eliminated in {v.rounds} rounds): a surveillance "
+                 f"({len(v.eliminated)} eliminated in {v.rounds} "
+                 f"round{'' if v.rounds == 1 else 's'}): a surveillance "
                  "strategy can exist if the rod starts in a surviving cell."]
         if v.eliminated:
             e = v.eliminated[0]

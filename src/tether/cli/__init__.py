@@ -41,23 +41,63 @@ GROUPS = [
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors: ``tether CMD: error: ... (see tether CMD --help)``."""
+    """argparse whose usage errors are one line: ``tether: error: CMD: ...``."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        _say(f"{self.prog}: error: {one_line(message)} (see '{self.prog} --help')")
+        command = self.prog.partition(" ")[2]
+        where = f"{command}: " if command else ""
+        _say(f"tether: error: {where}{one_line(message)} (see '{self.prog} --help')")
         raise SystemExit(EXIT_USAGE)
+
+
+_EX = "src/tether/examples"
+
+#: One example per command, shown by ``tether COMMAND --help``.
+EXAMPLES = {
+    "demo": "tether demo --out tether-demo",
+    "info": f"tether info {_EX}/gallery.json",
+    "arcs": f"tether arcs {_EX}/gallery.json --lss 2 --at 9 1.5",
+    "decompose": f"tether decompose {_EX}/gallery.wkt --lss 2 --plot gallery.png",
+    "analyze": f"tether analyze {_EX}/rectangle.json --lss 1 --json",
+    "check": f"tether check {_EX}/gallery.geojson --lss 2 --samples 50 --seed 7",
+    "bound": "tether bound --vt 1 --vo 2 --lss 1 --from 0 --to 1.5708",
+    "plot-motion": "tether plot-motion wall --vt 1 --vo 2 --lss 1 --out wall.png",
+    "convert": f"tether convert {_EX}/office.yaml office.geojson",
+    "sweep": f"tether sweep {_EX}/rectangle.json --lss 0.5:2:0.25",
+}
+
+#: Commands that read a map file; their help describes the format.
+MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep"}
+
+MAP_FORMAT = """\
+map files:
+  .json     {"name": "room", "boundary": [[x, y], ...], "holes": [[[x, y], ...], ...]}
+  .wkt      POLYGON ((x y, ...), (hole ...))
+  .geojson  a Polygon, a Feature with a Polygon, or a FeatureCollection of one Feature
+  Vertices V0.. and edges E0.. follow the file's order (boundary first, then each hole).
+  lss must be 0.001 to 1000 times the map's diameter (its bounding box's diagonal).
+exit status: 0 ok, 1 check failed, 2 user error (one line), 3 internal error."""
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="tether",
         description="Keep a moving target in sight at a fixed distance inside a polygonal map.",
+        epilog="run 'tether COMMAND --help' for a command's options and an example; "
+               "'tether demo' runs the whole pipeline on the bundled maps.\n"
+               "exit status: 0 ok, 1 check failed, 2 user error (one line), "
+               "3 internal error (TETHER_DEBUG=1 shows the traceback).",
     )
     p.add_argument("--version", action="version", version=f"tether {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name: str, fn: Callable, help_: str) -> argparse.ArgumentParser:
-        sp = sub.add_parser(name, help=help_, description=help_)
+        example = EXAMPLES.get(name)
+        epilog = f"example:\n  {example}" if example else None
+        if name in MAP_COMMANDS:
+            epilog = (epilog + "\n\n" if epilog else "") + MAP_FORMAT
+        sp = sub.add_parser(name, help=help_, description=help_, epilog=epilog,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
         sp.set_defaults(func=fn)
         return sp
 

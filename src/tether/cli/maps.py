@@ -19,6 +19,16 @@ from tether.cli.common import (
 )
 from tether.tolerances import SAMPLES_RANGE
 
+#: ``tether info`` lists at most this many vertices unless ``--all``.
+INFO_MAX_ROWS = 40
+
+
+def vertex_rows(env) -> list[dict]:
+    """One row per vertex in file order: name, coordinates, ring (0 = boundary), reflex."""
+    return [{"name": env.vertex_name(j), "x": float(x), "y": float(y),
+             "ring": int(env.ring_of[j]), "reflex": bool(env.reflex[j])}
+            for j, (x, y) in enumerate(env.vertices)]
+
 
 def cmd_info(args: argparse.Namespace) -> int:
     from tether.environment import load_map
@@ -26,14 +36,23 @@ def cmd_info(args: argparse.Namespace) -> int:
     env = load_map(args.map)
     info = env.summary()
     if args.json:
-        print_json(info)
+        print_json({**info, "vertex_list": vertex_rows(env)})
         return 0
     x0, y0, x1, y1 = info["bounding_box"]
     print(f"map {info['name']!r}: {info['vertices']} vertices, {info['edges']} edges, "
           f"{info['holes']} holes")
-    print(f"area {info['area']:.6g}, bounding box [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]")
+    print(f"area {info['area']:.6g}, bounding box [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}], "
+          f"diameter {env.diameter:.6g}")
     reflex = info["reflex_vertices"]
     print(f"reflex vertices ({len(reflex)}): {' '.join(reflex) if reflex else '-'}")
+    rows = vertex_rows(env)
+    shown = rows if args.all or len(rows) <= INFO_MAX_ROWS else rows[:INFO_MAX_ROWS]
+    for r in shown:
+        ring = "boundary" if r["ring"] == 0 else f"hole {r['ring'] - 1}"
+        print(f"  {r['name']:>6}  ({r['x']:.6g}, {r['y']:.6g})  {ring}"
+              + ("  reflex" if r["reflex"] else ""))
+    if len(shown) < len(rows):
+        print(f"  ... {len(rows) - len(shown)} more vertices (--all lists them)")
     return 0
 
 
@@ -157,7 +176,8 @@ def format_verdict(verdict) -> str:
     lines = [f"map {verdict.dec.env.name!r}, lss {verdict.dec.lss:g}: {head}",
              f"  {c['regions']} regions, {c['cells']} cells, {c['edges']} edges in G; "
              f"{c['surviving_cells']} cells survive the elimination "
-             f"({len(verdict.eliminated)} eliminated in {verdict.rounds} rounds)"]
+             f"({len(verdict.eliminated)} eliminated in {verdict.rounds} "
+             f"round{'' if verdict.rounds == 1 else 's'})"]
     if verdict.witness_region is not None:
         lines.append(f"  witness region: R{verdict.witness_region}")
     lines += ["  " + s for s in verdict.story()]
@@ -195,9 +215,11 @@ def register(add) -> None:
     sp = add("demo", cmd_demo, "run the whole pipeline on the bundled examples")
     sp.add_argument("--out", default="tether-demo", help="folder for the demo's figures")
 
-    sp = add("info", cmd_info, "summarize a map: vertices, edges, reflex vertices, area")
+    sp = add("info", cmd_info, "summarize a map: vertices (coordinates, reflex), edges, area")
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--json", action="store_true", help="print JSON")
+    sp.add_argument("--all", action="store_true",
+                    help=f"list every vertex (default: the first {INFO_MAX_ROWS})")
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
