@@ -22,7 +22,13 @@ from shapely.geometry import LinearRing, Polygon
 
 from tether.errors import InvalidMapError
 from tether.spatial import EdgeIndex
-from tether.tolerances import MAX_MAP_BYTES, MAX_VERTICES, REL_LENGTH_TOL, REL_STRAIGHT_TOL
+from tether.tolerances import (
+    MAX_MAP_BYTES,
+    MAX_VERTICES,
+    REL_FEATURE_TOL,
+    REL_LENGTH_TOL,
+    REL_STRAIGHT_TOL,
+)
 
 _JSON_KEYS = {"boundary", "holes", "name"}
 
@@ -140,6 +146,45 @@ def _worst_in_runs(ring: np.ndarray, flags: np.ndarray) -> list[int]:
     return out
 
 
+def _check_resolution(env: Environment) -> None:
+    """Reject walls and gaps thinner than ``REL_FEATURE_TOL`` times the diameter: a vertex (not
+    straight) closer than that to a wall it does not bound. A wall is a maximal run of edges
+    joined by straight vertices, named after its first edge."""
+    keep = ~env.straight
+    V = env.frame.to_internal(env.vertices)
+    limit = REL_FEATURE_TOL * env.diameter * env.frame.scale
+    # wall of each edge: the kept vertex at or before the edge's start, along its ring
+    wall = np.empty(env.n, dtype=int)
+    prev_kept = np.empty(env.n, dtype=int)
+    start = 0
+    for r in env.rings:
+        idx = np.arange(start, start + len(r))
+        kept = idx[keep[idx]]
+        pos = np.searchsorted(kept, idx, side="right") - 1  # -1: before the first kept one
+        wall[idx] = kept[pos]  # pos -1 wraps to the ring's last kept vertex
+        prev_kept[kept] = np.roll(kept, 1)
+        start += len(r)
+    pts = np.flatnonzero(keep)
+    nxt = env.next_vertex
+    index = EdgeIndex.build(V, V[nxt], limit)
+    pi, ei = index.query(V[pts])
+    j = pts[pi]
+    ok = (wall[ei] != j) & (wall[ei] != prev_kept[j])
+    j, ei = j[ok], ei[ok]
+    a, b = V[ei], V[nxt[ei]]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", V[j] - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    dist = np.hypot(*(a + t[:, None] * ab - V[j]).T)
+    close = np.flatnonzero(dist < limit)
+    if len(close):
+        k = close[int(np.argmin(dist[close]))]
+        scale = env.frame.scale
+        raise InvalidMapError(
+            f"V{j[k]} is {_fmt(dist[k] / scale)} from wall E{wall[ei[k]]}: a wall or gap "
+            f"thinner than tether's resolution ({REL_FEATURE_TOL:g} x the map's diameter = "
+            f"{_fmt(limit / scale)}); widen it or remove it")
+
+
 @dataclass(frozen=True)
 class Frame:
     """A similarity to the internal frame: ``internal = (user - origin) * scale``; ``scale``
@@ -213,6 +258,7 @@ class Environment:
                                           f"({_fmt(at.x)}, {_fmt(at.y)})")
             hole_polys.append(hp)
             first += len(h)
+        _check_resolution(self)
 
     # ------------------------------------------------------------------ structure
     @property

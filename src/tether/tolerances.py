@@ -56,3 +56,10 @@ SAMPLES_RANGE = (1, 100_000)
 #: ``4 * REL_STRAIGHT_TOL`` radians of pi). Straight vertices produce no curves and no regions;
 #: the walls they join keep the file's name of their first edge.
 REL_STRAIGHT_TOL = 1e-7
+
+#: Geometric resolution, relative to the map diameter: a wall or a gap thinner than this (a
+#: vertex closer than ``REL_FEATURE_TOL * diameter`` to a wall it does not bound, straight
+#: vertices aside) is rejected with a message naming the vertex and the wall. Curves overshoot
+#: their ends by ``20 * REL_CURVE_TOL`` (see :mod:`tether.curves`); features thinner than a few
+#: times that cannot be told apart by the decomposition (``check`` then disagrees).
+REL_FEATURE_TOL = 5e-5
