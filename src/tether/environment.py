@@ -166,8 +166,9 @@ def _check_resolution(env: Environment) -> None:
         start += len(r)
     pts = np.flatnonzero(keep)
     nxt = env.next_vertex
-    index = EdgeIndex.build(V, V[nxt], limit)
-    pi, ei = index.query(V[pts])
+    segs = shapely.linestrings(np.stack((V, V[nxt]), axis=1))
+    pi, ei = shapely.STRtree(segs).query(shapely.points(V[pts]), predicate="dwithin",
+                                         distance=limit)
     j = pts[pi]
     ok = (wall[ei] != j) & (wall[ei] != prev_kept[j])
     j, ei = j[ok], ei[ok]
