@@ -193,3 +193,14 @@ def test_near_collinear_vertices_are_straight():
         env = Environment([[0, 0], [5, -dev * 10], [10, 0], [10, 10], [0, 10]], ())
         assert bool(env.straight[1]) is straight
         assert (len(decompose(env, 3.0).regions) == 13) is straight
+
+
+def test_features_exactly_lss_apart():
+    """Reflex vertices exactly lss apart (a D line of zero length) and a pole exactly lss from
+    an edge (a conchoid reduced to a point): one ulp of lss either way changes nothing."""
+    env = Environment([[0, 0], [12, 0], [12, 12], [0, 12]],
+                      ([[3, 3], [3, 5], [5, 5], [5, 3]], [[7, 3], [7, 5], [9, 5], [9, 3]]),
+                      "two_holes")
+    got = [counts_only(summary(env, lss)) for lss in
+           (np.nextafter(2.0, 0.0), 2.0, np.nextafter(2.0, 3.0))]
+    assert got[0] == got[1] == got[2]
