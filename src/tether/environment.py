@@ -207,6 +207,23 @@ def _check_resolution(env: Environment) -> None:
             f"{_fmt(limit / scale)}); widen it or remove it")
 
 
+def _point_set_diameter(pts: np.ndarray) -> float:
+    """Largest distance between two of the points (m, 2): exact over the convex hull's
+    vertices (in chunks), computed about their centre (no cancellation at large offsets)."""
+    c = pts.mean(axis=0)
+    hull = shapely.convex_hull(shapely.multipoints(pts - c))
+    h = shapely.get_coordinates(hull)
+    if len(h) > 4000:  # a huge hull: its width over many directions (relative error 1e-7)
+        ang = np.linspace(0.0, math.pi, 8192, endpoint=False)
+        proj = h @ np.vstack((np.cos(ang), np.sin(ang)))
+        return float((proj.max(axis=0) - proj.min(axis=0)).max())
+    best = 0.0
+    for lo in range(0, len(h), 1000):
+        d = h[lo:lo + 1000, None, :] - h[None, :, :]
+        best = max(best, float(np.sqrt(np.einsum("ijk,ijk->ij", d, d).max())))
+    return best
+
+
 @dataclass(frozen=True)
 class Frame:
     """A similarity to the internal frame: ``internal = (user - origin) * scale``; ``scale``
@@ -393,7 +410,7 @@ class Environment:
     @cached_property
     def frame(self) -> Frame:
         """The normalized internal frame: origin at the bounding box's centre, scale a power of
-        two bringing the diameter near 1 (so that scaling is exact)."""
+        two bringing the bounding box's diagonal near 1 (so that scaling is exact)."""
         if self.__dict__.get("_is_internal"):
             return Frame(np.zeros(2), 1.0)
         x0, y0, x1, y1 = self.bounds
@@ -467,11 +484,12 @@ class Environment:
         hi = self.boundary.max(axis=0)
         return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
-    @property
+    @cached_property
     def diameter(self) -> float:
-        """Diagonal of the bounding box, map units."""
-        x0, y0, x1, y1 = self.bounds
-        return math.hypot(x1 - x0, y1 - y0)
+        """The map's diameter: the largest distance between two vertices, map units. Unlike
+        the bounding box's diagonal it does not change when the map is rotated, so neither do
+        the tolerances relative to it."""
+        return _point_set_diameter(self.boundary)
 
     @property
     def length_tol(self) -> float:
