@@ -174,15 +174,12 @@ def _check_resolution(env: Environment) -> None:
     keep = ~env.straight
     V = env.frame.to_internal(env.vertices)
     limit = REL_FEATURE_TOL * env.diameter * env.frame.scale
-    # wall of each edge: the kept vertex at or before the edge's start, along its ring
-    wall = np.empty(env.n, dtype=int)
+    wall = env.wall_of
     prev_kept = np.empty(env.n, dtype=int)
     start = 0
     for r in env.rings:
         idx = np.arange(start, start + len(r))
         kept = idx[keep[idx]]
-        pos = np.searchsorted(kept, idx, side="right") - 1  # -1: before the first kept one
-        wall[idx] = kept[pos]  # pos -1 wraps to the ring's last kept vertex
         prev_kept[kept] = np.roll(kept, 1)
         start += len(r)
     pts = np.flatnonzero(keep)
@@ -406,6 +403,22 @@ class Environment:
             out[start:start + len(r)] = _straight_flags(r - r.mean(axis=0))
             start += len(r)
         return out
+
+    @cached_property
+    def wall_of(self) -> np.ndarray:
+        """For each edge ``Ei``, the file index of the first edge of its wall, shape (n,). A
+        wall is a maximal run of edges joined by straight vertices; results name it after that
+        edge (``E<wall_of[i]>``), and a straight vertex's name never appears."""
+        keep = ~self.straight
+        wall = np.empty(self.n, dtype=int)
+        start = 0
+        for r in self.rings:
+            idx = np.arange(start, start + len(r))
+            kept = idx[keep[idx]]
+            pos = np.searchsorted(kept, idx, side="right") - 1  # -1: before the first kept one
+            wall[idx] = kept[pos]  # pos -1 wraps to the ring's last kept vertex
+            start += len(r)
+        return wall
 
     @cached_property
     def frame(self) -> Frame:
