@@ -34,6 +34,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     print(f"area {info['area']:.6g}, bounding box [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]")
     reflex = info["reflex_vertices"]
     print(f"reflex vertices ({len(reflex)}): {' '.join(reflex) if reflex else '-'}")
+    straight = info.get("straight_vertices", [])
+    if straight:
+        print(f"straight vertices ({len(straight)}, no features: their walls keep the name of "
+              f"their first edge): {' '.join(straight)}")
     return 0
 
 
