@@ -298,7 +298,8 @@ def _family_d(env: Environment, L: float) -> Family:
     if len(R) > 1:
         diff = V[R][:, None, :] - V[R][None, :, :]
         dist = np.linalg.norm(diff, axis=2)
-        i1, i2 = np.nonzero((dist < L) & (dist > 0))
+        # the two vertices must be within lss by more than the tolerance
+        i1, i2 = np.nonzero((dist < L - env.length_tol) & (dist > 0))
         for a, b in zip(i1, i2, strict=True):
             v1, v2 = R[a], R[b]
             if env.next_vertex[v1] == v2 or env.next_vertex[v2] == v1:
@@ -331,8 +332,9 @@ def _family_e(env: Environment, L: float) -> Family:
             ee = e @ e
             b = e @ rel
             disc = b * b - ee * (rel @ rel - L * L)
-            if disc <= 0:
-                continue
+            foot = min(max(b / ee, 0.0), 1.0)
+            if disc <= 0 or np.hypot(*(rel - foot * e)) >= L - env.length_tol:
+                continue  # the pole must be within lss of the edge by more than the tolerance
             sq = math.sqrt(disc)
             s0, s1 = max(0.0, (b - sq) / ee), min(1.0, (b + sq) / ee)
             if s1 - s0 <= 1e-12:

@@ -28,6 +28,7 @@ from tether.tolerances import (
     MAX_VERTICES,
     MIN_DIAMETER,
     MIN_DIAMETER_REL,
+    REL_FEATURE_TOL,
     REL_LENGTH_TOL,
     REL_STRAIGHT_TOL,
 )
@@ -166,6 +167,60 @@ def _worst_in_runs(ring: np.ndarray, flags: np.ndarray) -> list[int]:
     return out
 
 
+def _check_resolution(env: Environment) -> None:
+    """Reject walls and gaps thinner than ``REL_FEATURE_TOL`` times the diameter: a vertex (not
+    straight) closer than that to a wall it does not bound. A wall is a maximal run of edges
+    joined by straight vertices, named after its first edge."""
+    keep = ~env.straight
+    V = env.frame.to_internal(env.vertices)
+    limit = REL_FEATURE_TOL * env.diameter * env.frame.scale
+    wall = env.wall_of
+    prev_kept = np.empty(env.n, dtype=int)
+    start = 0
+    for r in env.rings:
+        idx = np.arange(start, start + len(r))
+        kept = idx[keep[idx]]
+        prev_kept[kept] = np.roll(kept, 1)
+        start += len(r)
+    pts = np.flatnonzero(keep)
+    nxt = env.next_vertex
+    segs = shapely.linestrings(np.stack((V, V[nxt]), axis=1))
+    pi, ei = shapely.STRtree(segs).query(shapely.points(V[pts]), predicate="dwithin",
+                                         distance=limit)
+    j = pts[pi]
+    ok = (wall[ei] != j) & (wall[ei] != prev_kept[j])
+    j, ei = j[ok], ei[ok]
+    a, b = V[ei], V[nxt[ei]]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", V[j] - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    dist = np.hypot(*(a + t[:, None] * ab - V[j]).T)
+    close = np.flatnonzero(dist < limit)
+    if len(close):
+        k = close[int(np.argmin(dist[close]))]
+        scale = env.frame.scale
+        raise InvalidMapError(
+            f"V{j[k]} is {_fmt(dist[k] / scale)} from wall E{wall[ei[k]]}: a wall or gap "
+            f"thinner than tether's resolution ({REL_FEATURE_TOL:g} x the map's diameter = "
+            f"{_fmt(limit / scale)}); widen it or remove it")
+
+
+def _point_set_diameter(pts: np.ndarray) -> float:
+    """Largest distance between two of the points (m, 2): exact over the convex hull's
+    vertices (in chunks), computed about their centre (no cancellation at large offsets)."""
+    c = pts.mean(axis=0)
+    hull = shapely.convex_hull(shapely.multipoints(pts - c))
+    h = shapely.get_coordinates(hull)
+    if len(h) > 4000:  # a huge hull: its width over many directions (relative error 1e-7)
+        ang = np.linspace(0.0, math.pi, 8192, endpoint=False)
+        proj = h @ np.vstack((np.cos(ang), np.sin(ang)))
+        return float((proj.max(axis=0) - proj.min(axis=0)).max())
+    best = 0.0
+    for lo in range(0, len(h), 1000):
+        d = h[lo:lo + 1000, None, :] - h[None, :, :]
+        best = max(best, float(np.sqrt(np.einsum("ijk,ijk->ij", d, d).max())))
+    return best
+
+
 @dataclass(frozen=True)
 class Frame:
     """A similarity to the internal frame: ``internal = (user - origin) * scale``; ``scale``
@@ -240,6 +295,7 @@ class Environment:
                                           f"({_fmt(at.x)}, {_fmt(at.y)})")
             hole_polys.append(hp)
             first += len(h)
+        _check_resolution(self)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -349,9 +405,25 @@ class Environment:
         return out
 
     @cached_property
+    def wall_of(self) -> np.ndarray:
+        """For each edge ``Ei``, the file index of the first edge of its wall, shape (n,). A
+        wall is a maximal run of edges joined by straight vertices; results name it after that
+        edge (``E<wall_of[i]>``), and a straight vertex's name never appears."""
+        keep = ~self.straight
+        wall = np.empty(self.n, dtype=int)
+        start = 0
+        for r in self.rings:
+            idx = np.arange(start, start + len(r))
+            kept = idx[keep[idx]]
+            pos = np.searchsorted(kept, idx, side="right") - 1  # -1: before the first kept one
+            wall[idx] = kept[pos]  # pos -1 wraps to the ring's last kept vertex
+            start += len(r)
+        return wall
+
+    @cached_property
     def frame(self) -> Frame:
         """The normalized internal frame: origin at the bounding box's centre, scale a power of
-        two bringing the diameter near 1 (so that scaling is exact)."""
+        two bringing the bounding box's diagonal near 1 (so that scaling is exact)."""
         if self.__dict__.get("_is_internal"):
             return Frame(np.zeros(2), 1.0)
         x0, y0, x1, y1 = self.bounds
@@ -425,11 +497,12 @@ class Environment:
         hi = self.boundary.max(axis=0)
         return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
-    @property
+    @cached_property
     def diameter(self) -> float:
-        """Diagonal of the bounding box, map units."""
-        x0, y0, x1, y1 = self.bounds
-        return math.hypot(x1 - x0, y1 - y0)
+        """The map's diameter: the largest distance between two vertices, map units. Unlike
+        the bounding box's diagonal it does not change when the map is rotated, so neither do
+        the tolerances relative to it."""
+        return _point_set_diameter(self.boundary)
 
     @property
     def length_tol(self) -> float:

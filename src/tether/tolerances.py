@@ -5,8 +5,9 @@ frame`): the map translated to its bounding box's centre and scaled by a power o
 a diameter near 1, so every tolerance below is relative to the map and a map gives the same
 answer wherever it sits. Results are reported back in the user's coordinates.
 
-Lengths are compared with ``REL_LENGTH_TOL * diameter`` where ``diameter`` is the diagonal of
-the map's bounding box (see :attr:`tether.environment.Environment.length_tol`); angles with
+Lengths are compared with ``REL_LENGTH_TOL * diameter`` where ``diameter`` is the largest
+distance between two of the map's vertices, which rotation does not change (see
+:attr:`tether.environment.Environment.length_tol`); angles with
 ``ANGLE_TOL`` radians. Computed points (curve crossings, contacts) are always compared with
 these tolerances, never exactly.
 """
@@ -54,7 +55,8 @@ SAMPLES_RANGE = (1, 100_000)
 #: Map coordinates are at most this in absolute value (squares of differences stay finite).
 COORD_MAX = 1e15
 
-#: A map's diameter (bounding-box diagonal) is at least ``MIN_DIAMETER`` map units and at least
+#: A map's diameter (largest distance between two vertices) is at least ``MIN_DIAMETER`` map
+#: units and at least
 #: ``MIN_DIAMETER_REL`` times its largest absolute coordinate: a map 1e-12 of its own offset
 #: keeps fewer than 4 of a double's 16 digits for its shape.
 MIN_DIAMETER = 1e-9
@@ -65,3 +67,10 @@ MIN_DIAMETER_REL = 1e-12
 #: ``4 * REL_STRAIGHT_TOL`` radians of pi). Straight vertices produce no curves and no regions;
 #: the walls they join keep the file's name of their first edge.
 REL_STRAIGHT_TOL = 1e-7
+
+#: Geometric resolution, relative to the map diameter: a wall or a gap thinner than this (a
+#: vertex closer than ``REL_FEATURE_TOL * diameter`` to a wall it does not bound, straight
+#: vertices aside) is rejected with a message naming the vertex and the wall. Curves overshoot
+#: their ends by ``20 * REL_CURVE_TOL`` (see :mod:`tether.curves`); features thinner than a few
+#: times that cannot be told apart by the decomposition (``check`` then disagrees).
+REL_FEATURE_TOL = 5e-5

@@ -113,7 +113,7 @@ def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], i
 
 
 LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diameter "
-            "(its bounding box diagonal)")
+            "(the largest distance between two of its vertices)")
 
 
 def add_map_lss(sp: argparse.ArgumentParser) -> None:

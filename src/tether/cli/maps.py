@@ -45,6 +45,10 @@ def cmd_info(args: argparse.Namespace) -> int:
           f"diameter {env.diameter:.6g}")
     reflex = info["reflex_vertices"]
     print(f"reflex vertices ({len(reflex)}): {' '.join(reflex) if reflex else '-'}")
+    straight = info.get("straight_vertices", [])
+    if straight:
+        print(f"straight vertices ({len(straight)}, no features: their walls keep the name of "
+              f"their first edge): {' '.join(straight)}")
     rows = vertex_rows(env)
     shown = rows if args.all or len(rows) <= INFO_MAX_ROWS else rows[:INFO_MAX_ROWS]
     for r in shown:
