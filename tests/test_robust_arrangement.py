@@ -172,3 +172,17 @@ def test_random_maps_never_raise_geos_errors(case):
     except ArrangementError:  # allowed: a one-line refusal
         return
     assert np.isfinite(sum(r.area for r in dec.regions))
+
+
+def test_unverified_crossings_reach_the_users_verdict(monkeypatch):
+    """Pieces whose crossings could not be verified while building (here: every one) make the
+    self-check fail, through the conversion to the user's frame."""
+    import tether.decomposition as D
+
+    def garbage(env, lss, q, n, eps):
+        return ["?"] * len(q), ["?"] * len(q)
+
+    monkeypatch.setattr(D, "structures_across", garbage)
+    verdict = analyze(decompose(load_map(example_path("rectangle")), 1.0))
+    assert verdict.verified is False
+    assert verdict.self_check.piece_disagreements
