@@ -59,7 +59,20 @@ def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
         return [(FREE, FREE)]
     if s == "EMPTY":
         return []
-    return sorted((feature_name(env, a), feature_name(env, b)) for a, b in s)
+    memo = env.__dict__.setdefault("_structure_names", {})  # many regions share structures
+    got = memo.get(s)
+    if got is None:
+        names = _feature_names(env)
+        got = memo[s] = sorted((names[a], names[b]) for a, b in s)
+    return list(got)
+
+
+def _feature_names(env: Environment) -> list[str]:
+    """Every feature code's name (``feature_name``), computed once per map."""
+    got = env.__dict__.get("_feature_names")
+    if got is None:
+        got = env.__dict__["_feature_names"] = [feature_name(env, c) for c in range(2 * env.n)]
+    return got
 
 
 @dataclass(frozen=True)
@@ -526,7 +539,9 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         _absorb(specks, adjacent, plen, uf, face_struct)
     report("pieces", 0.85)
     pieces, unresolved_pieces = _make_pieces(env, arr, regions, chains, cands, curves, lss)
-    cells = tuple(Cell(cid, r.id, *_split_cell(cid)) for r in regions for cid in r.cells)
+    cells = tuple(Cell(cid, r.id, s, e) for r in regions
+                  for cid, (s, e) in zip(r.cells, structure_names(env, r.structure),
+                                         strict=True))
     report("done", 1.0)
     return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
                          unresolved_pieces)
@@ -554,20 +569,18 @@ def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.n
             todo.discard(f)
 
 
-def _split_cell(cid: str) -> tuple[str, str]:
-    _, s, e = cid.strip("()").split(",")
-    return s, e
-
-
 def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],
                   face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
                   ) -> tuple[list[Region], dict[int, int]]:
     """Regions from groups of faces, numbered by representative point (x, then y)."""
     drafts = []
+    face_area = arr.__dict__.get("_face_area")
+    if face_area is None:
+        face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
     for faces in groups.values():
         best = max(faces, key=lambda f: clear[f])
         poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
-        area = float(sum(arr.faces[f].area for f in faces))
+        area = float(face_area[faces].sum())
         drafts.append((tuple(np.round(pts[best], 9)), faces, poly, area, face_struct[best]))
     drafts.sort(key=lambda d: d[0])
     regions, face_region = [], {}

@@ -21,9 +21,14 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
     code_map = env.code_map
     k2 = frame.scale * frame.scale
 
+    renamed: dict[str, str] = {}  # cells repeat their features' names: rename each once
+
     def rename_cell(cid: str) -> str:
-        r, s, e = cid.strip("()").split(",")
-        return cell_name(int(r[1:]), names[s], names[e])
+        got = renamed.get(cid)
+        if got is None:
+            r, s, e = cid.strip("()").split(",")
+            got = renamed[cid] = cell_name(int(r[1:]), names[s], names[e])
+        return got
 
     def structure(st):
         if isinstance(st, str):
