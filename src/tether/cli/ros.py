@@ -5,43 +5,27 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
-from tether.cli.common import float_arg, print_json
+from tether.cli.common import finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
+from tether.output import IMAGE_KINDS
 
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
 
 
 def _check_output(path: str, kinds: tuple[str, ...]) -> Path:
-    """Validate an output path before computing (``tether.output`` when available)."""
-    try:
-        from tether.output import check_output_path
-    except ImportError:  # pragma: no cover - until tether.output lands
-        p = Path(path)
-        if p.suffix.lower() not in kinds:
-            raise InvalidParameterError(f"cannot write {path!r}: unknown extension "
-                                        f"{p.suffix or '(none)'!r}; use one of "
-                                        f"{', '.join(kinds)}") from None
-        folder = p.parent if str(p.parent) else Path(".")
-        if not folder.is_dir():
-            raise InvalidParameterError(f"cannot write {path!r}: folder {str(folder)!r} "
-                                        "does not exist") from None
-        return p
+    """Validate an output path before computing (:func:`tether.output.check_output_path`)."""
+    from tether.output import check_output_path
+
     return check_output_path(path, kinds)
 
 
 def _write_text(path: Path, text: str) -> None:
-    """Write ``text`` whole or not at all."""
-    try:
-        from tether.output import atomic_output
-    except ImportError:  # pragma: no cover - until tether.output lands
-        tmp = path.with_name(f".{path.name}.part")
-        tmp.write_text(text)
-        os.replace(tmp, path)
-        return
+    """Write ``text`` whole or not at all (:func:`tether.output.atomic_output`)."""
+    from tether.output import atomic_output
+
     with atomic_output(path) as tmp:
         Path(tmp).write_text(text)
 
@@ -62,7 +46,7 @@ def _load(args: argparse.Namespace):
 
 
 def _add_ros_options(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument("--seed", nargs=2, type=float_arg, metavar=("X", "Y"),
+    sp.add_argument("--seed", nargs=2, type=finite_arg, metavar=("X", "Y"),
                     help="ROS map: a point of the free space wanted (metres, map frame); "
                          "default: the largest free component")
     sp.add_argument("--simplify", type=float_arg, metavar="M",
@@ -172,7 +156,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.json and args.csv:
         raise InvalidParameterError("give --json or --csv, not both")
-    plot = _check_output(args.plot, (".png", ".pdf", ".svg", ".jpg")) if args.plot else None
+    plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
     values = parse_lss_range(args.lss)
     env = _load(args)
     executor, close = _executor(args)
@@ -220,7 +204,8 @@ def register(add) -> None:
     out.add_argument("--json", action="store_true", help="print JSON")
     out.add_argument("--csv", action="store_true", help="print CSV")
     sp.add_argument("--plot", metavar="FILE", help="draw the sweep to an image file")
-    sp.add_argument("--workers", type=int, metavar="N", help="run on N local processes")
+    sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
+                    help="run on N local processes (1 to 1024)")
     sp.add_argument("--dask", metavar="ADDRESS",
                     help="run on a Dask cluster (scheduler address; extra [cluster])")
     sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
