@@ -346,12 +346,15 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
     part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
     part_faces = np.full((len(parts), 2), -1)
-    slot = {}
-    for sid, f in zip(face_ids.tolist(), fowner.tolist(), strict=True):
-        slot.setdefault(sid, []).append(f)
-    for k, sid in enumerate(part_ids.tolist()):
-        fs = slot.get(sid, [])
-        part_faces[powner[longest[k]], : len(fs[:2])] = fs[:2]
+    # the first two faces (in face order) having each part's longest segment in their ring
+    order = np.argsort(face_ids, kind="stable")
+    sorted_ids, owner_sorted = face_ids[order], fowner[order]
+    pos = np.searchsorted(sorted_ids, part_ids)
+    for slot in (0, 1):
+        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
+        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
+            sorted_ids) else np.zeros(len(part_ids), bool)
+        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
