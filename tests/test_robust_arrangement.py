@@ -216,3 +216,25 @@ def test_batched_arc_and_rod_tests_equal_unbatched(monkeypatch):
     for f in ("point", "start", "end", "start_code", "end_code", "full"):
         assert np.array_equal(getattr(whole[0], f), getattr(batched[0], f))
     assert np.array_equal(whole[1], batched[1])
+
+
+def test_components_match_a_naive_union_find():
+    from tether.decomposition import _components
+
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        n = int(rng.integers(1, 40))
+        u, v = rng.integers(0, n, (2, int(rng.integers(0, 50))))
+        parent = list(range(n))
+
+        def find(a, parent=parent):
+            while parent[a] != a:
+                a = parent[a]
+            return a
+
+        for a, b in zip(u.tolist(), v.tolist(), strict=True):
+            parent[find(a)] = find(b)
+        label = _components(n, u, v)
+        roots = [find(i) for i in range(n)]
+        assert all((label[i] == label[j]) == (roots[i] == roots[j])
+                   for i in range(n) for j in range(n))
