@@ -172,3 +172,69 @@ def test_random_maps_never_raise_geos_errors(case):
     except ArrangementError:  # allowed: a one-line refusal
         return
     assert np.isfinite(sum(r.area for r in dec.regions))
+
+
+def test_unverified_crossings_reach_the_users_verdict(monkeypatch):
+    """Pieces whose crossings could not be verified while building (here: every one) make the
+    self-check fail, through the conversion to the user's frame."""
+    import tether.decomposition as D
+
+    def garbage(env, lss, q, n, eps):
+        return ["?"] * len(q), ["?"] * len(q)
+
+    monkeypatch.setattr(D, "structures_across", garbage)
+    verdict = analyze(decompose(load_map(example_path("rectangle")), 1.0))
+    assert verdict.verified is False
+    assert verdict.self_check.piece_disagreements
+
+
+def test_memory_bound_refuses_in_one_line(monkeypatch, capsys):
+    import tether.curves as C
+
+    monkeypatch.setattr(C, "MAX_CURVE_VERTICES", 50)
+    with pytest.raises(C.ResourceLimitError) as info:
+        decompose(load_map(example_path("gallery")), 2.0)
+    assert isinstance(info.value, TetherError) and "MAX_CURVE_VERTICES" in str(info.value)
+    assert main(["analyze", str(example_path("gallery")), "--lss", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "polyline vertices" in err[0]
+
+
+def test_batched_arc_and_rod_tests_equal_unbatched(monkeypatch):
+    import tether.arcs as A
+
+    env = load_map(example_path("gallery"))
+    rng = np.random.default_rng(3)
+    x0, y0, x1, y1 = env.bounds
+    pts = rng.uniform([x0, y0], [x1, y1], (3000, 2))
+    pts = pts[np.asarray(env.contains(pts[:, 0], pts[:, 1]), bool)
+              & (np.asarray(env.boundary_distance(pts[:, 0], pts[:, 1])) > 0)]
+    ang = rng.uniform(0, 2 * np.pi, len(pts))
+    whole = A.free_arcs_many(env, pts, 2.0, check=False), A.rod_is_free_many(env, pts, ang, 2.0)
+    monkeypatch.setattr(A, "POINT_BATCH", 97)
+    batched = A.free_arcs_many(env, pts, 2.0, check=False), A.rod_is_free_many(env, pts, ang, 2.0)
+    for f in ("point", "start", "end", "start_code", "end_code", "full"):
+        assert np.array_equal(getattr(whole[0], f), getattr(batched[0], f))
+    assert np.array_equal(whole[1], batched[1])
+
+
+def test_components_match_a_naive_union_find():
+    from tether.decomposition import _components
+
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        n = int(rng.integers(1, 40))
+        u, v = rng.integers(0, n, (2, int(rng.integers(0, 50))))
+        parent = list(range(n))
+
+        def find(a, parent=parent):
+            while parent[a] != a:
+                a = parent[a]
+            return a
+
+        for a, b in zip(u.tolist(), v.tolist(), strict=True):
+            parent[find(a)] = find(b)
+        label = _components(n, u, v)
+        roots = [find(i) for i in range(n)]
+        assert all((label[i] == label[j]) == (roots[i] == roots[j])
+                   for i in range(n) for j in range(n))

@@ -266,6 +266,11 @@ def check_inside(env: Environment, pts: np.ndarray) -> None:
         raise OutsideFreeSpaceError(f"target point ({x:.6g}, {y:.6g}) is {where} the free space")
 
 
+#: Points handled per batch by the vectorized arc and rod tests: each point brings one row
+#: per edge within reach, so this bounds their working memory (not their speed).
+POINT_BATCH = 20_000
+
+
 def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True) -> ArcTable:
     """Exact free arcs at many target points, vectorized.
 
@@ -295,6 +300,14 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     pts = _as_points(points)
     if check:
         check_inside(env, pts)
+    if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
+        parts = [free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
+                 for i in range(0, len(pts), POINT_BATCH)]
+        offset = np.arange(0, len(pts), POINT_BATCH)
+        return ArcTable(np.concatenate([t.point + o for t, o in zip(parts, offset,
+                                                                    strict=True)]),
+                        *(np.concatenate([getattr(t, f) for t in parts])
+                          for f in ("start", "end", "start_code", "end_code", "full")))
     inner, frame = env.internal, env.frame
     table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
     if inner is env:
@@ -354,6 +367,10 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     lss = check_lss(lss)
     pts = _as_points(points)
     ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+    if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
+        return np.concatenate([rod_is_free_many(env, pts[i:i + POINT_BATCH],
+                                                ang[i:i + POINT_BATCH], lss)
+                               for i in range(0, len(pts), POINT_BATCH)])
     if not env.is_internal:  # computed in the normalized frame, without straight vertices
         frame = env.frame
         return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)

@@ -35,6 +35,7 @@ import numpy as np
 
 from tether.arcs import rod_is_free_many
 from tether.environment import Environment
+from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
 
 KINDS = ("A", "B", "C", "D", "E")
@@ -665,16 +666,18 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []
+    found = []
     for fam in candidate_families(env, lss):
         for c, ivs in enumerate(_critical_intervals(env, fam)):
-            if not ivs:
-                continue
-            ivs = [_overshoot(fam, c, iv, margin) for iv in ivs]
-            drawn = [_polyline(fam, c, lo, hi, tol) for lo, hi in ivs]
-            curves.append(Curve(len(curves), fam.kind, fam.features[c],
-                                (float(fam.lo[c]), float(fam.hi[c])),
-                                tuple((float(a), float(b)) for a, b in ivs),
-                                tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
+            if ivs:
+                found.append((fam, c, [_overshoot(fam, c, iv, margin) for iv in ivs]))
+    check_vertex_budget(sum(_vertex_estimate(fam, c, ivs, tol) for fam, c, ivs in found), lss)
+    for fam, c, ivs in found:
+        drawn = [_polyline(fam, c, lo, hi, tol) for lo, hi in ivs]
+        curves.append(Curve(len(curves), fam.kind, fam.features[c],
+                            (float(fam.lo[c]), float(fam.hi[c])),
+                            tuple((float(a), float(b)) for a, b in ivs),
+                            tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
     return _share_lines(curves, env.length_tol)
 
 
@@ -752,6 +755,42 @@ def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list
             groups += [g.tolist() for g in np.split(run, cut)]
             start = j
     return groups
+
+
+#: Refuse decompositions whose curves would need more polyline vertices (estimated) than
+#: this: the peak memory is about 2.5 kB per estimated vertex on floor plans (noded parts,
+#: faces, region polygons, cells and G; measured 0.91 M -> 2.0 GB at 800 map vertices,
+#: 1.22 M -> 3.1 GB at 1,000), so the default bounds a decomposition near 4 GB. Raise it on a
+#: machine with more memory.
+MAX_CURVE_VERTICES = 1_500_000
+
+
+class ResourceLimitError(TetherError):
+    """A computation would exceed tether's memory bound (refused before allocating)."""
+
+
+def check_vertex_budget(vertices: float, lss: float) -> None:
+    """Raise :class:`ResourceLimitError` (one line) if ``vertices`` exceeds the bound."""
+    if vertices > MAX_CURVE_VERTICES:
+        raise ResourceLimitError(
+            f"the critical curves at lss {lss:g} (internal units) would need about "
+            f"{vertices:,.0f} polyline vertices, more than the limit {MAX_CURVE_VERTICES:,} "
+            "(tether.curves.MAX_CURVE_VERTICES, about 4 GB of memory): use a smaller lss, "
+            "a coarser curve tolerance, or split the map")
+
+
+def _vertex_estimate(fam: Family, c: int, ivs: list[tuple[float, float]], tol: float
+                     ) -> float:
+    """Polyline vertices the intervals of curve ``c`` will need (an estimate: exact for lines
+    and circles, by length over the chord step for conchoids)."""
+    if fam.kind in "ACD":
+        return 2.0 * len(ivs) + len(fam.marks[c]) if fam.marks else 2.0 * len(ivs)
+    step = math.sqrt(8.0 * tol / fam.lss)  # radians per chord on a circle of radius lss
+    span = sum(hi - lo for lo, hi in ivs)
+    if fam.kind == "B":
+        return span / step + 2 * len(ivs)
+    per_param = fam.length_scale(np.array([c]))[0] / max(fam.hi[c] - fam.lo[c], 1e-300)
+    return span * per_param / (fam.lss * step) + 17 * len(ivs)
 
 
 def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray

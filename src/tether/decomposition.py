@@ -59,7 +59,20 @@ def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
         return [(FREE, FREE)]
     if s == "EMPTY":
         return []
-    return sorted((feature_name(env, a), feature_name(env, b)) for a, b in s)
+    memo = env.__dict__.setdefault("_structure_names", {})  # many regions share structures
+    got = memo.get(s)
+    if got is None:
+        names = _feature_names(env)
+        got = memo[s] = sorted((names[a], names[b]) for a, b in s)
+    return list(got)
+
+
+def _feature_names(env: Environment) -> list[str]:
+    """Every feature code's name (``feature_name``), computed once per map."""
+    got = env.__dict__.get("_feature_names")
+    if got is None:
+        got = env.__dict__["_feature_names"] = [feature_name(env, c) for c in range(2 * env.n)]
+    return got
 
 
 @dataclass(frozen=True)
@@ -333,12 +346,15 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
     part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
     part_faces = np.full((len(parts), 2), -1)
-    slot = {}
-    for sid, f in zip(face_ids.tolist(), fowner.tolist(), strict=True):
-        slot.setdefault(sid, []).append(f)
-    for k, sid in enumerate(part_ids.tolist()):
-        fs = slot.get(sid, [])
-        part_faces[powner[longest[k]], : len(fs[:2])] = fs[:2]
+    # the first two faces (in face order) having each part's longest segment in their ring
+    order = np.argsort(face_ids, kind="stable")
+    sorted_ids, owner_sorted = face_ids[order], fowner[order]
+    pos = np.searchsorted(sorted_ids, part_ids)
+    for slot in (0, 1):
+        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
+        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
+            sorted_ids) else np.zeros(len(part_ids), bool)
+        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
@@ -526,7 +542,9 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         _absorb(specks, adjacent, plen, uf, face_struct)
     report("pieces", 0.85)
     pieces, unresolved_pieces = _make_pieces(env, arr, regions, chains, cands, curves, lss)
-    cells = tuple(Cell(cid, r.id, *_split_cell(cid)) for r in regions for cid in r.cells)
+    cells = tuple(Cell(cid, r.id, s, e) for r in regions
+                  for cid, (s, e) in zip(r.cells, structure_names(env, r.structure),
+                                         strict=True))
     report("done", 1.0)
     return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
                          unresolved_pieces)
@@ -554,20 +572,18 @@ def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.n
             todo.discard(f)
 
 
-def _split_cell(cid: str) -> tuple[str, str]:
-    _, s, e = cid.strip("()").split(",")
-    return s, e
-
-
 def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],
                   face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
                   ) -> tuple[list[Region], dict[int, int]]:
     """Regions from groups of faces, numbered by representative point (x, then y)."""
     drafts = []
+    face_area = arr.__dict__.get("_face_area")
+    if face_area is None:
+        face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
     for faces in groups.values():
         best = max(faces, key=lambda f: clear[f])
         poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
-        area = float(sum(arr.faces[f].area for f in faces))
+        area = float(face_area[faces].sum())
         drafts.append((tuple(np.round(pts[best], 9)), faces, poly, area, face_struct[best]))
     drafts.sort(key=lambda d: d[0])
     regions, face_region = [], {}
@@ -610,12 +626,7 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     keys = np.column_stack((lo[k], hi[k], end_of_row, src_row))[order]
     new_group = np.r_[True, np.any(keys[1:] != keys[:-1], axis=1)]
     head = local[order][np.maximum.accumulate(np.where(new_group, np.arange(len(order)), 0))]
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    link = coo_matrix((np.ones(len(order)), (local[order], head)),
-                      shape=(len(parts), len(parts)))
-    _, comp = connected_components(link, directed=False)
+    comp = _components(len(parts), local[order], head)
     # chains sorted by (region pair, first part): parts in increasing order within each
     order = np.lexsort((parts, comp))
     comp_o, parts_o = comp[order], parts[order]
@@ -626,6 +637,22 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     flat = parts_o.tolist()
     return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
             zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
+
+
+def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on ``n`` nodes with edges ``u[k]-v[k]``: a label per
+    node (the smallest node of its component). Min-label propagation with pointer jumping,
+    in numpy (scipy.sparse would cost 0.2 s of import on every CLI call)."""
+    label = np.arange(n)
+    while True:
+        m = np.minimum(label[u], label[v])
+        new = label.copy()
+        np.minimum.at(new, u, m)
+        np.minimum.at(new, v, m)
+        new = new[new]  # pointer jumping
+        if np.array_equal(new, label):
+            return label
+        label = new
 
 
 def _point_ids(pts: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
-from tether.decomposition import FREE, Decomposition, cell_name, crossing_points
+from tether.decomposition import FREE, Decomposition, crossing_points
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -101,6 +101,37 @@ def _arc_rows(dec: Decomposition, pts: np.ndarray) -> dict[str, np.ndarray]:
     }
 
 
+def _cell_index(dec: Decomposition, region: np.ndarray, start_code: np.ndarray,
+                end_code: np.ndarray) -> np.ndarray:
+    """Index in ``dec.cells`` of the cell ``(region, start, end)`` given by feature codes
+    (-1 for the free end of a FULL region), vectorized; -1 where no such cell exists."""
+    keys, order = _cell_keys(dec)
+    base = 2 * dec.env.n + 1
+    q = (np.asarray(region, np.int64) * base + (np.asarray(start_code, np.int64) + 1)) \
+        * base + (np.asarray(end_code, np.int64) + 1)
+    pos = np.clip(np.searchsorted(keys, q), 0, max(len(keys) - 1, 0))
+    if len(keys) == 0:
+        return np.full(len(q), -1)
+    return np.where(keys[pos] == q, order[pos], -1)
+
+
+def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted integer keys ``(region * B + start + 1) * B + end + 1`` of the cells (codes in
+    ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key, cached."""
+    got = dec.__dict__.get("_cell_keys")
+    if got is not None:
+        return got
+    base = 2 * dec.env.n + 1
+    code = {feature_name(dec.env, c): c for c in range(2 * dec.env.n)}
+    code[FREE] = -1
+    keys = np.array([(c.region * base + code[c.start_feature] + 1) * base
+                     + code[c.end_feature] + 1 for c in dec.cells], dtype=np.int64)
+    order = np.argsort(keys, kind="stable")
+    got = (keys[order], order)
+    dec.__dict__["_cell_keys"] = got
+    return got
+
+
 def build_graph(dec: Decomposition) -> ConnectivityGraph:
     """Build G from a decomposition: one edge per (cell, cell, piece) whose arcs continue into
     each other across the piece (all arc pairs of all pieces compared at once).
@@ -131,21 +162,18 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
         ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
                       rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
         keep = np.flatnonzero(ov > ANGLE_TOL)
-        names = [feature_name(dec.env, code) for code in range(2 * dec.env.n)]
-        known = {c.id for c in dec.cells}
-
-        def cell_of(row: int, region: int) -> str:
-            sc, ec = rows["start_code"][row], rows["end_code"][row]
-            return cell_name(region, names[sc] if sc >= 0 else FREE,
-                             names[ec] if ec >= 0 else FREE)
-
-        for i in keep.tolist():
-            k = int(rows["point"][pair_a[i]])
-            ra, rb = dec.pieces[k].regions
-            ka, kb = cell_of(pair_a[i], ra), cell_of(pair_b[i], rb)
-            if ka in known and kb in known:
-                edges.append((ka, kb, k))
-                partners[(ka, k)].append(kb)
-                partners[(kb, k)].append(ka)
+        k = rows["point"][pair_a[keep]]
+        regs = np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
+        ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
+                         rows["end_code"][pair_a[keep]])
+        cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
+                         rows["end_code"][pair_b[keep]])
+        ok = (ca >= 0) & (cb >= 0)
+        ids = [c.id for c in dec.cells]
+        for a, b, p in zip(ca[ok].tolist(), cb[ok].tolist(), k[ok].tolist(), strict=True):
+            ka, kb = ids[a], ids[b]
+            edges.append((ka, kb, p))
+            partners[(ka, p)].append(kb)
+            partners[(kb, p)].append(ka)
     return ConnectivityGraph(dec, tuple(edges), {key: tuple(v) for key, v in partners.items()},
                              {r: tuple(v) for r, v in pieces_of.items()})

@@ -21,31 +21,35 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
     code_map = env.code_map
     k2 = frame.scale * frame.scale
 
+    renamed: dict[str, str] = {}  # cells repeat their features' names: rename each once
+
     def rename_cell(cid: str) -> str:
-        r, s, e = cid.strip("()").split(",")
-        return cell_name(int(r[1:]), names[s], names[e])
+        got = renamed.get(cid)
+        if got is None:
+            r, s, e = cid.strip("()").split(",")
+            got = renamed[cid] = cell_name(int(r[1:]), names[s], names[e])
+        return got
 
     def structure(st):
         if isinstance(st, str):
             return st
         return frozenset((int(code_map[a]), int(code_map[b])) for a, b in st)
 
-    regions = []
-    for r in inner.regions:
-        poly = frame.geometry_to_user(r.polygon)
-        shapely.prepare(poly)
-        pt = frame.to_user(np.array(r.point))
-        regions.append(Region(r.id, poly, r.area / k2, (float(pt[0]), float(pt[1])),
-                              structure(r.structure), tuple(rename_cell(c) for c in r.cells)))
+    # all geometries transformed at once (one vectorized call, not one per region)
+    polys = frame.geometry_to_user(np.array([r.polygon for r in inner.regions], dtype=object))
+    shapely.prepare(polys)
+    pts = frame.to_user(np.array([r.point for r in inner.regions]).reshape(-1, 2)).tolist()
+    regions = [Region(r.id, poly, r.area / k2, (pt[0], pt[1]), structure(r.structure),
+                      tuple(rename_cell(c) for c in r.cells))
+               for r, poly, pt in zip(inner.regions, polys, pts, strict=True)]
     cells = tuple(Cell(rename_cell(c.id), c.region, names[c.start_feature],
                        names[c.end_feature]) for c in inner.cells)
-    pieces = []
-    for p in inner.pieces:
-        q = frame.to_user(np.array(p.sample))
-        pieces.append(Piece(p.id, p.regions, p.curves, p.kind,
-                            tuple(names.get(f, f) for f in p.features),
-                            frame.geometry_to_user(p.geometry), (float(q[0]), float(q[1])),
-                            p.normal, p.eps / frame.scale))
+    lines = frame.geometry_to_user(np.array([p.geometry for p in inner.pieces], dtype=object))
+    qs = frame.to_user(np.array([p.sample for p in inner.pieces]).reshape(-1, 2)).tolist()
+    pieces = [Piece(p.id, p.regions, p.curves, p.kind,
+                    tuple(names.get(f, f) for f in p.features), line, (q[0], q[1]),
+                    p.normal, p.eps / frame.scale, p.verified)
+              for p, line, q in zip(inner.pieces, lines, qs, strict=True)]
     curves = tuple(c.to_user(frame, names) for c in inner.curves)
     return Decomposition(env, lss, curves, tuple(regions), cells, tuple(pieces),
                          inner.curve_tol / frame.scale, inner.unresolved_pieces)
