@@ -1,26 +1,37 @@
-"""Benchmark: decomposition of the paper's examples and of seeded floor plans.
+"""Benchmark: decompose + analyze on seeded floor plans, time per stage and peak memory.
 
-Run: ``python benchmarks/bench_decompose.py [--max-vertices N]``. Prints a table. Goals
-(issue 3): each paper example under 1 s; a 100-vertex plan under 10 s, growth close to linear
-in the number of feature pairs within reach. The graph and elimination columns (issue 4) give
-their time and its share of the decomposition's.
+Run: ``python benchmarks/bench_decompose.py [--sizes 100 200 400 800 1000] [--src DIR]``.
+Each size runs in a fresh process (peak resident memory is that process's ``ru_maxrss``);
+``--src`` points the child processes at another checkout's ``src`` (e.g. the code before a
+change) to print a before/after table. Goals (issue 8): 400 vertices under 3 s, 1,000
+vertices under 10 s and under 1 GB, decompose + analyze. The machine is shared: times are
+noisy (run twice, compare the smaller).
+
+Columns: vertices, pairs (vertex, edge) within lss, lss, stage times in seconds (critical
+curves, arrangement, face structures, regions, pieces, graph G, elimination, self-check),
+total, peak resident memory in MB, and counts (curves, regions, cells, pieces).
 """
 
 from __future__ import annotations
 
 import argparse
-import time
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
+CHILD = r"""
+import json, resource, sys, time
 import numpy as np
-
-from tether import load_map
-from tether.cli import example_path
-from tether.decomposition import decompose
 from tether.floorplan import floor_plan
+from tether.decomposition import decompose
 
+n = int(sys.argv[1])
+env = floor_plan(n, seed=0)
+lss = (env.bounds[2] - env.bounds[0]) / 15
 
-def pairs_within_reach(env, lss: float) -> int:
-    """Feature pairs (vertex, edge) within lss of each other: the size driver."""
+def pairs_within_reach(env, lss):
     pidx, eidx = env.edge_index(lss).query(env.vertices)
     A, B, _, _ = env.oriented_edges
     p = env.vertices[pidx]
@@ -29,41 +40,82 @@ def pairs_within_reach(env, lss: float) -> int:
     t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.einsum("ij,ij->i", d, d), 0, 1)
     return int(np.sum(np.hypot(*(a + t[:, None] * d - p).T) < lss))
 
+stages = {}
+mark = [time.perf_counter(), None]
+def progress(stage, frac):
+    now = time.perf_counter()
+    if mark[1] is not None:
+        stages[mark[1]] = stages.get(mark[1], 0.0) + now - mark[0]
+    mark[0], mark[1] = now, stage
 
-def timed(fn):
-    t = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - t
+t0 = time.perf_counter()
+dec = decompose(env, lss, progress=progress)
+t1 = time.perf_counter()
+from tether.graph import build_graph
+from tether.escape import analyze
+g = build_graph(dec)
+t2 = time.perf_counter()
+try:
+    v = analyze(dec, g, self_check=False)
+except TypeError:  # before the self-check existed
+    v = analyze(dec, g)
+t3 = time.perf_counter()
+try:
+    from tether.decomposition import self_check
+    ok = self_check(dec).ok
+except ImportError:
+    ok = None
+t4 = time.perf_counter()
+peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps({
+    "vertices": env.n, "pairs": pairs_within_reach(env, lss), "lss": lss,
+    "curves_s": stages.get("critical curves", 0), "arrangement_s": stages.get("arrangement", 0),
+    "faces_s": stages.get("face structures", 0), "regions_s": stages.get("regions", 0),
+    "pieces_s": stages.get("pieces", 0), "graph_s": t2 - t1, "elim_s": t3 - t2,
+    "selfcheck_s": t4 - t3, "total_s": t4 - t0, "peak_mb": peak_mb,
+    "curves": len(dec.curves), "regions": len(dec.regions), "cells": len(dec.cells),
+    "pieces": len(dec.pieces), "strategy": v.strategy_exists, "self_check": ok}))
+"""
+
+COLUMNS = [("vertices", "verts", 6, "d"), ("pairs", "pairs", 7, "d"), ("lss", "lss", 5, ".2f"),
+           ("curves_s", "curves", 7, ".2f"), ("arrangement_s", "arrang", 7, ".2f"),
+           ("faces_s", "faces", 6, ".2f"), ("regions_s", "regions", 8, ".2f"),
+           ("pieces_s", "pieces", 7, ".2f"), ("graph_s", "G", 6, ".2f"),
+           ("elim_s", "elim", 6, ".2f"), ("selfcheck_s", "selfck", 7, ".2f"),
+           ("total_s", "TOTAL s", 8, ".2f"), ("peak_mb", "peak MB", 8, ".0f"),
+           ("curves", "#curv", 7, "d"), ("regions", "#reg", 7, "d"), ("cells", "#cells", 7, "d"),
+           ("pieces", "#pcs", 7, "d")]
 
 
-def row(name, env, lss):
-    dec, t = timed(lambda: decompose(env, lss))
-    cells = f"{name:<18}{env.n:>6}{pairs_within_reach(env, lss):>8}{lss:>6.2f}{t:>9.2f}"
-    cells += f"{len(dec.curves):>8}{len(dec.regions):>9}{len(dec.cells):>7}{len(dec.pieces):>8}"
+def run_size(n: int, src: str | None, timeout: float) -> dict | None:
+    """One size in a fresh interpreter; None if it failed or timed out."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = str(Path(src).resolve())
     try:
-        from tether.escape import analyze
-        from tether.graph import build_graph
-    except ImportError:
-        return cells
-    (graph, verdict), tg = timed(lambda: (lambda g: (g, analyze(dec, g)))(build_graph(dec)))
-    return cells + f"{tg:>8.2f}{100 * tg / t:>7.1f}%"
+        out = subprocess.run([sys.executable, "-c", CHILD, str(n)], capture_output=True,
+                             text=True, env=env, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        print(f"{n:>6}  timed out after {timeout:g} s", flush=True)
+        return None
+    if out.returncode != 0:
+        last = (out.stderr.strip().splitlines() or ["?"])[-1]
+        print(f"{n:>6}  failed: {last}", flush=True)
+        return None
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--max-vertices", type=int, default=400)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 200, 400, 800, 1000])
+    ap.add_argument("--src", help="run another checkout's src directory (before/after)")
+    ap.add_argument("--timeout", type=float, default=600.0, help="seconds per size")
     args = ap.parse_args()
-    print(f"{'map':<18}{'verts':>6}{'pairs':>8}{'lss':>6}{'time s':>9}{'curves':>8}"
-          f"{'regions':>9}{'cells':>7}{'pieces':>8}{'graph s':>8}{'share':>8}")
-    for name, lss in (("rectangle", 1.0), ("convex_corner", 1.0), ("nonconvex_corner", 1.0)):
-        decompose(load_map(example_path(name)), lss)  # warm-up (imports, caches)
-        print(row(name, load_map(example_path(name)), lss))
-    for n in (25, 50, 100, 200, 400):
-        if n > args.max_vertices:
-            break
-        env = floor_plan(n, seed=0)
-        lss = (env.bounds[2] - env.bounds[0]) / 15
-        print(row(env.name, env, lss), flush=True)
+    print("".join(f"{h:>{w}}" for _, h, w, _ in COLUMNS), flush=True)
+    for n in args.sizes:
+        r = run_size(n, args.src, args.timeout)
+        if r is not None:
+            print("".join(f"{r[k]:>{w}{f}}" for k, _, w, f in COLUMNS), flush=True)
 
 
 if __name__ == "__main__":

@@ -100,8 +100,9 @@ def test_bound_plot(tmp_path, capsys):
 def test_decompose_json_shape(capsys, tmp_path):
     out = tmp_path / "d.png"
     data = run_json(capsys, ["decompose", str(example_path("rectangle")), "--lss", "1",
-                             "--json", "--plot", str(out), "--by-type"])
+                             "--json", "--plot", str(out), "--by-type", "--geometry"])
     assert data["counts"] == {"regions": 19, "cells": 32, "pieces": len(data["pieces"])}
+    assert data["regions"][0]["polygon"].startswith("POLYGON")
     r = data["regions"][0]
     assert set(r) >= {"id", "area", "point", "cells"}
     c = data["cells"][0]
@@ -149,3 +150,23 @@ def test_progress_bar_only_on_a_terminal():
         p("done", 1.0)
     assert quiet.getvalue() == ""
     assert "decompose [" in tty.getvalue() and "100%" in tty.getvalue()
+
+
+def test_decompose_json_is_lean_by_default(capsys):
+    data = run_json(capsys, ["decompose", str(example_path("rectangle")), "--lss", "1",
+                             "--json"])
+    assert set(data) >= {"counts", "regions", "cells"}
+    assert "pieces" not in data and "curves" not in data
+    assert data["counts"]["regions"] == len(data["regions"]) == 19
+
+
+def test_cli_import_is_light():
+    """The CLI's start-up does not import networkx or matplotlib (fresh interpreter)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, tether.cli, tether.cli.maps, tether.escape; tether.cli.build_parser();"
+            "print(sorted(m for m in ('networkx', 'matplotlib') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"

@@ -674,3 +674,96 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
                                 tuple((float(a), float(b)) for a, b in ivs),
                                 tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
     return curves
+
+
+def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vectorized :meth:`Curve.project`: for each row ``k`` the nearest point of the critical
+    part of ``curves[cid[k]]`` to ``q[k]`` (shape (m, 2), map units). Returns parameters (m,),
+    points (m, 2) and unit normals (m, 2), exact up to the Gauss-Newton convergence of the
+    conchoids (12 steps from the nearest polyline segment, as :meth:`Curve.project`)."""
+    cid = np.asarray(cid, dtype=int)
+    q = np.asarray(q, dtype=float).reshape(-1, 2)
+    t = np.zeros(len(cid))
+    pts = np.zeros((len(cid), 2))
+    nrm = np.zeros((len(cid), 2))
+    kinds = np.array([c.kind for c in curves])[cid] if len(cid) else np.zeros(0, str)
+    index = np.array([c.index for c in curves], dtype=int)
+    fams = {c.kind: c.family for c in curves}
+    for kind, fam in fams.items():
+        rows = np.flatnonzero(kinds == kind)
+        if len(rows) == 0:
+            continue
+        c = index[cid[rows]]
+        if kind in "ACD":
+            d = fam.d[c]
+            tt = np.einsum("ij,ij->i", q[rows] - fam.p[c], d) / np.einsum("ij,ij->i", d, d)
+            t[rows] = tt
+            pts[rows] = fam.p[c] + tt[:, None] * d
+            nrm[rows] = np.column_stack((-d[:, 1], d[:, 0])) / np.hypot(d[:, 0], d[:, 1])[:, None]
+        elif kind == "B":
+            r = q[rows] - fam.p[c]
+            tt = np.arctan2(r[:, 1], r[:, 0])
+            u = np.column_stack((np.cos(tt), np.sin(tt)))
+            t[rows], pts[rows], nrm[rows] = tt, fam.p[c] + fam.lss * u, u
+        else:
+            t[rows], pts[rows], nrm[rows] = _project_conchoids(curves, cid[rows], q[rows])
+    return t, pts, nrm
+
+
+def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`project_many` for conchoid rows: the nearest polyline segment of each row's curve
+    brackets the answer, then Gauss-Newton on ``(q(t) - q)·q'(t) = 0`` inside the bracket."""
+    uc, inv = np.unique(cid, return_inverse=True)
+    # every polyline segment of the involved curves, grouped by curve
+    seg_a, seg_b, seg_lo, seg_hi, seg_c = [], [], [], [], []
+    for k, c in enumerate(uc.tolist()):
+        for ts, p in zip(curves[c].params, curves[c].polylines, strict=True):
+            seg_a.append(p[:-1])
+            seg_b.append(p[1:])
+            seg_lo.append(ts[:-1])
+            seg_hi.append(ts[1:])
+            seg_c.append(np.full(len(p) - 1, k))
+    a, b = np.vstack(seg_a), np.vstack(seg_b)
+    lo_all, hi_all, sc = map(np.concatenate, (seg_lo, seg_hi, seg_c))
+    count = np.bincount(sc, minlength=len(uc))
+    first = np.cumsum(count) - count
+    nseg = count[inv]
+    row = np.repeat(np.arange(len(cid)), nseg)
+    seg = np.repeat(first[inv], nseg) + (np.arange(len(row))
+                                         - np.repeat(np.cumsum(nseg) - nseg, nseg))
+    ab = b[seg] - a[seg]
+    u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
+                / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+    dist = np.hypot(*(a[seg] + u[:, None] * ab - q[row]).T)
+    order = np.lexsort((dist, row))
+    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]  # nearest segment per row
+    s = seg[best]
+    lo, hi = lo_all[s], hi_all[s]
+    t = lo + u[best] * (hi - lo)
+    fam = curves[int(cid[0])].family
+    c = np.array([curves[k].index for k in cid.tolist()], dtype=int)
+    dlo = fam.lo[c]
+    dhi = fam.hi[c]
+    for _ in range(12):
+        tangent = _tangents(fam, c, t, dlo, dhi)
+        tt = np.einsum("ij,ij->i", tangent, tangent)
+        step = np.where(tt > 0, np.einsum("ij,ij->i", fam.points(c, t) - q, tangent)
+                        / np.maximum(tt, 1e-300), 0.0)
+        t_new = np.clip(t - step, lo, hi)
+        done = np.abs(t_new - t) <= 1e-15 * np.maximum(1.0, np.abs(t))
+        t = t_new
+        if done.all():
+            break
+    tangent = _tangents(fam, c, t, dlo, dhi)
+    tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
+    return t, fam.points(c, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+
+
+def _tangents(fam: Family, c: np.ndarray, t: np.ndarray, dlo: np.ndarray, dhi: np.ndarray
+              ) -> np.ndarray:
+    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``)."""
+    h = 1e-7 * np.maximum(np.maximum(1.0, np.abs(t)), dhi - dlo)
+    a, b = np.maximum(t - h, dlo), np.minimum(t + h, dhi)
+    return (fam.points(c, b) - fam.points(c, a)) / (b - a)[:, None]

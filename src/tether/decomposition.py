@@ -20,12 +20,19 @@ from typing import Any
 
 import numpy as np
 import shapely
+from shapely.errors import GEOSException
 from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
-from tether.curves import Curve, critical_curves
+from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
+from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
+
+
+class ArrangementError(TetherError):
+    """The critical curves' arrangement could not be computed at tether's resolution."""
+
 
 Structure = Any  # frozenset of (start_code, end_code) pairs, or "FULL" / "EMPTY"
 FREE = "*"  # feature name of both ends of the single cell of a FULL region
@@ -107,6 +114,9 @@ class Piece:
     sample: tuple[float, float]
     normal: tuple[float, float]
     eps: float
+    #: whether the two sides of the crossing showed the two regions' structures when the
+    #: decomposition was built (False: no candidate point did; ``check`` reports it)
+    verified: bool = True
 
     @property
     def name(self) -> str:
@@ -207,8 +217,11 @@ class Decomposition:
                     break
         return out
 
-    def to_dict(self) -> dict:
-        return {
+    def to_dict(self, geometry: bool = False) -> dict:
+        """Counts, regions and cells; with ``geometry`` also the pieces, the curves and each
+        region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
+        small on large maps (the full one is tens of MB at a few hundred vertices)."""
+        out = {
             "map": self.env.name,
             "lss": self.lss,
             "curve_tolerance": self.curve_tol,
@@ -216,9 +229,17 @@ class Decomposition:
             "counts": {k: v for k, v in self.counts.items() if k != "curves"},
             "regions": [r.to_dict() for r in self.regions],
             "cells": [c.to_dict() for c in self.cells],
-            "pieces": [p.to_dict() for p in self.pieces],
-            "curves": [c.to_dict() for c in self.curves],
         }
+        if geometry:
+            out["pieces"] = [p.to_dict() for p in self.pieces]
+            out["curves"] = [c.to_dict() for c in self.curves]
+            wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
+            for d, w in zip(out["regions"], wkt, strict=True):
+                d["polygon"] = w
+            wkt = shapely.to_wkt([p.geometry for p in self.pieces], rounding_precision=-1)
+            for d, w in zip(out["pieces"], wkt, strict=True):
+                d["geometry"] = w
+        return out
 
     def plot(self, ax: Any = None, **kw: Any) -> list:
         """Draw the decomposition (see :func:`tether.plot.plot_decomposition`)."""
@@ -288,8 +309,9 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
             if len(p) >= 2 and np.ptp(p, axis=0).max() > 0:
                 lines.append(LineString(p))
                 source.append(c.id)
-    noded = shapely.node(MultiLineString(lines))
+    noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
+    parts = parts[shapely.length(parts) > 0]
     faces = shapely.get_parts(shapely.polygonize(parts))
     # which faces lie on the two sides of each part: match the part's longest segment with the
     # faces' ring segments (polygonize keeps the noded coordinates exactly)
@@ -308,14 +330,81 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     for k, sid in enumerate(part_ids.tolist()):
         fs = slot.get(sid, [])
         part_faces[powner[longest[k]], : len(fs[:2])] = fs[:2]
-    # which input lines each part came from
-    tree = shapely.STRtree(lines)
-    mid = shapely.points(0.5 * (pa[longest] + pb[longest]))
-    qi, li = tree.query(mid, predicate="dwithin", distance=max(1e-3 * tol, 1e-12))
-    src: list[set] = [set() for _ in range(len(parts))]
-    for q, line in zip(qi.tolist(), li.tolist(), strict=True):
-        src[powner[longest[q]]].add(source[line])
-    return _Arrangement(parts, part_faces, [tuple(sorted(s)) for s in src], faces)
+    # which input lines each part came from: input segments near the middle of its longest
+    # segment (a segment tree: distances to whole long polylines would dominate the time)
+    la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
+    mid = 0.5 * (pa[longest] + pb[longest])
+    qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12))
+    src_of = np.asarray(source)[lowner[si]]
+    pair = np.unique(np.column_stack((powner[longest[qi]], src_of)), axis=0)
+    src: list[list[int]] = [[] for _ in range(len(parts))]
+    for k, s in pair.tolist():
+        src[k].append(s)
+    return _Arrangement(parts, part_faces, [tuple(s) for s in src], faces)
+
+
+def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs (point, segment) closer than ``reach`` (map units) for points (m, 2) and
+    segments ``a[k]-b[k]``: point indices, segment indices and distances."""
+    if len(pts) == 0 or len(a) == 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    tree = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
+    lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
+                     pts[:, 1] + reach)
+    qi, si = tree.query(lo)  # envelopes only; exact distances below
+    d = _point_segment_distance(pts[qi], a[si], b[si])
+    near = d <= reach
+    return qi[near], si[near], d[near]
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise distance from points ``p`` to segments ``a-b`` (all shape (k, 2))."""
+    ab = b - a
+    den = np.einsum("ij,ij->i", ab, ab)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(den > 0, np.einsum("ij,ij->i", p - a, ab) / den, 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.hypot(*(a + u[:, None] * ab - p).T)
+
+
+#: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
+#: tolerance: coarser grids only if a finer one fails too.
+SNAP_GRIDS = (0.25, 1.0, 4.0)
+
+
+def _node(lines: list[LineString], tol: float) -> tuple[Any, float]:
+    """Node the lines: GEOS's floating-point noder first; if it fails to converge (nearly
+    coincident or tangent curves), snap rounding on a grid of ``SNAP_GRIDS * tol`` map units
+    (GEOS's fixed-precision overlay, robust by construction: every vertex moves by at most
+    half a grid cell, well inside the curves' own tolerance ``tol``). Returns the noded
+    geometry and the grid used (0 for exact floating-point noding).
+
+    Raises
+    ------
+    ArrangementError
+        If even the coarsest grid fails (the map is beyond tether's resolution).
+    """
+    try:
+        return shapely.node(MultiLineString(lines)), 0.0
+    except GEOSException:
+        pass
+    err = None
+    for frac in SNAP_GRIDS:
+        grid = frac * tol
+        try:
+            snapped = shapely.set_precision(np.asarray(lines, dtype=object), grid)
+            return shapely.union_all(snapped, grid_size=grid), grid
+        except GEOSException as exc:
+            err = exc
+    raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
+                           f"on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the curve "
+                           f"tolerance {tol:.2g}): {_geos_message(err)}")
+
+
+def _geos_message(exc: BaseException | None) -> str:
+    """The first line of a GEOS error, without its class prefix."""
+    return str(exc).splitlines()[0] if exc is not None else "unknown error"
 
 
 def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -356,6 +445,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     InvalidParameterError
         If ``lss`` is not a finite positive number within the range of
         :func:`tether.arcs.check_lss` relative to the map's diameter.
+    ArrangementError
+        If the geometry engine fails even with snap rounding (one line, no traceback).
     """
     lss = check_lss(lss, env)
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
@@ -363,6 +454,14 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
 
         inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
         return decomposition_to_user(inner, env, lss)
+    try:
+        return _decompose(env, lss, rel_tol, progress)
+    except GEOSException as exc:  # never a traceback from the geometry engine
+        raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
+                               f"{_geos_message(exc)}") from exc
+
+
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> Decomposition:
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -510,13 +609,14 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
             dropped += 1
             continue
         srcs = sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
-        q, n, eps = sample
+        q, n, eps, verified = sample
         kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
         feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
         geom = shapely.line_merge(shapely.union_all(arr.parts[ks])) if len(ks) > 1 \
             else arr.parts[ks[0]]
         pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
-                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps))
+                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
+                            bool(verified)))
     return pieces, dropped
 
 
@@ -541,11 +641,10 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     reach = max(1e3 * tol, 1e-3 * lss)
     clear = np.full(len(Q), reach)
     if len(Q):
-        qi, pj = shapely.STRtree(arr.parts).query(shapely.points(Q), predicate="dwithin",
-                                                  distance=reach)
-        other = pj != mine[qi]
-        d = shapely.distance(arr.parts[pj[other]], shapely.points(Q[qi[other]]))
-        np.minimum.at(clear, qi[other], d)
+        sa, sb, sowner = _ring_segments(arr.parts)
+        qi, sj, d = _segments_near(Q, sa, sb, reach)
+        other = sowner[sj] != mine[qi]
+        np.minimum.at(clear, qi[other], d[other])
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
     ok = ok[np.lexsort((-clear[ok], chain[ok]))]
@@ -563,23 +662,21 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
     are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
-    (``check`` reports it); a chain with no candidate at all gets ``None``."""
+    (``check`` reports it); a chain with no candidate at all gets ``None``. Each answer is
+    ``(q, n, eps, verified)``."""
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
+    chain_srcs = [sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
+                  for _, ks in chains]
     rnd = 0
     while pending:
-        trial = []
-        for i in pending:
-            q0, eps = cands[i][rnd]
-            srcs = sorted({s for k in chains[i][1] for s in arr.part_sources[k] if s >= 0})
-            if srcs:
-                _, q, n = min((curves[s].project(q0) for s in srcs),
-                              key=lambda r, q0=q0: float(np.hypot(*(r[1] - q0))))
-            else:
-                q, n = q0, np.array([0.0, 1.0])
-            trial.append((i, q, n, eps))
-            first.setdefault(i, (q, n, eps))
+        q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)
+        eps = [cands[i][rnd][1] for i in pending]
+        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending], q0)
+        trial = list(zip(pending, q, n, eps, strict=True))
+        for i, qi, ni, ei in trial:
+            first.setdefault(i, (qi, ni, ei))
         plus, minus = structures_across(env, lss, np.array([t[1] for t in trial]),
                                         np.array([t[2] for t in trial]),
                                         np.array([t[3] for t in trial]))
@@ -588,16 +685,36 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
             ra, rb = (regions[r] for r in chains[i][0])
             sp, sm = plus[j], minus[j]
             if sp == ra.structure and sm == rb.structure:
-                out[i] = (q, n, e)
+                out[i] = (q, n, e, True)
             elif sp == rb.structure and sm == ra.structure:
-                out[i] = (q, -n, e)
+                out[i] = (q, -n, e, True)
             elif rnd + 1 < len(cands[i]):
                 still.append(i)
             else:
-                out[i] = first[i]
+                out[i] = (*first[i], False)
         pending = still
         rnd += 1
     return out
+
+
+def _project_on_sources(curves: list[Curve], srcs: list[list[int]], q0: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves
+    ``srcs[k]`` (all rows at once); a row without a source curve keeps its point, normal
+    (0, 1)."""
+    q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))
+    count = np.array([len(s) for s in srcs], dtype=int)
+    if count.sum() == 0:
+        return q, n
+    row = np.repeat(np.arange(len(srcs)), count)
+    cid = np.fromiter((c for s in srcs for c in s), dtype=int, count=int(count.sum()))
+    _, p, nrm = project_many(curves, cid, q0[row])
+    dist = np.hypot(*(p - q0[row]).T)
+    order = np.lexsort((dist, row))
+    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    q[row[best]] = p[best]
+    n[row[best]] = nrm[best]
+    return q, n
 
 
 def crossing_points(q: np.ndarray, n: np.ndarray, eps: np.ndarray) -> np.ndarray:
@@ -636,13 +753,16 @@ class CheckReport:
 
 
 def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
-                      margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Random points inside each region, farther than ``margin`` (default ``10 * curve_tol``)
-    from its boundary. Returns (points, region index of each)."""
+                      margin: float | None = None, regions: Any = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Random points inside each region (or each of the region indices ``regions``), farther
+    than ``margin`` (default ``10 * curve_tol``) from its boundary. Returns (points, region
+    index of each)."""
     rng = np.random.default_rng(seed)
     margin = 10 * dec.curve_tol if margin is None else margin
     pts, owner = [], []
-    for r in dec.regions:
+    chosen = dec.regions if regions is None else [dec.regions[int(i)] for i in regions]
+    for r in chosen:
         inner = r.polygon.buffer(-margin)
         if inner.is_empty:
             continue
@@ -665,8 +785,34 @@ def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
 def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckReport:
     """Verify a decomposition by sampling: every sampled point's exact structure must equal its
     region's, and across every piece the two sides must show the two regions' structures."""
-    env = dec.env
     pts, owner = sample_in_regions(dec, per_region, seed)
+    return CheckReport(len(pts), _point_disagreements(dec, pts, owner),
+                       _piece_disagreements(dec))
+
+
+#: Regions sampled by :func:`self_check` (one point each, chosen at random).
+SELF_CHECK_REGIONS = 200
+
+
+def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0
+               ) -> CheckReport:
+    """The cheap check :func:`tether.escape.analyze` runs by default: one random point in
+    each of up to ``regions`` random regions against its region's structure, and every piece's
+    crossing as verified when the decomposition was built (no recomputation)."""
+    rng = np.random.default_rng(seed)
+    chosen = np.arange(len(dec.regions))
+    if len(chosen) > regions:
+        chosen = np.sort(rng.choice(chosen, regions, replace=False))
+    pts, owner = sample_in_regions(dec, 1, seed, regions=chosen)
+    bad_pieces = tuple({"piece": p.name, "regions": [f"R{r}" for r in p.regions],
+                        "point": list(p.sample)} for p in dec.pieces if not p.verified)
+    return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces)
+
+
+def _point_disagreements(dec: Decomposition, pts: np.ndarray, owner: np.ndarray
+                         ) -> tuple[dict, ...]:
+    """Sampled points whose exact structure differs from their region's."""
+    env = dec.env
     bad_pts = []
     if len(pts):
         st = structures(env, free_arcs_many(env, pts, dec.lss, check=False), len(pts))
@@ -675,6 +821,12 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckRepor
                 bad_pts.append({"region": f"R{r}", "point": [float(p[0]), float(p[1])],
                                 "found": [list(x) for x in structure_names(env, s)],
                                 "expected": list(dec.regions[r].cells)})
+    return tuple(bad_pts)
+
+
+def _piece_disagreements(dec: Decomposition) -> tuple[dict, ...]:
+    """Pieces whose two crossing sides do not show their two regions' structures (exact)."""
+    env = dec.env
     bad_pieces = []
     if dec.pieces:
         plus, minus = structures_across(env, dec.lss, *dec.piece_crossings())
@@ -683,8 +835,8 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckRepor
             if plus[i] != ra.structure or minus[i] != rb.structure:
                 bad_pieces.append({"piece": p.name, "regions": [ra.name, rb.name],
                                    "point": list(p.sample)})
-    return CheckReport(len(pts), tuple(bad_pts), tuple(bad_pieces))
+    return tuple(bad_pieces)
 
 
-__all__ = ["Cell", "CheckReport", "Decomposition", "Piece", "Region", "cell_name", "check",
-           "decompose", "sample_in_regions", "structures"]
+__all__ = ["ArrangementError", "Cell", "CheckReport", "Decomposition", "Piece", "Region",
+           "cell_name", "check", "decompose", "sample_in_regions", "self_check", "structures"]

@@ -44,6 +44,15 @@ class Verdict:
     surviving: frozenset[str]
     eliminated: tuple[Elimination, ...]
     witness_region: int | None
+    #: the cheap self-check run by :func:`analyze` (a
+    #: :class:`tether.decomposition.CheckReport`), or None if it was skipped
+    self_check: Any = None
+
+    @property
+    def verified(self) -> bool | None:
+        """Whether the self-check passed (None: not run). A verdict with ``verified`` False
+        rests on a decomposition that disagrees with exact evaluation somewhere."""
+        return None if self.self_check is None else bool(self.self_check.ok)
 
     @property
     def strategy_exists(self) -> bool:
@@ -82,6 +91,8 @@ class Verdict:
                 "eliminated": [e.to_dict() for e in self.eliminated],
                 "story": self.story(),
             },
+            "self_check": None if self.self_check is None else self.self_check.to_dict(),
+            "verified": self.verified,
         }
 
     def __repr__(self) -> str:
@@ -159,11 +170,19 @@ def _other_region(dec: Decomposition, piece: int, region: int) -> int:
     return b if a == region else a
 
 
-def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None) -> Verdict:
+def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
+            self_check: bool = True) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
+    With ``self_check`` (the default) the decomposition is verified cheaply first (see
+    :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
     """
+    report = None
+    if self_check:
+        from tether.decomposition import self_check as run_self_check
+
+        report = run_self_check(dec)
     graph = build_graph(dec) if graph is None else graph
     surviving, elim = eliminate(graph)
     witness = None
@@ -179,7 +198,7 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None) -> Verdi
                 if left[r] == 0:
                     witness = r
                     break
-    return Verdict(dec, graph, surviving, elim, witness)
+    return Verdict(dec, graph, surviving, elim, witness, report)
 
 
 def escape_story(v: Verdict) -> list[str]:

@@ -11,14 +11,16 @@ between pieces shared by the same two regions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
 from tether.decomposition import FREE, Decomposition, cell_name, crossing_points
 from tether.tolerances import ANGLE_TOL
+
+if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
+    import networkx as nx
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +42,8 @@ class ConnectivityGraph:
         """G as a networkx MultiGraph; nodes carry their ``region``."""
         g = self.__dict__.get("_nx")
         if g is None:
+            import networkx as nx
+
             g = nx.MultiGraph()
             g.add_nodes_from((c.id, {"region": c.region}) for c in self.dec.cells)
             g.add_edges_from(self.edge_list)

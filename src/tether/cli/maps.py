@@ -117,7 +117,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         plot_decomposition(dec, ax, by_type=args.by_type)
         save(fig, args.plot)
     if args.json:
-        print_json(dec.to_dict())
+        print_json(dec.to_dict(geometry=args.geometry))
         return 0
     c = dec.counts
     print(f"map {dec.env.name!r}, lss {dec.lss:g}: {c['curves']} critical curves, "
@@ -144,9 +144,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         save(plot_verdict(verdict), args.plot)
     if args.json:
         print_json(verdict.to_dict())
-        return 0
+        return 0 if verdict.verified is not False else 1
     print(format_verdict(verdict))
-    return 0
+    return 0 if verdict.verified is not False else 1
 
 
 def format_verdict(verdict) -> str:
@@ -161,6 +161,11 @@ def format_verdict(verdict) -> str:
     if verdict.witness_region is not None:
         lines.append(f"  witness region: R{verdict.witness_region}")
     lines += ["  " + s for s in verdict.story()]
+    rep = verdict.self_check
+    if rep is not None and not rep.ok:
+        lines.insert(0, f"SELF-CHECK FAILED: {len(rep.point_disagreements)} point and "
+                        f"{len(rep.piece_disagreements)} piece disagreements with exact "
+                        "evaluation; the verdict below is NOT verified (run `tether check`)")
     return "\n".join(lines)
 
 
@@ -206,6 +211,8 @@ def register(add) -> None:
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the decomposition to an image file")
     sp.add_argument("--by-type", action="store_true", help="colour the curves by type")
+    sp.add_argument("--geometry", action="store_true",
+                    help="with --json: also pieces, curves and every region's polygon (large)")
     sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
 
     sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")

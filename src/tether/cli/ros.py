@@ -120,6 +120,8 @@ def format_sweep(res) -> str:
                 f"{c.get('cells', ''):>6} {c.get('surviving_cells', ''):>9}")
         if kernel:
             line += "  " + ("-" if r.safe_fraction is None else f"{r.safe_fraction:.3f}")
+        if r.verified is False:
+            line += "  (self-check FAILED: verdict not verified)"
         if r.error:
             line += f"  ({r.error})"
         lines.append(line)
@@ -133,6 +135,9 @@ def format_sweep(res) -> str:
         lines.append(f"longest lss with a strategy: {res.longest:.4g}")
     if res.errors:
         lines.append(f"{len(res.errors)} lss values failed (see the rows marked error)")
+    if res.unverified:
+        lines.append(f"{len(res.unverified)} lss values failed the self-check; their verdicts "
+                     "are not verified (tether check MAP --lss L for details)")
     return "\n".join(lines)
 
 
