@@ -673,7 +673,83 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
                                 (float(fam.lo[c]), float(fam.hi[c])),
                                 tuple((float(a), float(b)) for a, b in ivs),
                                 tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
-    return curves
+    return _share_lines(curves, env.length_tol)
+
+
+def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
+    """Make straight curves (A, C, D) on one supporting line share their vertices.
+
+    Offsets of parallel edges at the same distance, an edge's extension and a line through two
+    reflex vertices on it, ...: such curves coincide, but computed separately they differ in
+    the last bits, and how the noder splits two almost coincident segments depends on the map's
+    position and rotation. Here every polyline of a line gets all the vertices of the line's
+    other curves that lie within its span (the very same coordinates), so that the overlapping
+    stretches are identical segments, which the noder merges exactly. ``tol`` (map units) is how
+    far apart two lines may be and still be one line, and two vertices along it one vertex.
+    """
+    straight = [k for k, c in enumerate(curves) if c.kind in "ACD"]
+    if len(straight) < 2:
+        return curves
+    fam_d = np.array([curves[k].family.d[curves[k].index] for k in straight])
+    fam_p = np.array([curves[k].family.p[curves[k].index] for k in straight])
+    u = fam_d / np.linalg.norm(fam_d, axis=1)[:, None]
+    flip = (u[:, 0] < 0) | ((u[:, 0] == 0) & (u[:, 1] < 0))
+    u[flip] *= -1
+    theta = np.arctan2(u[:, 1], u[:, 0])  # in (-pi/2, pi/2]
+    offset = u[:, 0] * fam_p[:, 1] - u[:, 1] * fam_p[:, 0]  # signed distance of the line to 0
+    out = list(curves)
+    for group in _line_groups(theta, offset, tol):
+        if len(group) < 2:
+            continue
+        base = fam_p[group[0]]
+        uu = u[group[0]]
+        # every vertex of the group's polylines, by position along the line
+        pts = np.vstack([p for g in group for p in curves[straight[g]].polylines])
+        along = (pts - base) @ uu
+        order = np.argsort(along, kind="stable")
+        pts, along = pts[order], along[order]
+        distinct = np.r_[True, np.diff(along) > tol]
+        pts, along = pts[distinct], along[distinct]
+        for g in group:
+            k = straight[g]
+            c = curves[k]
+            fam, i = c.family, c.index
+            dd = fam.d[i]
+            polys, params = [], []
+            for poly in c.polylines:
+                a = (poly - base) @ uu
+                lo, hi = a.min(), a.max()
+                inner = (along > lo + tol) & (along < hi - tol)
+                merged = np.vstack((poly[[int(np.argmin(a))]], pts[inner],
+                                    poly[[int(np.argmax(a))]]))
+                if a[0] > a[-1]:
+                    merged = merged[::-1]
+                polys.append(merged)
+                params.append((merged - fam.p[i]) @ dd / (dd @ dd))
+            out[k] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(polys),
+                           tuple(params), fam, i, c.frame)
+    return out
+
+
+def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list[int]]:
+    """Groups of lines (direction angle in (-pi/2, pi/2], signed offset, map units) that are
+    one line: angles within ``ANGLE_TOL``-ish of each other and offsets within ``tol``."""
+    from tether.tolerances import ANGLE_TOL
+
+    # directions near +-pi/2 are the same direction: fold them together
+    th = np.where(theta > np.pi / 2 - 1e-9, theta - np.pi, theta)
+    off = np.where(theta > np.pi / 2 - 1e-9, -offset, offset)
+    order = np.argsort(th, kind="stable")
+    groups = []
+    start = 0
+    for j in range(1, len(order) + 1):
+        if j == len(order) or th[order[j]] - th[order[j - 1]] > ANGLE_TOL:
+            run = order[start:j]
+            run = run[np.argsort(off[run], kind="stable")]
+            cut = np.flatnonzero(np.diff(off[run]) > tol) + 1
+            groups += [g.tolist() for g in np.split(run, cut)]
+            start = j
+    return groups
 
 
 def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray

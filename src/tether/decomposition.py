@@ -300,6 +300,15 @@ class _Arrangement:
     part_sources: list[tuple[int, ...]]  # curve ids (-1 = wall) of each part
     faces: np.ndarray  # polygons
 
+    def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, shapely.STRtree]:
+        """All segments of the parts (a, b, part index) and their STRtree, built once."""
+        got = self.__dict__.get("_segments")
+        if got is None:
+            a, b, owner = _ring_segments(self.parts)
+            got = (a, b, owner, _segment_tree(a, b))
+            self.__dict__["_segments"] = got
+        return got
+
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
     lines = [LineString(np.vstack((r, r[:1]))) for r in env.rings]
@@ -334,7 +343,8 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
     mid = 0.5 * (pa[longest] + pb[longest])
-    qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12))
+    qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12),
+                               _segment_tree(la, lb))
     src_of = np.asarray(source)[lowner[si]]
     pair = np.unique(np.column_stack((powner[longest[qi]], src_of)), axis=0)
     src: list[list[int]] = [[] for _ in range(len(parts))]
@@ -343,13 +353,17 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     return _Arrangement(parts, part_faces, [tuple(s) for s in src], faces)
 
 
-def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _segment_tree(a: np.ndarray, b: np.ndarray) -> shapely.STRtree:
+    """An STRtree of the segments ``a[k]-b[k]``."""
+    return shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
+
+
+def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
+                   tree: shapely.STRtree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs (point, segment) closer than ``reach`` (map units) for points (m, 2) and
-    segments ``a[k]-b[k]``: point indices, segment indices and distances."""
+    segments ``a[k]-b[k]`` indexed by ``tree``: point indices, segment indices, distances."""
     if len(pts) == 0 or len(a) == 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-    tree = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
     lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
                      pts[:, 1] + reach)
     qi, si = tree.query(lo)  # envelopes only; exact distances below
@@ -569,31 +583,57 @@ def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[in
 
 def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple, list[int]]]:
     """Arrangement parts separating two regions, grouped into chains: parts that meet end to
-    end and share a source curve. Each chain is ``((region_a, region_b), part indices)``."""
-    groups: dict[tuple, list[int]] = {}
-    for k, (fa, fb) in enumerate(arr.part_faces):
-        ra, rb = face_region.get(int(fa), -1), face_region.get(int(fb), -1)
-        if ra < 0 or rb < 0 or ra == rb:
-            continue
-        groups.setdefault((min(ra, rb), max(ra, rb)), []).append(k)
-    first_pt = shapely.get_coordinates(shapely.get_point(arr.parts, 0))
-    last_pt = shapely.get_coordinates(shapely.get_point(arr.parts, -1))
-    chains = []
-    for key, ks in groups.items():
-        uf = _UnionFind(len(ks))
-        ends: dict[tuple, list[int]] = {}
-        for i, k in enumerate(ks):
-            for pt in (tuple(first_pt[k]), tuple(last_pt[k])):
-                for j in ends.setdefault(pt, []):
-                    if set(arr.part_sources[k]) & set(arr.part_sources[ks[j]]):
-                        uf.union(i, j)
-                ends[pt].append(i)
-        comp: dict[int, list[int]] = {}
-        for i, k in enumerate(ks):
-            comp.setdefault(uf.find(i), []).append(k)
-        chains += [(key, sorted(v)) for v in comp.values()]
-    chains.sort(key=lambda kv: (kv[0], kv[1][0]))
-    return chains
+    end and share a source curve. Each chain is ``((region_a, region_b), part indices)``.
+    Vectorized: parts sharing (region pair, end point, source) are linked, chains are the
+    connected components (scipy)."""
+    fr = np.full(len(arr.faces) + 1, -1)  # index -1 (no face) maps to the last slot, -1
+    if face_region:
+        f, r = np.array(list(face_region.items())).T
+        fr[f] = r
+    ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
+    parts = np.flatnonzero((ra >= 0) & (rb >= 0) & (ra != rb))
+    if len(parts) == 0:
+        return []
+    lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+    ends = np.vstack((shapely.get_coordinates(shapely.get_point(arr.parts[parts], 0)),
+                      shapely.get_coordinates(shapely.get_point(arr.parts[parts], -1))))
+    end_id = _point_ids(ends)
+    nsrc = np.array([len(arr.part_sources[k]) for k in parts.tolist()], dtype=int)
+    src = np.fromiter((s for k in parts.tolist() for s in arr.part_sources[k]), dtype=int,
+                      count=int(nsrc.sum()))
+    local = np.tile(np.repeat(np.arange(len(parts)), nsrc), 2)  # rows: (end, source)
+    end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
+                                 np.repeat(end_id[len(parts):], nsrc)))
+    src_row = np.tile(src, 2)
+    k = parts[local]
+    order = np.lexsort((local, src_row, end_of_row, hi[k], lo[k]))
+    keys = np.column_stack((lo[k], hi[k], end_of_row, src_row))[order]
+    new_group = np.r_[True, np.any(keys[1:] != keys[:-1], axis=1)]
+    head = local[order][np.maximum.accumulate(np.where(new_group, np.arange(len(order)), 0))]
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    link = coo_matrix((np.ones(len(order)), (local[order], head)),
+                      shape=(len(parts), len(parts)))
+    _, comp = connected_components(link, directed=False)
+    # chains sorted by (region pair, first part): parts in increasing order within each
+    order = np.lexsort((parts, comp))
+    comp_o, parts_o = comp[order], parts[order]
+    starts = np.flatnonzero(np.r_[True, comp_o[1:] != comp_o[:-1]])
+    stops = np.r_[starts[1:], len(parts_o)]
+    head = parts_o[starts]
+    rank = np.lexsort((head, hi[head], lo[head]))
+    flat = parts_o.tolist()
+    return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
+            zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
+
+
+def _point_ids(pts: np.ndarray) -> np.ndarray:
+    """An integer id per point, equal for equal coordinates."""
+    key = np.ascontiguousarray(pts)
+    _, inv = np.unique(key.view(np.dtype((np.void, key.dtype.itemsize * 2))).ravel(),
+                       return_inverse=True)
+    return inv.ravel()
 
 
 def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
@@ -641,8 +681,8 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     reach = max(1e3 * tol, 1e-3 * lss)
     clear = np.full(len(Q), reach)
     if len(Q):
-        sa, sb, sowner = _ring_segments(arr.parts)
-        qi, sj, d = _segments_near(Q, sa, sb, reach)
+        sa, sb, sowner, tree = arr.segments()
+        qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
         other = sowner[sj] != mine[qi]
         np.minimum.at(clear, qi[other], d[other])
     chain = part_chain[mine]

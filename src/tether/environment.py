@@ -22,7 +22,15 @@ from shapely.geometry import LinearRing, Polygon
 
 from tether.errors import InvalidMapError
 from tether.spatial import EdgeIndex
-from tether.tolerances import MAX_MAP_BYTES, MAX_VERTICES, REL_LENGTH_TOL, REL_STRAIGHT_TOL
+from tether.tolerances import (
+    COORD_MAX,
+    MAX_MAP_BYTES,
+    MAX_VERTICES,
+    MIN_DIAMETER,
+    MIN_DIAMETER_REL,
+    REL_LENGTH_TOL,
+    REL_STRAIGHT_TOL,
+)
 
 _JSON_KEYS = {"boundary", "holes", "name"}
 
@@ -77,6 +85,24 @@ def _validate_ring(ring: np.ndarray, where: str, tol: float) -> None:
             xs = m.group(1).split()
             at = " near (" + ", ".join(_fmt(float(v)) for v in xs[:2]) + ")"
         raise InvalidMapError(f"{where}: the ring intersects itself{at}")
+
+
+def _check_coordinate_range(pts: np.ndarray) -> None:
+    """Reject maps whose coordinates or size are beyond what doubles resolve (see
+    ``COORD_MAX``, ``MIN_DIAMETER`` and ``MIN_DIAMETER_REL`` in :mod:`tether.tolerances`)."""
+    big = np.abs(pts).max(axis=1)
+    if np.any(big > COORD_MAX):
+        k = int(np.flatnonzero(big > COORD_MAX)[0])
+        raise InvalidMapError(f"vertex V{k} ({_fmt(pts[k, 0])}, {_fmt(pts[k, 1])}) is beyond "
+                              f"±{COORD_MAX:g}: rescale or translate the map")
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = math.hypot(*(hi - lo))
+    reach = float(np.abs(pts).max())
+    if size < MIN_DIAMETER or size < MIN_DIAMETER_REL * reach:
+        raise InvalidMapError(
+            f"the map is {size:.3g} across at coordinates up to {reach:.3g}: too small to "
+            f"resolve (at least {MIN_DIAMETER:g} and {MIN_DIAMETER_REL:g} × the largest "
+            "coordinate); rescale or translate the map")
 
 
 def _hole_outside_where(outer: Polygon, hole: np.ndarray, first: int) -> str:
@@ -191,7 +217,8 @@ class Environment:
         object.__setattr__(self, "boundary", boundary)
         object.__setattr__(self, "holes", holes)
         allpts = np.vstack((boundary, *holes)) if holes else boundary
-        span = float(np.linalg.norm(allpts.max(axis=0) - allpts.min(axis=0)))
+        _check_coordinate_range(allpts)
+        span = math.hypot(*(allpts.max(axis=0) - allpts.min(axis=0)))
         tol = REL_LENGTH_TOL * max(span, 1e-300)
         _validate_ring(boundary, "boundary", tol)
         if len(allpts) > MAX_VERTICES:
@@ -502,6 +529,15 @@ def _show(value: Any) -> str:
     return repr(value)[:30]
 
 
+def _check_text(text: str, path: str) -> None:
+    """Reject strings that cannot be printed (lone surrogates from ``\\ud800`` escapes)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise InvalidMapError(f"{path}: not valid Unicode text (character {exc.start} is a "
+                              "lone surrogate)") from None
+
+
 def _number(value: Any, path: str) -> float:
     """A JSON number as a finite float; booleans, strings, null... rejected with the path."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -570,6 +606,7 @@ def from_dict(data: Any, where: str = "map") -> Environment:
     name = data.get("name", "")
     if not isinstance(name, str):
         raise InvalidMapError(f"{where}: name: expected a string, got {_show(name)}")
+    _check_text(name, f"{where}: name")
     try:
         boundary = _ring_list(data["boundary"], "boundary")
         holes = _rings_list(data.get("holes", []), "holes")
@@ -625,6 +662,7 @@ def _from_geojson(data: Any, path: str, name: str) -> Environment:
         nm = props.get("name", name)
         if not isinstance(nm, str):
             raise InvalidMapError(f"{dot}properties.name: expected a string, got {_show(nm)}")
+        _check_text(nm, f"{dot}properties.name")
         if "geometry" not in data or data["geometry"] is None:
             raise InvalidMapError(f"{dot}geometry: missing (a Feature needs a Polygon)")
         return _from_geojson(data["geometry"], f"{dot}geometry", nm)
@@ -637,7 +675,7 @@ def _from_geojson(data: Any, path: str, name: str) -> Environment:
     return Environment(rings[0], tuple(rings[1:]), name)
 
 
-_WKT_KEYWORD = re.compile(r"\s*(?:SRID=\d+;\s*)?([A-Za-z]+)")
+_WKT_KEYWORD = re.compile(r"\s*(SRID=\d+;\s*)?([A-Za-z]+)")
 
 
 def from_wkt(text: str, where: str = "map", name: str = "") -> Environment:
@@ -647,7 +685,9 @@ def from_wkt(text: str, where: str = "map", name: str = "") -> Environment:
         start = " ".join(text.split())[:30]
         raise InvalidMapError(f"{where}: not WKT: expected POLYGON ((x y, ...)), got "
                               f"{start!r}" if start else f"{where}: the file is empty")
-    keyword = m.group(1).upper()
+    keyword = m.group(2).upper()
+    if m.group(1):  # EWKT's spatial reference: coordinates are taken as they are
+        text = text[m.start(2):]
     if keyword != "POLYGON":
         raise InvalidMapError(f"{where}: WKT must be a POLYGON, got {keyword} (a type tether "
                               "does not take)")
@@ -759,6 +799,10 @@ def load_map(path: str | Path) -> Environment:
             raise InvalidMapError(f"{where}: {size} bytes, larger than tether reads "
                                   f"({MAX_MAP_BYTES} bytes)")
         raw = p.read_bytes()
+    except InvalidMapError:
+        raise
+    except ValueError as exc:  # an embedded NUL byte
+        raise InvalidMapError(f"{where!r}: not a usable file name ({exc})") from None
     except OSError as exc:
         raise InvalidMapError(f"{where}: cannot read ({exc.strerror or exc})") from None
     if not raw.strip():

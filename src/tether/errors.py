@@ -20,3 +20,8 @@ class InvalidParameterError(TetherError, ValueError):
 
 class OutsideFreeSpaceError(TetherError, ValueError):
     """A target point lies outside the free space or on its boundary."""
+
+
+class NonFiniteResultError(TetherError, ArithmeticError):
+    """A result is not finite (NaN or infinite): the input is beyond tether's numerical range.
+    Raised instead of writing non-finite numbers to JSON."""

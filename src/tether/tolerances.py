@@ -51,6 +51,15 @@ MAX_MAP_BYTES = 64 * 2**20
 #: ``tether check --samples`` per region.
 SAMPLES_RANGE = (1, 100_000)
 
+#: Map coordinates are at most this in absolute value (squares of differences stay finite).
+COORD_MAX = 1e15
+
+#: A map's diameter (bounding-box diagonal) is at least ``MIN_DIAMETER`` map units and at least
+#: ``MIN_DIAMETER_REL`` times its largest absolute coordinate: a map 1e-12 of its own offset
+#: keeps fewer than 4 of a double's 16 digits for its shape.
+MIN_DIAMETER = 1e-9
+MIN_DIAMETER_REL = 1e-12
+
 #: A vertex is *straight* (no feature of the free space) when its distance to the chord joining
 #: its neighbours is at most this times the chord's length (an interior angle within about
 #: ``4 * REL_STRAIGHT_TOL`` radians of pi). Straight vertices produce no curves and no regions;

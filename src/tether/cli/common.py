@@ -10,6 +10,8 @@ from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
+from tether.errors import NonFiniteResultError
+
 
 def example_path(name: str) -> Path:
     """Path of a bundled example map (``rectangle``, ``gallery``, ...)."""
@@ -17,8 +19,37 @@ def example_path(name: str) -> Path:
 
 
 def print_json(obj: object) -> None:
-    json.dump(obj, sys.stdout, indent=1, allow_nan=False)
-    sys.stdout.write("\n")
+    """Print ``obj`` as strict JSON (no NaN or Infinity), whole or not at all.
+
+    Raises
+    ------
+    NonFiniteResultError
+        If a value is not finite; the message names its field (``arcs[0].end``).
+    """
+    try:
+        text = json.dumps(obj, indent=1, allow_nan=False)
+    except ValueError:
+        where = _non_finite_path(obj, "") or "a value"
+        raise NonFiniteResultError(f"result {where} is not a finite number; the input is "
+                                   "beyond tether's numerical range") from None
+    sys.stdout.write(text + "\n")
+
+
+def _non_finite_path(obj: object, path: str) -> str | None:
+    """Path of the first non-finite float in nested dicts/lists (``rounds[2].time``)."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (path or "value")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            found = _non_finite_path(v, f"{path}.{k}" if path else str(k))
+            if found:
+                return found
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            found = _non_finite_path(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
 
 
 def deg(a: float) -> str:

@@ -8,11 +8,26 @@ import json
 import sys
 from pathlib import Path
 
-from tether.cli.common import finite_arg, int_range, print_json
+from tether.cli.common import finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
-from tether.output import IMAGE_KINDS, atomic_output, check_output_path
+from tether.output import IMAGE_KINDS
 
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
+
+
+def _check_output(path: str, kinds: tuple[str, ...]) -> Path:
+    """Validate an output path before computing (:func:`tether.output.check_output_path`)."""
+    from tether.output import check_output_path
+
+    return check_output_path(path, kinds)
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write ``text`` whole or not at all (:func:`tether.output.atomic_output`)."""
+    from tether.output import atomic_output
+
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(text)
 
 
 # ---------------------------------------------------------------------- reading
@@ -34,9 +49,9 @@ def _add_ros_options(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("--seed", nargs=2, type=finite_arg, metavar=("X", "Y"),
                     help="ROS map: a point of the free space wanted (metres, map frame); "
                          "default: the largest free component")
-    sp.add_argument("--simplify", type=finite_arg, metavar="M",
+    sp.add_argument("--simplify", type=float_arg, metavar="M",
                     help="ROS map: simplification tolerance in metres (default: one cell)")
-    sp.add_argument("--min-hole-area", type=finite_arg, metavar="A",
+    sp.add_argument("--min-hole-area", type=float_arg, metavar="A",
                     help="ROS map: drop holes smaller than A square metres (default: 4 cells)")
 
 
@@ -56,7 +71,7 @@ def map_text(env, suffix: str) -> str:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    out = check_output_path(args.out, _MAP_KINDS)
+    out = _check_output(args.out, _MAP_KINDS)
     suffix = out.suffix.lower()
     if suffix == ".yaml" and args.resolution is None:
         raise InvalidParameterError("writing a ROS map (.yaml) needs --resolution (metres)")
@@ -71,8 +86,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         print(f"wrote {out} and {img}: {grid.shape[1]} x {grid.shape[0]} cells of "
               f"{grid.resolution:g} m")
         return 0
-    with atomic_output(out) as tmp:
-        Path(tmp).write_text(map_text(env, suffix))
+    _write_text(out, map_text(env, suffix))
     print(f"wrote {out}: {env.n} vertices, {len(env.holes)} holes, area {env.area:.6g}")
     return 0
 
@@ -147,7 +161,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.json and args.csv:
         raise InvalidParameterError("give --json or --csv, not both")
-    plot = check_output_path(args.plot, IMAGE_KINDS) if args.plot else None
+    plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
     values = parse_lss_range(args.lss)
     env = _load(args)
     executor, close = _executor(args)
@@ -179,7 +193,7 @@ def register(add) -> None:
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("out", help="output file (.json, .geojson, .wkt, or .yaml with --resolution)")
     _add_ros_options(sp)
-    sp.add_argument("--resolution", type=finite_arg, metavar="M",
+    sp.add_argument("--resolution", type=float_arg, metavar="M",
                     help="cell size of a ROS map output (.yaml), metres")
 
     sp = add("sweep", cmd_sweep,
@@ -187,17 +201,17 @@ def register(add) -> None:
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--lss", required=True, metavar="RANGE",
                     help="START:STOP:STEP (both ends included), a list 0.5,1,2, or a number")
-    sp.add_argument("--vt", type=finite_arg, help="target speed bound (with --vo: kernel column)")
-    sp.add_argument("--vo", type=finite_arg, help="observer speed bound (> vt)")
-    sp.add_argument("--tol", type=finite_arg,
+    sp.add_argument("--vt", type=float_arg, help="target speed bound (with --vo: kernel column)")
+    sp.add_argument("--vo", type=float_arg, help="observer speed bound (> vt)")
+    sp.add_argument("--tol", type=float_arg,
                     help="bisection tolerance on interval ends (default: step/8; 0: none)")
     out = sp.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true", help="print JSON")
     out.add_argument("--csv", action="store_true", help="print CSV")
     sp.add_argument("--plot", metavar="FILE", help="draw the sweep to an image file")
     sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
-                    help="run on N local processes")
+                    help="run on N local processes (1 to 1024)")
     sp.add_argument("--dask", metavar="ADDRESS",
                     help="run on a Dask cluster (scheduler address; extra [cluster])")
-    sp.add_argument("--dask-timeout", type=finite_arg, default=10.0, help=argparse.SUPPRESS)
+    sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
     _add_ros_options(sp)
