@@ -302,3 +302,14 @@ def test_office_example(capsys):
     assert env.polygon.is_valid and len(env.holes) == 2  # pillar and table; speckles dropped
     assert main(["info", str(yp)]) == 0
     assert "2 holes" in capsys.readouterr().out
+
+
+def test_rgb_png_and_free_cells_on_the_image_border(tmp_path):
+    img = np.full((12, 16), F, dtype=np.uint8)  # free up to the image's edge
+    img[5:7, 6:9] = O
+    rgb = np.repeat(img[..., None], 3, axis=2)
+    Image.fromarray(rgb, mode="RGB").save(tmp_path / "c.png")
+    (tmp_path / "c.yaml").write_text("image: c.png\nresolution: 0.5\norigin: [0, 0, 0]\n")
+    env = read_ros_map(tmp_path / "c.yaml")
+    assert env.bounds == pytest.approx((0, 0, 8, 6))
+    assert env.area == pytest.approx((12 * 16 - 6) * 0.25) and len(env.holes) == 1

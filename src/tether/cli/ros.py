@@ -171,11 +171,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finally:
         close()
     if plot is not None:
-        from tether.plot import save
+        from tether.plot import new_axes, save
         from tether.plot_sweep import plot_sweep
 
-        arts = plot_sweep(res)
-        save(arts[0].figure if arts else None, plot)
+        fig, ax = new_axes(size=(8, 4.5))
+        plot_sweep(res, ax)
+        save(fig, plot)
     if args.json:
         print_json(res.to_dict())
     elif args.csv:
