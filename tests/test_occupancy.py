@@ -278,6 +278,7 @@ def test_convert_cli_round_trip(tmp_path, capsys):
     for ext in (".json", ".geojson", ".wkt"):
         out = tmp_path / f"out{ext}"
         assert main(["convert", str(yp), str(out)]) == 0
+        assert "kept 920 of 920 free cells" in capsys.readouterr().out
         env = load_map(out)
         assert env.area == pytest.approx(ref.area)
         assert np.allclose(env.vertices, ref.vertices)
@@ -302,6 +303,12 @@ def test_office_example(capsys):
     assert env.polygon.is_valid and len(env.holes) == 2  # pillar and table; speckles dropped
     assert main(["info", str(yp)]) == 0
     assert "2 holes" in capsys.readouterr().out
+    conv = read_grid(yp).convert()
+    assert conv.dropped_holes == 3  # the three one-cell speckles
+    assert conv.kept_cells == read_grid(yp).convert(min_hole_area=0).kept_cells
+    assert conv.free_cells - conv.kept_cells == 23 * 23  # the closed closet
+    assert conv.exact_vertices == 40 + 3 * 4 and conv.env.n == 40
+    assert json.loads(json.dumps(conv.to_dict()))["holes"] == 2
 
 
 def test_rgb_png_and_free_cells_on_the_image_border(tmp_path):

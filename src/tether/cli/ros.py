@@ -33,16 +33,22 @@ def _write_text(path: Path, text: str) -> None:
 # ---------------------------------------------------------------------- reading
 def _load(args: argparse.Namespace):
     """The map of ``args.map``, with the ROS options applied to a ``.yaml`` map."""
+    return _load_with_summary(args)[0]
+
+
+def _load_with_summary(args: argparse.Namespace):
+    """The map and, for a ROS map, a line saying what the conversion kept (else ``None``)."""
     from tether.environment import load_map
-    from tether.occupancy import read_ros_map
+    from tether.occupancy import read_grid
 
     ros_opts = (args.seed, args.simplify, args.min_hole_area)
     if Path(args.map).suffix.lower() in (".yaml", ".yml"):
-        return read_ros_map(args.map, args.seed, args.simplify, args.min_hole_area)
+        conv = read_grid(args.map).convert(args.seed, args.simplify, args.min_hole_area)
+        return conv.env, conv.summary()
     if any(o is not None for o in ros_opts):
         raise InvalidParameterError("--seed, --simplify and --min-hole-area apply to ROS maps "
                                     "(.yaml) only")
-    return load_map(args.map)
+    return load_map(args.map), None
 
 
 def _add_ros_options(sp: argparse.ArgumentParser) -> None:
@@ -77,7 +83,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         raise InvalidParameterError("writing a ROS map (.yaml) needs --resolution (metres)")
     if suffix != ".yaml" and args.resolution is not None:
         raise InvalidParameterError("--resolution applies to a ROS map output (.yaml) only")
-    env = _load(args)
+    env, summary = _load_with_summary(args)
     if suffix == ".yaml":
         from tether.occupancy import rasterize
 
@@ -88,6 +94,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
         return 0
     _write_text(out, map_text(env, suffix))
     print(f"wrote {out}: {env.n} vertices, {len(env.holes)} holes, area {env.area:.6g}")
+    if summary:
+        print(summary)
     return 0
 
 
