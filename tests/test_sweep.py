@@ -200,3 +200,12 @@ def test_sweep_cli_on_a_dask_cluster(capsys):
         assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5,1", "--tol", "0",
                      "--json", "--dask", cluster.scheduler_address]) == 0
     assert json.loads(capsys.readouterr().out)["longest_lss_with_strategy"] == 0.5
+
+
+def test_sweep_cli_notes_a_missing_kernel(capsys, monkeypatch):
+    import tether.cli.ros as ros
+
+    monkeypatch.setattr(ros, "_kernel_installed", lambda: False)
+    assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5", "--vt", "1",
+                 "--vo", "2"]) == 0
+    assert "kernel (tether.game) is not installed" in capsys.readouterr().err
