@@ -134,6 +134,8 @@ def test_negate_and_raw_mode(tmp_path):
     ref = read_ros_map(write_map(tmp_path, img, name="ref"))
     neg = read_ros_map(write_map(tmp_path, 255 - img, negate=1, name="neg"))
     assert neg.area == pytest.approx(ref.area)
+    neg = read_ros_map(write_map(tmp_path, 255 - img, negate="true", name="neg2"))
+    assert neg.area == pytest.approx(ref.area)
     raw = np.where(img == F, 0, np.where(img == O, 100, 255)).astype(np.uint8)
     r = read_ros_map(write_map(tmp_path, raw, mode="raw", name="raw"))
     assert r.area == pytest.approx(ref.area)

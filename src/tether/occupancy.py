@@ -328,6 +328,8 @@ def read_grid(yaml_path: str | Path) -> OccupancyGrid:
                        and math.isfinite(v) for v in origin)):
         raise InvalidMapError(f"{where}: 'origin' must be [x, y, yaw] numbers, got {origin!r}")
     origin = [float(v) for v in origin] + [0.0] * (3 - len(origin))
+    if isinstance(meta.get("negate"), bool):  # ``negate: true`` is read as 1
+        meta["negate"] = int(meta["negate"])
     negate = _yaml_number(meta, "negate", where, 0.0)
     if negate not in (0.0, 1.0):
         raise InvalidMapError(f"{where}: 'negate' must be 0 or 1, got {meta['negate']!r}")
