@@ -91,7 +91,7 @@ def bench(img: np.ndarray, folder: Path, repeat: int) -> dict:
         poly = vectorize(mask)
         t["vectorize"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        env = _to_environment(grid, _drop_small_holes(poly, 4.0), 1.0)
+        env, _ = _to_environment(grid, _drop_small_holes(poly, 4.0), 1.0)
         t["simplify"] = time.perf_counter() - t0
         t["total"] = sum(t.values())
         t0 = time.perf_counter()

@@ -134,6 +134,8 @@ def test_negate_and_raw_mode(tmp_path):
     ref = read_ros_map(write_map(tmp_path, img, name="ref"))
     neg = read_ros_map(write_map(tmp_path, 255 - img, negate=1, name="neg"))
     assert neg.area == pytest.approx(ref.area)
+    neg = read_ros_map(write_map(tmp_path, 255 - img, negate="true", name="neg2"))
+    assert neg.area == pytest.approx(ref.area)
     raw = np.where(img == F, 0, np.where(img == O, 100, 255)).astype(np.uint8)
     r = read_ros_map(write_map(tmp_path, raw, mode="raw", name="raw"))
     assert r.area == pytest.approx(ref.area)
@@ -250,8 +252,7 @@ def test_no_free_cell_and_bad_options(tmp_path):
 
 
 def test_hole_messages_give_locations():
-    with pytest.raises(InvalidMapError,
-                       match=r"not strictly inside the boundary: vertex V4 \(0, 1\) lies on"):
+    with pytest.raises(InvalidMapError, match=r"inside the boundary: vertex V4 \(0, 1\) lies on"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]], ([[0, 1], [1, 1], [1, 2]],))
     with pytest.raises(InvalidMapError, match=r"overlap or touch near \(2, 2\)"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]],
@@ -279,6 +280,7 @@ def test_convert_cli_round_trip(tmp_path, capsys):
     for ext in (".json", ".geojson", ".wkt"):
         out = tmp_path / f"out{ext}"
         assert main(["convert", str(yp), str(out)]) == 0
+        assert "kept 920 of 920 free cells" in capsys.readouterr().out
         env = load_map(out)
         assert env.area == pytest.approx(ref.area)
         assert np.allclose(env.vertices, ref.vertices)
@@ -303,3 +305,20 @@ def test_office_example(capsys):
     assert env.polygon.is_valid and len(env.holes) == 2  # pillar and table; speckles dropped
     assert main(["info", str(yp)]) == 0
     assert "2 holes" in capsys.readouterr().out
+    conv = read_grid(yp).convert()
+    assert conv.dropped_holes == 3  # the three one-cell speckles
+    assert conv.kept_cells == read_grid(yp).convert(min_hole_area=0).kept_cells
+    assert conv.free_cells - conv.kept_cells == 23 * 23  # the closed closet
+    assert conv.exact_vertices == 40 + 3 * 4 and conv.env.n == 40
+    assert json.loads(json.dumps(conv.to_dict()))["holes"] == 2
+
+
+def test_rgb_png_and_free_cells_on_the_image_border(tmp_path):
+    img = np.full((12, 16), F, dtype=np.uint8)  # free up to the image's edge
+    img[5:7, 6:9] = O
+    rgb = np.repeat(img[..., None], 3, axis=2)
+    Image.fromarray(rgb, mode="RGB").save(tmp_path / "c.png")
+    (tmp_path / "c.yaml").write_text("image: c.png\nresolution: 0.5\norigin: [0, 0, 0]\n")
+    env = read_ros_map(tmp_path / "c.yaml")
+    assert env.bounds == pytest.approx((0, 0, 8, 6))
+    assert env.area == pytest.approx((12 * 16 - 6) * 0.25) and len(env.holes) == 1

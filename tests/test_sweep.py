@@ -40,7 +40,7 @@ def test_parse_lss_range():
 def test_sweep_rows_and_bisection_match_a_direct_scan():
     res = sweep(RECT, [0.25, 0.5, 1.0, 1.5], tol=0.02)
     for row in res.rows:
-        assert row.error is None
+        assert row.error is None and row.verified is not False
         assert row.strategy_exists == direct(RECT, row.lss)
     assert len(res.intervals) == 1
     iv = res.intervals[0]
@@ -145,8 +145,8 @@ def test_formats():
     d = json.loads(json.dumps(res.to_dict()))
     assert d["longest_lss_with_strategy"] == 0.5
     lines = res.to_csv().splitlines()
-    assert lines[0].startswith("lss,strategy_exists,regions")
-    assert lines[1].startswith("0.5,true,") and lines[2].startswith("1.0,false,")
+    assert lines[0].startswith("lss,strategy_exists,verified,regions")
+    assert lines[1].startswith("0.5,true,true,") and lines[2].startswith("1.0,false,true,")
 
 
 def test_same_verdict_through_every_format(tmp_path):
@@ -200,3 +200,12 @@ def test_sweep_cli_on_a_dask_cluster(capsys):
         assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5,1", "--tol", "0",
                      "--json", "--dask", cluster.scheduler_address]) == 0
     assert json.loads(capsys.readouterr().out)["longest_lss_with_strategy"] == 0.5
+
+
+def test_sweep_cli_notes_a_missing_kernel(capsys, monkeypatch):
+    import tether.cli.ros as ros
+
+    monkeypatch.setattr(ros, "_kernel_installed", lambda: False)
+    assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5", "--vt", "1",
+                 "--vo", "2"]) == 0
+    assert "kernel (tether.game) is not installed" in capsys.readouterr().err

@@ -49,6 +49,7 @@ from tether.errors import InvalidMapError, InvalidParameterError
 
 __all__ = [
     "FREE",
+    "Conversion",
     "OCCUPIED",
     "UNKNOWN",
     "OccupancyGrid",
@@ -156,14 +157,23 @@ class OccupancyGrid:
     def to_environment(self, seed_point: Any = None, simplify: float | None = None,
                        min_hole_area: float | None = None) -> Environment:
         """The free space as a polygon with holes; see :func:`read_ros_map`."""
+        return self.convert(seed_point, simplify, min_hole_area).env
+
+    def convert(self, seed_point: Any = None, simplify: float | None = None,
+                min_hole_area: float | None = None) -> Conversion:
+        """:meth:`to_environment` with a record of what the conversion kept and dropped."""
         mask = free_component(self, seed_point)
         poly = vectorize(mask)
         res = self.resolution
         simplify = res if simplify is None else _nonneg(simplify, "simplify")
         min_hole = (DEFAULT_MIN_HOLE_CELLS * res * res if min_hole_area is None
                     else _nonneg(min_hole_area, "min_hole_area"))
-        poly = _drop_small_holes(poly, min_hole / (res * res))
-        return _to_environment(self, poly, simplify / res)
+        kept = _drop_small_holes(poly, min_hole / (res * res))
+        env, tol = _to_environment(self, kept, simplify / res)
+        return Conversion(env, self.shape, int(self.free.sum()), int(mask.sum()),
+                          len(poly.interiors) - len(kept.interiors), min_hole, tol * res,
+                          len(poly.exterior.coords) - 1
+                          + sum(len(r.coords) - 1 for r in poly.interiors))
 
     # -------------------------------------------------------------- output
     def image(self) -> np.ndarray:
@@ -193,6 +203,42 @@ class OccupancyGrid:
         with atomic_output(yp) as tmp:
             Path(tmp).write_text(yaml.safe_dump(meta, sort_keys=False))
         return img_path
+
+
+@dataclass(frozen=True)
+class Conversion:
+    """What :meth:`OccupancyGrid.convert` made of a grid.
+
+    ``env`` the map; ``shape`` the grid's (rows, cols); ``free_cells`` all free cells and
+    ``kept_cells`` those of the component kept (after closing pinches); ``dropped_holes`` holes
+    under ``min_hole_area`` (square metres) made free; ``simplify`` the tolerance finally used
+    (metres; lower than asked when the asked one gave an invalid map); ``exact_vertices`` the
+    vertex count before simplification.
+    """
+
+    env: Environment
+    shape: tuple[int, int]
+    free_cells: int
+    kept_cells: int
+    dropped_holes: int
+    min_hole_area: float
+    simplify: float
+    exact_vertices: int
+
+    def summary(self) -> str:
+        """One line for the CLI."""
+        rows, cols = self.shape
+        return (f"from {cols} x {rows} cells: kept {self.kept_cells} of {self.free_cells} free "
+                f"cells (one component), dropped {self.dropped_holes} holes under "
+                f"{self.min_hole_area:.4g} m², simplified {self.exact_vertices} vertices at "
+                f"{self.simplify:.4g} m")
+
+    def to_dict(self) -> dict:
+        return {"map": self.env.name, "shape": list(self.shape), "free_cells": self.free_cells,
+                "kept_cells": self.kept_cells, "dropped_holes": self.dropped_holes,
+                "min_hole_area": self.min_hole_area, "simplify": self.simplify,
+                "exact_vertices": self.exact_vertices, "vertices": self.env.n,
+                "holes": len(self.env.holes)}
 
 
 def _nonneg(value: Any, what: str) -> float:
@@ -282,6 +328,8 @@ def read_grid(yaml_path: str | Path) -> OccupancyGrid:
                        and math.isfinite(v) for v in origin)):
         raise InvalidMapError(f"{where}: 'origin' must be [x, y, yaw] numbers, got {origin!r}")
     origin = [float(v) for v in origin] + [0.0] * (3 - len(origin))
+    if isinstance(meta.get("negate"), bool):  # ``negate: true`` is read as 1
+        meta["negate"] = int(meta["negate"])
     negate = _yaml_number(meta, "negate", where, 0.0)
     if negate not in (0.0, 1.0):
         raise InvalidMapError(f"{where}: 'negate' must be 0 or 1, got {meta['negate']!r}")
@@ -529,8 +577,10 @@ def _simplified(poly: Polygon, tol: float) -> Polygon:
     return poly
 
 
-def _to_environment(grid: OccupancyGrid, poly: Polygon, tol_cells: float) -> Environment:
-    """Simplify in cell units, map to metres, and build the Environment (retrying finer)."""
+def _to_environment(grid: OccupancyGrid, poly: Polygon, tol_cells: float
+                    ) -> tuple[Environment, float]:
+    """Simplify in cell units, map to metres, and build the Environment (retrying finer);
+    returns it with the tolerance used (cells)."""
     last: InvalidMapError | None = None
     for tol in (tol_cells, tol_cells / 2, tol_cells / 4, 0.0):
         simple = _simplified(poly, tol) if tol > 0 else poly
@@ -538,7 +588,7 @@ def _to_environment(grid: OccupancyGrid, poly: Polygon, tol_cells: float) -> Env
         rings += [np.asarray(r.coords)[:-1] for r in simple.interiors]
         rings = [np.round(grid.to_world(r), 9) for r in rings]  # float noise of the transform
         try:
-            return Environment(rings[0], tuple(rings[1:]), grid.name)
+            return Environment(rings[0], tuple(rings[1:]), grid.name), tol
         except InvalidMapError as exc:
             last = exc
     raise InvalidMapError(f"{grid.where}: {last}")

@@ -44,7 +44,9 @@ class SweepRow:
 
     ``strategy_exists`` is ``None`` when the run failed (``error`` says why; an error starting
     ``kernel:`` means only the kernel failed and the verdict stands); ``refined`` marks
-    rows evaluated by the bisection rather than from the user's list; ``seconds`` is wall time.
+    rows evaluated by the bisection rather than from the user's list; ``seconds`` is wall time;
+    ``verified`` is whether the decomposition passed :func:`analyze`'s cheap self-check (``None``
+    when not run).
     """
 
     lss: float
@@ -54,9 +56,11 @@ class SweepRow:
     error: str | None = None
     refined: bool = False
     seconds: float = 0.0
+    verified: bool | None = None
 
     def to_dict(self) -> dict:
-        return {"lss": self.lss, "strategy_exists": self.strategy_exists, "counts": self.counts,
+        return {"lss": self.lss, "strategy_exists": self.strategy_exists,
+                "verified": self.verified, "counts": self.counts,
                 "safe_fraction": self.safe_fraction, "error": self.error,
                 "refined": self.refined, "seconds": round(self.seconds, 4)}
 
@@ -99,6 +103,11 @@ class SweepResult:
     def errors(self) -> list[SweepRow]:
         return [r for r in self.rows if r.error is not None]
 
+    @property
+    def unverified(self) -> list[SweepRow]:
+        """Rows whose decomposition failed the self-check: their verdict is not trusted."""
+        return [r for r in self.rows if r.verified is False]
+
     def to_dict(self) -> dict:
         return {"map": self.map_name, "tol": self.tol, "vt": self.vt, "vo": self.vo,
                 "longest_lss_with_strategy": self.longest,
@@ -109,11 +118,12 @@ class SweepResult:
         """One line per row: lss, verdict, counts, safe fraction, refined flag, error."""
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["lss", "strategy_exists", *_COUNT_KEYS, "safe_fraction", "refined",
-                    "error"])
+        w.writerow(["lss", "strategy_exists", "verified", *_COUNT_KEYS, "safe_fraction",
+                    "refined", "error"])
         for r in self.rows:
             verdict = "" if r.strategy_exists is None else str(r.strategy_exists).lower()
-            w.writerow([repr(r.lss), verdict, *(r.counts.get(k, "") for k in _COUNT_KEYS),
+            checked = "" if r.verified is None else str(r.verified).lower()
+            w.writerow([repr(r.lss), verdict, checked, *(r.counts.get(k, "") for k in _COUNT_KEYS),
                         "" if r.safe_fraction is None else f"{r.safe_fraction:.6g}",
                         str(r.refined).lower(), r.error or ""])
         return buf.getvalue()
@@ -172,7 +182,8 @@ def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | No
         except Exception as exc:  # noqa: BLE001 - the verdict stands; the kernel's failure noted
             error = f"kernel: {type(exc).__name__}: {exc}"
     return SweepRow(float(lss), verdict.strategy_exists, verdict.counts(), frac, error,
-                    refined=refined, seconds=time.perf_counter() - t0)
+                    refined=refined, seconds=time.perf_counter() - t0,
+                    verified=getattr(verdict, "verified", None))
 
 
 # ---------------------------------------------------------------------- the sweep

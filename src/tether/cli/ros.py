@@ -8,35 +8,56 @@ import json
 import sys
 from pathlib import Path
 
-from tether.cli.common import finite_arg, int_range, print_json
+from tether.cli.common import finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
-from tether.output import IMAGE_KINDS, atomic_output, check_output_path
+from tether.output import IMAGE_KINDS
 
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
+
+
+def _check_output(path: str, kinds: tuple[str, ...]) -> Path:
+    """Validate an output path before computing (:func:`tether.output.check_output_path`)."""
+    from tether.output import check_output_path
+
+    return check_output_path(path, kinds)
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write ``text`` whole or not at all (:func:`tether.output.atomic_output`)."""
+    from tether.output import atomic_output
+
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(text)
 
 
 # ---------------------------------------------------------------------- reading
 def _load(args: argparse.Namespace):
     """The map of ``args.map``, with the ROS options applied to a ``.yaml`` map."""
+    return _load_with_summary(args)[0]
+
+
+def _load_with_summary(args: argparse.Namespace):
+    """The map and, for a ROS map, a line saying what the conversion kept (else ``None``)."""
     from tether.environment import load_map
-    from tether.occupancy import read_ros_map
+    from tether.occupancy import read_grid
 
     ros_opts = (args.seed, args.simplify, args.min_hole_area)
     if Path(args.map).suffix.lower() in (".yaml", ".yml"):
-        return read_ros_map(args.map, args.seed, args.simplify, args.min_hole_area)
+        conv = read_grid(args.map).convert(args.seed, args.simplify, args.min_hole_area)
+        return conv.env, conv.summary()
     if any(o is not None for o in ros_opts):
         raise InvalidParameterError("--seed, --simplify and --min-hole-area apply to ROS maps "
                                     "(.yaml) only")
-    return load_map(args.map)
+    return load_map(args.map), None
 
 
 def _add_ros_options(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("--seed", nargs=2, type=finite_arg, metavar=("X", "Y"),
                     help="ROS map: a point of the free space wanted (metres, map frame); "
                          "default: the largest free component")
-    sp.add_argument("--simplify", type=finite_arg, metavar="M",
+    sp.add_argument("--simplify", type=float_arg, metavar="M",
                     help="ROS map: simplification tolerance in metres (default: one cell)")
-    sp.add_argument("--min-hole-area", type=finite_arg, metavar="A",
+    sp.add_argument("--min-hole-area", type=float_arg, metavar="A",
                     help="ROS map: drop holes smaller than A square metres (default: 4 cells)")
 
 
@@ -56,13 +77,13 @@ def map_text(env, suffix: str) -> str:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    out = check_output_path(args.out, _MAP_KINDS)
+    out = _check_output(args.out, _MAP_KINDS)
     suffix = out.suffix.lower()
     if suffix == ".yaml" and args.resolution is None:
         raise InvalidParameterError("writing a ROS map (.yaml) needs --resolution (metres)")
     if suffix != ".yaml" and args.resolution is not None:
         raise InvalidParameterError("--resolution applies to a ROS map output (.yaml) only")
-    env = _load(args)
+    env, summary = _load_with_summary(args)
     if suffix == ".yaml":
         from tether.occupancy import rasterize
 
@@ -71,9 +92,10 @@ def cmd_convert(args: argparse.Namespace) -> int:
         print(f"wrote {out} and {img}: {grid.shape[1]} x {grid.shape[0]} cells of "
               f"{grid.resolution:g} m")
         return 0
-    with atomic_output(out) as tmp:
-        Path(tmp).write_text(map_text(env, suffix))
+    _write_text(out, map_text(env, suffix))
     print(f"wrote {out}: {env.n} vertices, {len(env.holes)} holes, area {env.area:.6g}")
+    if summary:
+        print(summary)
     return 0
 
 
@@ -120,6 +142,8 @@ def format_sweep(res) -> str:
                 f"{c.get('cells', ''):>6} {c.get('surviving_cells', ''):>9}")
         if kernel:
             line += "  " + ("-" if r.safe_fraction is None else f"{r.safe_fraction:.3f}")
+        if r.verified is False:
+            line += "  (self-check FAILED: verdict not verified)"
         if r.error:
             line += f"  ({r.error})"
         lines.append(line)
@@ -133,7 +157,16 @@ def format_sweep(res) -> str:
         lines.append(f"longest lss with a strategy: {res.longest:.4g}")
     if res.errors:
         lines.append(f"{len(res.errors)} lss values failed (see the rows marked error)")
+    if res.unverified:
+        lines.append(f"{len(res.unverified)} lss values failed the self-check; their verdicts "
+                     "are not verified (tether check MAP --lss L for details)")
     return "\n".join(lines)
+
+
+def _kernel_installed() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("tether.game") is not None
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -142,9 +175,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.json and args.csv:
         raise InvalidParameterError("give --json or --csv, not both")
-    plot = check_output_path(args.plot, IMAGE_KINDS) if args.plot else None
+    plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
     values = parse_lss_range(args.lss)
     env = _load(args)
+    if args.vt is not None and args.vo is not None and not _kernel_installed():
+        print("tether: note: the surveillance kernel (tether.game) is not installed; the safe "
+              "fraction is omitted", file=sys.stderr)
     executor, close = _executor(args)
     try:
         res = sweep(env, values, executor, args.vt, args.vo, args.tol,
@@ -152,11 +188,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finally:
         close()
     if plot is not None:
-        from tether.plot import save
+        from tether.plot import new_axes, save
         from tether.plot_sweep import plot_sweep
 
-        arts = plot_sweep(res)
-        save(arts[0].figure if arts else None, plot)
+        fig, ax = new_axes(size=(8, 4.5))
+        plot_sweep(res, ax)
+        save(fig, plot)
     if args.json:
         print_json(res.to_dict())
     elif args.csv:
@@ -174,7 +211,7 @@ def register(add) -> None:
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("out", help="output file (.json, .geojson, .wkt, or .yaml with --resolution)")
     _add_ros_options(sp)
-    sp.add_argument("--resolution", type=finite_arg, metavar="M",
+    sp.add_argument("--resolution", type=float_arg, metavar="M",
                     help="cell size of a ROS map output (.yaml), metres")
 
     sp = add("sweep", cmd_sweep,
@@ -182,17 +219,17 @@ def register(add) -> None:
     sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
     sp.add_argument("--lss", required=True, metavar="RANGE",
                     help="START:STOP:STEP (both ends included), a list 0.5,1,2, or a number")
-    sp.add_argument("--vt", type=finite_arg, help="target speed bound (with --vo: kernel column)")
-    sp.add_argument("--vo", type=finite_arg, help="observer speed bound (> vt)")
-    sp.add_argument("--tol", type=finite_arg,
+    sp.add_argument("--vt", type=float_arg, help="target speed bound (with --vo: kernel column)")
+    sp.add_argument("--vo", type=float_arg, help="observer speed bound (> vt)")
+    sp.add_argument("--tol", type=float_arg,
                     help="bisection tolerance on interval ends (default: step/8; 0: none)")
     out = sp.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true", help="print JSON")
     out.add_argument("--csv", action="store_true", help="print CSV")
     sp.add_argument("--plot", metavar="FILE", help="draw the sweep to an image file")
     sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
-                    help="run on N local processes")
+                    help="run on N local processes (1 to 1024)")
     sp.add_argument("--dask", metavar="ADDRESS",
                     help="run on a Dask cluster (scheduler address; extra [cluster])")
-    sp.add_argument("--dask-timeout", type=finite_arg, default=10.0, help=argparse.SUPPRESS)
+    sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
     _add_ros_options(sp)
