@@ -4,8 +4,6 @@
 from __future__ import annotations
 
 import json
-import sys
-import types
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -118,24 +116,17 @@ def test_dask_executor():
 
 
 def test_kernel_hook(monkeypatch):
-    class FakeKernel:
-        def __init__(self, lss):
-            self.lss = lss
+    import tether.game as game
 
-        def safe_fraction(self):
-            return np.array([1.0, 0.0]) if self.lss > 0.7 else np.array([1.0, 1.0])
-
-    game = types.ModuleType("tether.game")
-    game.surveillance_kernel = lambda env, lss, vt, vo: FakeKernel(lss)
-    monkeypatch.setitem(sys.modules, "tether.game", game)
-    res = sweep(RECT, [0.5, 1.0], vt=1.0, vo=2.0, tol=0)
-    assert [r.safe_fraction for r in res.rows] == [1.0, 0.5]
+    res = sweep(RECT, [0.5], vt=1.0, vo=2.0, tol=0)
+    direct = game.surveillance_kernel(RECT, 0.5, 1.0, 2.0).safe_fraction_total()
+    assert res.rows[0].safe_fraction == pytest.approx(direct)
     assert all(r.safe_fraction is None for r in sweep(RECT, [0.5], tol=0).rows)
 
     def broken(env, lss, vt, vo):
         raise RuntimeError("no grid")
 
-    game.surveillance_kernel = broken
+    monkeypatch.setattr(game, "surveillance_kernel", broken)
     row = sweep(RECT, [0.5], vt=1.0, vo=2.0, tol=0).rows[0]
     assert row.strategy_exists is True and row.error == "kernel: RuntimeError: no grid"
 
@@ -200,12 +191,3 @@ def test_sweep_cli_on_a_dask_cluster(capsys):
         assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5,1", "--tol", "0",
                      "--json", "--dask", cluster.scheduler_address]) == 0
     assert json.loads(capsys.readouterr().out)["longest_lss_with_strategy"] == 0.5
-
-
-def test_sweep_cli_notes_a_missing_kernel(capsys, monkeypatch):
-    import tether.cli.ros as ros
-
-    monkeypatch.setattr(ros, "_kernel_installed", lambda: False)
-    assert main(["sweep", str(example_path("rectangle")), "--lss", "0.5", "--vt", "1",
-                 "--vo", "2"]) == 0
-    assert "kernel (tether.game) is not installed" in capsys.readouterr().err

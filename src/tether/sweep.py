@@ -12,9 +12,9 @@ The verdict is not monotone in ``lss`` in general: a sampled sweep finds the int
 hit; an interval narrower than the sample step, between two samples without a strategy, can be
 missed. The ends reported are exact to the tolerance only for the transitions the samples bracket.
 
-With the speeds ``vt`` and ``vo`` given and :mod:`tether.game` installed, every row also carries
+With the speeds ``vt`` and ``vo`` given, every row also carries
 the surveillance kernel's safe fraction: the fraction of free states in the kernel
-(``Kernel.safe_fraction_total()``, else the mean over target points of ``safe_fraction()``).
+(``Kernel.safe_fraction_total()``).
 """
 
 from __future__ import annotations
@@ -140,20 +140,11 @@ class SweepResult:
 
 
 # ---------------------------------------------------------------------- one evaluation
-def _kernel_fraction(env: Environment, lss: float, vt: float, vo: float) -> float | None:
-    """The kernel's safe fraction if :mod:`tether.game` provides ``surveillance_kernel``."""
-    try:
-        from tether.game import surveillance_kernel  # type: ignore[attr-defined]
-    except ImportError:
-        try:
-            from tether.game.kernel import surveillance_kernel  # type: ignore[no-redef]
-        except ImportError:
-            return None
-    kernel = surveillance_kernel(env, lss, vt, vo)
-    if hasattr(kernel, "safe_fraction_total"):  # fraction of all free states in the kernel
-        return float(kernel.safe_fraction_total())
-    frac = np.asarray(kernel.safe_fraction(), dtype=float)  # per target point, NaN: none free
-    return float(np.nanmean(frac)) if np.isfinite(frac).any() else None
+def _kernel_fraction(env: Environment, lss: float, vt: float, vo: float) -> float:
+    """The fraction of free states in the surveillance kernel (:mod:`tether.game`)."""
+    from tether.game import surveillance_kernel
+
+    return float(surveillance_kernel(env, lss, vt, vo).safe_fraction_total())
 
 
 def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | None = None,
@@ -279,7 +270,7 @@ def sweep(env: Environment, lss_values: Iterable[float], executor: Executor | No
         Where to run the evaluations; default: serially in this process.
     vt, vo : float, optional
         Target and observer speed bounds (both or neither, ``0 < vt < vo``); with them, rows
-        carry the surveillance kernel's safe fraction when :mod:`tether.game` is installed.
+        carry the surveillance kernel's safe fraction.
     tol : float, optional
         Bisection tolerance on each interval end, map units; default: an eighth of the smallest
         step between the given values. ``0`` turns the refinement off.

@@ -62,20 +62,26 @@ EXAMPLES = {
     "check": f"tether check {_EX}/gallery.geojson --lss 2 --samples 50 --seed 7",
     "bound": "tether bound --vt 1 --vo 2 --lss 1 --from 0 --to 1.5708",
     "plot-motion": "tether plot-motion wall --vt 1 --vo 2 --lss 1 --out wall.png",
+    "assess": f"tether assess {_EX}/gallery.json --lss 2 --vt 0.3 --vo 1 --at 2 2.5 0.5",
+    "simulate": (f"tether simulate {_EX}/gallery.json --lss 2 --vt 0.3 --vo 1 --start 2 2.5 0.5 "
+                 "--target random --duration 20 --animate run.gif"),
+    "kernel": f"tether kernel {_EX}/gallery.json --lss 2 --vt 0.3 --vo 1 --at 2 2.5 0.5 --json",
     "convert": f"tether convert {_EX}/office.yaml office.geojson",
     "sweep": f"tether sweep {_EX}/rectangle.json --lss 0.5:2:0.25",
 }
 
 #: Commands that read a map file; their help describes the format.
-MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep"}
+MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep", "assess",
+                "simulate", "kernel"}
 
 MAP_FORMAT = """\
 map files:
   .json     {"name": "room", "boundary": [[x, y], ...], "holes": [[[x, y], ...], ...]}
   .wkt      POLYGON ((x y, ...), (hole ...))
   .geojson  a Polygon, a Feature with a Polygon, or a FeatureCollection of one Feature
+  .yaml     a ROS map_server map (its .pgm/.png beside it); free space = largest free component
   Vertices V0.. and edges E0.. follow the file's order (boundary first, then each hole).
-  lss must be 0.001 to 1000 times the map's diameter (its bounding box's diagonal).
+  lss must be 0.001 to 1000 times the map's diameter (largest vertex distance).
 exit status: 0 ok, 1 check failed, 2 user error (one line), 3 internal error."""
 
 

@@ -163,12 +163,6 @@ def format_sweep(res) -> str:
     return "\n".join(lines)
 
 
-def _kernel_installed() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("tether.game") is not None
-
-
 def cmd_sweep(args: argparse.Namespace) -> int:
     from tether.progress import Progress
     from tether.sweep import parse_lss_range, sweep
@@ -178,9 +172,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
     values = parse_lss_range(args.lss)
     env = _load(args)
-    if args.vt is not None and args.vo is not None and not _kernel_installed():
-        print("tether: note: the surveillance kernel (tether.game) is not installed; the safe "
-              "fraction is omitted", file=sys.stderr)
     executor, close = _executor(args)
     try:
         res = sweep(env, values, executor, args.vt, args.vo, args.tol,
