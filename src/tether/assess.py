@@ -44,8 +44,10 @@ class EscapeTable:
     """Escape samples of every surviving cell (vectorized rows) and the reflex vertices.
 
     Row ``i``: point ``q[i]`` on piece ``piece[i]`` just inside the region of cell
-    ``cell[i]``; that cell's arc there is CCW ``(k_start[i], k_end[i])`` (equal ends: the full
-    circle); the goal is the union of CCW arcs ``(g_start[i, j], g_end[i, j])`` (NaN padded).
+    ``cell[i]``; ``(k_start[i], k_end[i])`` (CCW; equal ends: the full circle) is that cell's
+    arc there widened over the blocked gaps on both sides (:func:`_widened`): the orientations
+    the row concerns; the goal is the union of CCW arcs ``(g_start[i, j], g_end[i, j])``
+    (NaN padded).
     """
 
     verdict: Verdict = field(repr=False)
@@ -217,6 +219,28 @@ def _arc_of(table: Any, env: Any, i: int, region: int, wanted: set[str]
     return out
 
 
+def _widened(table: Any, i: int, s: float, e: float) -> tuple[float, float]:
+    """Arc ``(s, e)`` of point ``i`` widened over the blocked gaps on both sides, up to the
+    neighbouring free arcs (``(0, 0)``, the full circle, when it is the only arc).
+
+    A rod that is blocked at the escape sample ``q`` (free where the target is now) is pushed
+    into one of the two arcs bounding its gap by the time the target reaches ``q``, so the
+    escape rows of both concern it: a rod pointing into the gap next to ``K`` must count the
+    sweep to ``K``'s goal as well (otherwise a start a few degrees outside ``K``'s arc at ``q``
+    is called safe while the follow law turns it into ``K`` right at the escape piece)."""
+    if table.full[i]:
+        return (0.0, 0.0)
+    rows = table.rows_of(i)
+    starts, ends = table.start[rows], table.end[rows]
+    if len(starts) <= 1:
+        return (0.0, 0.0)
+    before = np.mod(s - ends, TWO_PI)  # CW distance from each arc's end to K's start
+    after = np.mod(starts - e, TWO_PI)  # CCW distance from K's end to each arc's start
+    before = np.where(before == 0.0, TWO_PI, before)
+    after = np.where(after == 0.0, TWO_PI, after)
+    return (float(ends[int(np.argmin(before))]), float(starts[int(np.argmin(after))]))
+
+
 def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTable:
     """The escape samples of every surviving cell and the reflex vertices (see the module
     docstring)."""
@@ -253,7 +277,7 @@ def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTa
             rows_q.append(side[inside[i]])
             rows_cell.append(cid)
             rows_piece.append(k)
-            rows_k.append(karc[0][:2])
+            rows_k.append(_widened(table, int(inside[i]), karc[0][0], karc[0][1]))
             rows_g.append([g[:2] for g in goals])
     refl = np.asarray(env.reflex_indices, dtype=int)
     vq, vgoal = _vertex_goals(env, dec.lss, refl)
@@ -566,17 +590,23 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
 
 def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float
                ) -> list[tuple[int, int]]:
-    """Pairs of piece escape points (indices into ``points``) that conflict (Prop. 3)."""
+    """Pairs of escape points (indices into ``points``) that conflict (Prop. 3): they need
+    opposite sweeps and neither order finishes in time. Every kind counts (pieces, reflex
+    vertices, steep walls: all are escape points, erratum 12), each with its extra distance
+    (the no-pivot radius at a vertex): a rod that must turn CW for a vertex and CCW for the
+    next one is lost whichever it serves first."""
     out = []
-    idx = [i for i, e in enumerate(points) if e.kind == "piece"]
-    for ii, i in enumerate(idx):
-        for j in idx[ii + 1:]:
-            ei, ej = points[i], points[j]
+    room = [e.distance - e.L_g - e.margin for e in points]  # the row's offset
+    for i, ei in enumerate(points):
+        for j in range(i + 1, len(points)):
+            ej = points[j]
             if ei.sense == ej.sense:
                 continue
             # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
-            i_first = ej.distance >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
-            j_first = ei.distance >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
+            i_first = ej.distance - room[j] >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo,
+                                                            lss))
+            j_first = ei.distance - room[i] >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo,
+                                                            lss))
             if not (i_first or j_first):
                 out.append((i, j))
     return out
