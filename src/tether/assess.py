@@ -453,11 +453,13 @@ class EscapePoint:
     L: float  # paper's straight-dash bound
     L_g: float  # safe bound
     margin: float  # |p − q| − L_g
+    goal: tuple[tuple[float, float], ...] = ()  # CCW arcs (start, end), rad; (0, 0) = all
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
                 "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
-                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin}
+                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin,
+                "goal": [list(g) for g in self.goal]}
 
 
 @dataclass(frozen=True)
@@ -535,7 +537,7 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
                     f"{math.degrees(e.sweep):.0f}° {'CCW' if e.sense > 0 else 'CW'} sweep): "
                     "the target gets there before the rotation finishes")
                 break
-        conflicts = _conflicts(points, vt, vo, lss)
+        conflicts = _conflicts(points, vt, vo, lss, a, _arc_at(env, p, a, lss))
         for i, j in conflicts[:1]:
             reasons.append(
                 f"escape points {i} and {j} need opposite sweeps and neither order finishes "
@@ -584,17 +586,56 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
                                None if vertex else table.cell[i], _row_name(int(table.piece[i])),
                                float(dist[i]), float(delta[i]), int(sense[i]),
                                float(l_paper(delta[i], vt, vo, lss)), float(lg[i]),
-                               float(margin[i])))
+                               float(margin[i]),
+                               tuple((float(g0), float(g1)) for g0, g1
+                                     in zip(table.g_start[i], table.g_end[i], strict=True)
+                                     if np.isfinite(g0))))
     return out
 
 
-def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float
+#: Directions sampled to find the orientations two goals share (0.25°).
+_GRID = (np.arange(1440) + 0.5) * (TWO_PI / 1440)
+
+
+def _in_arcs(arcs: tuple[tuple[float, float], ...], ang: np.ndarray) -> np.ndarray:
+    """Whether each angle lies in one of the CCW arcs (``(s, s)``: the full circle)."""
+    out = np.zeros(len(ang), dtype=bool)
+    for s, e in arcs:
+        width = (e - s) % TWO_PI or TWO_PI
+        out |= np.mod(ang - s, TWO_PI) <= width
+    return out
+
+
+def _common_sweep(a: float, gi: tuple, gj: tuple, arc: tuple[float, float] | None) -> float:
+    """Smallest sweep (rad, either sense, inside the free ``arc`` when it allows) from ``a``
+    into an orientation both goals hold; ``inf`` when there is none. Rounded up by one grid
+    step."""
+    both = _in_arcs(gi, _GRID) & _in_arcs(gj, _GRID)
+    if not both.any():
+        return math.inf
+    ccw = np.mod(_GRID - a, TWO_PI)
+    cw = np.mod(a - _GRID, TWO_PI)
+    free = np.minimum(ccw, cw)
+    if arc is not None:
+        free = np.minimum(np.where(ccw <= np.mod(arc[1] - a, TWO_PI), ccw, np.inf),
+                          np.where(cw <= np.mod(a - arc[0], TWO_PI), cw, np.inf))
+    best = float(free[both].min())
+    if not math.isfinite(best):
+        # none reachable inside the arc now: the arc opens as the target moves (as in
+        # :func:`sweeps`), so count the unconstrained sweep
+        best = float(np.minimum(ccw, cw)[both].min())
+    return best + TWO_PI / len(_GRID)
+
+
+def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float,
+               a: float | None = None, arc: tuple[float, float] | None = None
                ) -> list[tuple[int, int]]:
     """Pairs of escape points (indices into ``points``) that conflict (Prop. 3): they need
-    opposite sweeps and neither order finishes in time. Every kind counts (pieces, reflex
-    vertices, steep walls: all are escape points, erratum 12), each with its extra distance
-    (the no-pivot radius at a vertex): a rod that must turn CW for a vertex and CCW for the
-    next one is lost whichever it serves first."""
+    opposite sweeps and no schedule serves both in time: neither order (serve one, then sweep
+    back through it to the other) nor one sweep into an orientation both goals share
+    finishes before the target can reach the escape point concerned. Every kind counts
+    (pieces, reflex vertices, steep walls: all are escape points, erratum 12), each with its
+    extra distance (the no-pivot radius at a vertex)."""
     out = []
     room = [e.distance - e.L_g - e.margin for e in points]  # the row's offset
     for i, ei in enumerate(points):
@@ -602,12 +643,15 @@ def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float
             ej = points[j]
             if ei.sense == ej.sense:
                 continue
+            di, dj = ei.distance - room[i], ej.distance - room[j]
             # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
-            i_first = ej.distance - room[j] >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo,
-                                                            lss))
-            j_first = ei.distance - room[i] >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo,
-                                                            lss))
-            if not (i_first or j_first):
+            i_first = dj >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
+            j_first = di >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
+            common = False
+            if a is not None and ei.goal and ej.goal:
+                both = _common_sweep(a, ei.goal, ej.goal, arc)
+                common = min(di, dj) >= float(l_safe(both, vt, vo, lss))
+            if not (i_first or j_first or common):
                 out.append((i, j))
     return out
 
