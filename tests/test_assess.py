@@ -163,3 +163,37 @@ def test_prop3_applies_to_vertex_escape_points():
     r = simulate(w, PaperController(w), make_target("random", w), st, duration=4.0, dt=0.02,
                  seed=19)
     assert r.outcome == "lost" and "E0" in r.reason
+
+
+def test_wall_rows_cover_every_contact_point_and_inclination():
+    """Gallery, vt/vo = 0.3, start (7.95, 2.97, 0.074): a random walker (seed 4) heads right
+    along y = 2.97 and the rod's tip meets the hole's wall E10 (x = 11) 7° off its normal,
+    near its end V10, within arcsin(vt/vo) = 17.5°. The wall rows sampled only perpendicular
+    contacts every lss/2 along the edge, 0.5 away from that contact, so the trigger never fired
+    and the run was lost at 3.54 s. The wall's escape point is now the nearest point of the
+    whole wall translated by −lss·u(a); the run is held, monitor on."""
+    from tether.assess import wall_contact_points
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    env = v.dec.env
+    # the translated wall is exactly where the rod's tip touches the wall (brute force)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a = rng.uniform(0, 2 * math.pi)
+        pts = rng.uniform((0, 0), (16, 12), (5, 2))
+        near = wall_contact_points(env, np.arange(env.n), 2.0, pts, a)
+        tips = near + 2.0 * np.array([math.cos(a), math.sin(a)])
+        A, B, _, _ = env.oriented_edges
+        e = B - A
+        cross = (e[:, None, 0] * (tips[..., 1] - A[:, None, 1])
+                 - e[:, None, 1] * (tips[..., 0] - A[:, None, 0]))
+        assert np.abs(cross).max() < 1e-9 * 16 * 16
+    w = _gallery_world(0.3)
+    st = (7.95, 2.97, 0.074)
+    assert assess(v, 0.3, 1.0, *st).safe
+    r = simulate(w, PaperController(w), make_target("random", w), st, duration=6.0, dt=0.02,
+                 seed=4)
+    assert r.outcome == "held"

@@ -97,9 +97,25 @@ class EscapeTable:
         :meth:`sweeps`): ``margin = |p − q| − L_g(Δ) − offset`` (``inf`` where the row does
         not concern the rod)."""
         concern, delta, sense = self.sweeps(a, arc)
-        d = np.hypot(self.q[:, 0] - p[0], self.q[:, 1] - p[1])
+        q = self.points_for(p, a)
+        d = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1])
         m = d - l_safe(delta, vt, vo, self.verdict.dec.lss) - self.offsets(vt, vo)
         return concern, delta, sense, np.where(concern, m, np.inf)
+
+    def points_for(self, p: Any, a: float) -> np.ndarray:
+        """The escape point of each row for the rod ``(p, a)`` (m, 2): ``q`` itself, except at
+        a steep-wall row, where it is the point nearest ``p`` of the wall translated by
+        ``−lss·u(a)``: every target position from which rod ``a`` touches the wall (the wall
+        row's ``q`` is only the perpendicular contact at the wall's middle)."""
+        q = self.q
+        wall = self.is_wall
+        if not wall.any():
+            return q
+        q = q.copy()
+        edges = WALL_CODE - self.piece[wall]
+        q[wall] = wall_contact_points(self.verdict.dec.env, edges, self.verdict.dec.lss,
+                                      np.asarray(p, float).reshape(1, 2), a)[:, 0]
+        return q
 
     @property
     def pieces(self) -> list[str]:
@@ -384,29 +400,40 @@ def escape_table_of(verdict: Verdict, ratio: float | None = None) -> EscapeTable
     return w
 
 
-def wall_rows(env: Any, lss: float, ratio: float, spacing: float | None = None
+def wall_rows(env: Any, lss: float, ratio: float
               ) -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
     """Steep wall contacts (§5a): a rod whose tip meets edge ``E_i`` within ``δ0 =
-    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. Rows: points
-    ``q`` at distance ``lss`` from each edge (where such a contact starts), the edge index, and
-    the goal arc: every orientation at least ``δ0`` away from pointing straight at the wall."""
+    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. One row per
+    edge: a display point ``q`` (the perpendicular contact at the edge's middle, at distance
+    ``lss``), the edge index, and the goal arc: every orientation at least ``δ0`` away from
+    pointing straight at the wall. The escape point a rod ``a`` actually meets is the nearest
+    point of the edge translated by ``−lss·u(a)`` (:func:`wall_contact_points`), wherever
+    along the edge and at whatever inclination the contact happens."""
     d0 = math.asin(min(max(ratio, 0.0), 1.0))
     A, B, _, _ = env.oriented_edges
     nrm = env.free_normals
-    step = 0.5 * lss if spacing is None else spacing
     qs, edges, goals = [], [], []
     for i in range(len(A)):
-        e = B[i] - A[i]
-        n_s = max(1, int(np.ceil(np.hypot(*e) / step)))
-        s = (np.arange(n_s) + 0.5) / n_s
-        q = A[i] + s[:, None] * e + lss * nrm[i]
-        q = q[np.asarray(env.contains(q[:, 0], q[:, 1]), dtype=bool)]
         at_wall = math.atan2(-nrm[i, 1], -nrm[i, 0])
-        for qq in q:
-            qs.append(qq)
-            edges.append(i)
-            goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
+        qs.append(0.5 * (A[i] + B[i]) + lss * nrm[i])
+        edges.append(i)
+        goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
     return np.array(qs).reshape(-1, 2), np.array(edges, dtype=int), goals
+
+
+def wall_contact_points(env: Any, edges: np.ndarray, lss: float, pts: np.ndarray, a: float
+                        ) -> np.ndarray:
+    """For each edge in ``edges`` and each point in ``pts`` (n, 2): the point nearest it of the
+    edge translated by ``−lss·u(a)``, the target positions from which rod ``a`` has its tip on
+    the edge. Shape (len(edges), n, 2), map units."""
+    A, B, _, _ = env.oriented_edges
+    shift = lss * np.array([math.cos(a), math.sin(a)])
+    a0 = A[edges] - shift
+    e = B[edges] - A[edges]
+    ee = np.einsum("ij,ij->i", e, e)
+    rel = pts[None, :, :] - a0[:, None, :]
+    t = np.clip(np.einsum("enk,ek->en", rel, e) / ee[:, None], 0.0, 1.0)
+    return a0[:, None, :] + t[..., None] * e[:, None, :]
 
 
 def _with_walls(t: EscapeTable, ratio: float) -> EscapeTable:
@@ -570,7 +597,8 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
     if not len(table):
         return out
     concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
-    dist = np.hypot(*(table.q - p).T)
+    qs = table.points_for(p, a)
+    dist = np.hypot(*(qs - p).T)
     lg = l_safe(delta, vt, vo, lss)
     reach = _reach(vt, vo, lss) + lss
     best: dict[int, int] = {}
@@ -582,7 +610,7 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
         vertex = bool(table.piece[i] < 0)
         kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
         out.append(EscapePoint(kind,
-                               (float(table.q[i, 0]), float(table.q[i, 1])),
+                               (float(qs[i, 0]), float(qs[i, 1])),
                                None if vertex else table.cell[i], _row_name(int(table.piece[i])),
                                float(dist[i]), float(delta[i]), int(sense[i]),
                                float(l_paper(delta[i], vt, vo, lss)), float(lg[i]),
@@ -696,6 +724,13 @@ def critical_distance_field(verdict: Verdict, vt: float, vo: float, a: float, xs
     lss = verdict.dec.lss
     bound = (l_paper(delta[concern], vt, vo, lss) if paper
              else l_safe(delta[concern], vt, vo, lss)) + table.offsets(vt, vo)[concern]
-    for qi, bi in zip(q, bound, strict=True):
+    wall = table.is_wall[concern]
+    grid = np.column_stack((X.ravel(), Y.ravel()))
+    for qi, bi in zip(q[~wall], bound[~wall], strict=True):
         out = np.minimum(out, np.hypot(X - qi[0], Y - qi[1]) - bi)
+    if wall.any():  # distance to the translated wall (see EscapeTable.points_for)
+        edges = WALL_CODE - table.piece[concern][wall]
+        near = wall_contact_points(verdict.dec.env, edges, lss, grid, a)
+        d = np.hypot(near[..., 0] - grid[:, 0], near[..., 1] - grid[:, 1]) - bound[wall][:, None]
+        out = np.minimum(out, d.min(axis=0).reshape(X.shape))
     return out
