@@ -148,7 +148,9 @@ def test_prop3_applies_to_vertex_escape_points():
     """Gallery, vt/vo = 0.6, start (0.939, 2.344, 6.143): reflex vertex V6 (5, 4) needs a CW
     sweep toward the floor, V7 (5, 6) a CCW one, and neither order finishes in time (Prop. 3).
     It used to be called safe (conflicts were checked between pieces only); the controller
-    served V6, drove the rod steeply into the floor E0 and lost to a random walker (seed 19)."""
+    served V6, drove the rod steeply into the floor E0 and lost to a random walker (seed 19):
+    its committed rotation kept pushing into the floor's arc end. Now the committed sense is
+    re-chosen for the rod's arc each step, and this run is held (monitor on)."""
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
     from tether.sim.targets import make_target
@@ -162,7 +164,7 @@ def test_prop3_applies_to_vertex_escape_points():
     w = _gallery_world(0.6)
     r = simulate(w, PaperController(w), make_target("random", w), st, duration=4.0, dt=0.02,
                  seed=19)
-    assert r.outcome == "lost" and "E0" in r.reason
+    assert r.outcome == "held"
 
 
 def test_wall_rows_cover_every_contact_point_and_inclination():
@@ -196,4 +198,22 @@ def test_wall_rows_cover_every_contact_point_and_inclination():
     assert assess(v, 0.3, 1.0, *st).safe
     r = simulate(w, PaperController(w), make_target("random", w), st, duration=6.0, dt=0.02,
                  seed=4)
+    assert r.outcome == "held"
+
+
+def test_committed_rotation_turns_the_other_way_when_pinned():
+    """Gallery, vt/vo = 0.3, safe start (4.078, 5.341, 3.17), random walker seed 1: the
+    controller committed to a CW sweep for reflex vertex V4 (8, 9) while the rod lay on the
+    wall E4 (y = 9), pinned in compliant motion; it never re-chose the sense when the arc
+    opened CCW toward the goal, and the rod pivoted about V4 at 17.96 s. Held now."""
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    st = (4.078, 5.341, 3.17)
+    assert assess(v, 0.3, 1.0, *st).safe
+    w = _gallery_world(0.3)
+    r = simulate(w, PaperController(w), make_target("random", w), st, duration=19.0, dt=0.02,
+                 seed=1)
     assert r.outcome == "held"
