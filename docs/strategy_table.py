@@ -189,7 +189,13 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
         rs = "; ".join(f"{c}× {r}" for r, c in reasons.most_common()) or "—"
         label = name if exists else f"{name} (no strategy)"
         lines.append(f"| {label} | {ratio:g} | {kind} | {n} | {held} | {lost} | {rs} |")
-    lines += ["", "A map with no strategy has no safe start, so its rows are empty.", "",
+    lines += ["", "A map with no strategy has no safe start, so its rows are empty. A map with a "
+              "strategy can still have none at a given speed ratio, since Prop. 1 assumes an "
+              "unbounded observer speed: the gallery at vt/vo = 0.6 has an empty surveillance "
+              "kernel (§11) under both rounding schemes (`tether kernel "
+              "src/tether/examples/gallery.json --lss 2 --vt 0.6 --vo 1 --scheme outer`), so "
+              "no start there can be held against the best evader, and `assess` calls none "
+              "safe.", "",
               "## Every loss from a safe start", "",
               "| map | vt/vo | target | start (x, y, a) | seed | t | reason |",
               "|---|---|---|---|---|---|---|"]
