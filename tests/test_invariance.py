@@ -220,6 +220,21 @@ def test_known_random_map_checks():
     assert check(decompose(env, data["lss"]), 8).ok
 
 
+def test_random_map_of_issue_9_checks():
+    """The map where check found points of R122 ending an arc at V7 instead of E7: a blocked
+    interval of E7 narrower than ANGLE_TOL near the end of C(V7,E7) on B(V7) was dropped as a
+    tangency although its chord is ~1e-4 long (fixed in :func:`tether.arcs.blocked_intervals`).
+    """
+    import json
+    from pathlib import Path
+
+    data = json.loads((Path(__file__).parent / "data" / "random_r122.json").read_text())
+    m = data["map"]
+    env = Environment(m["boundary"], tuple(np.asarray(h) for h in m["holes"]), m["name"])
+    rep = check(decompose(env, data["lss"]), 200)
+    assert rep.ok, rep.point_disagreements[:3]
+
+
 def test_walls_keep_the_name_of_their_first_edge():
     square = Environment([[0, 0], [10, 0], [10, 10], [0, 10]], (), "square")
     more = with_collinear(square, [2, 0, 1, 0])  # V1, V2 on E0; V5 on the top wall
