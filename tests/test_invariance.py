@@ -244,6 +244,17 @@ def test_random_map_of_issue_9_checks():
     assert rep.ok, rep.point_disagreements[:3]
 
 
+def test_random_map_with_a_slow_conchoid_end_checks():
+    """Found by hypothesis while verifying issue #9: the conchoid E(V9,E5) starts where
+    B(V5) and E(V9,E4) cross, but moves ~2000 times slower there than its mean speed, so its
+    overshoot (sized by the mean) was 0.01 tol instead of 20 tol and stayed short of the
+    other two polylines: a dangle inside a face, whose two sides then disagreed with a piece
+    (fixed in ``curves._reach``)."""
+    env, lss = _known_random_map("random_dangle")
+    rep = check(decompose(env, lss), 8)
+    assert rep.ok, (rep.point_disagreements[:2], rep.piece_disagreements[:2])
+
+
 def test_walls_keep_the_name_of_their_first_edge():
     square = Environment([[0, 0], [10, 0], [10, 10], [0, 10]], (), "square")
     more = with_collinear(square, [2, 0, 1, 0])  # V1, V2 on E0; V5 on the top wall
