@@ -19,14 +19,25 @@ def _speeds(args: argparse.Namespace) -> None:
         raise InvalidParameterError(f"vo must exceed vt (vo={args.vo:g}, vt={args.vt:g})")
 
 
-def _world(args: argparse.Namespace):
+def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
+    """The scene of ``args``. The target ``start = (x, y, a)`` must be inside the free space and,
+    with ``rod``, the rod free: checked before the decomposition, so a wrong start costs no
+    wait."""
+    import numpy as np
+
+    from tether.arcs import check_inside
     from tether.decomposition import decompose
     from tether.escape import analyze
     from tether.progress import Progress
     from tether.sim.protocols import World
+    from tether.sim.simulate import check_start
 
     env = load_map_lss(args)
     _speeds(args)
+    if rod:
+        check_start(World(env, args.lss, args.vt, args.vo), *start)
+    else:
+        check_inside(env, np.array([start[:2]], dtype=float))
     dec = decompose(env, args.lss, progress=Progress("decompose"))
     return World(env, args.lss, args.vt, args.vo, dec, analyze(dec))
 
@@ -53,8 +64,8 @@ def cmd_assess(args: argparse.Namespace) -> int:
     from tether.assess import assess
 
     _check_outputs(args)
-    world = _world(args)
     x, y, a = args.at
+    world = _world(args, args.at, rod=False)
     res = assess(world.verdict, args.vt, args.vo, x, y, a)
     if args.plot:
         import matplotlib.pyplot as plt
@@ -95,7 +106,7 @@ def cmd_assess(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tether.progress import Progress
     from tether.sim.controller import CONTROLLERS
-    from tether.sim.simulate import check_start, save_trace, simulate
+    from tether.sim.simulate import save_trace, simulate
     from tether.sim.targets import TARGETS, make_target
 
     _check_outputs(args)
@@ -111,13 +122,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InvalidParameterError(f"--duration must be >= 0 (got {args.duration:g})")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
-    env = load_map_lss(args)
-    _speeds(args)
-    # reject a bad start before the decomposition
-    from tether.sim.protocols import World
-
-    check_start(World(env, args.lss, args.vt, args.vo), *args.start)
-    world = _world(args)
+    world = _world(args, args.start, rod=True)
     opts = {"path": args.path} if args.target == "path" else {}
     target = make_target(args.target, world, **opts)
     controller = CONTROLLERS[args.controller](world)
