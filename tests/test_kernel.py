@@ -321,3 +321,18 @@ def test_levels_give_the_target_a_winning_move(room_kernels):
                 found = True
                 break
         assert found, (i, b, n)
+
+
+@pytest.mark.parametrize("scheme", ["inner", "outer"])
+def test_sixteen_directions_kernel_is_inside_the_eight_directions_kernel(room_kernels, scheme):
+    """``directions=16`` keeps the 8 lattice moves (same steps, same times) and adds the knight
+    moves: the target has more options, the operator is stronger, so its greatest fixed point
+    is smaller: ``K16 ⊆ K8`` on the same grid, for either scheme (equality is possible: the
+    outer scheme on this grid loses nothing)."""
+    g = room_kernels[0.6].grid
+    k8 = surveillance_kernel(g.env, 1.0, 0.6, 1.0, grid=g, scheme=scheme)
+    k16 = surveillance_kernel(g.env, 1.0, 0.6, 1.0, grid=g, scheme=scheme, directions=16)
+    assert k16.converged and k16.directions == 16
+    assert not (k16.kernel & ~k8.kernel).any()
+    # the knight moves refine the target's headings, they do not change the game much
+    assert 0.95 * k8.kernel_states < k16.kernel_states <= k8.kernel_states
