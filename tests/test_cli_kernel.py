@@ -67,6 +67,12 @@ def test_kernel_figures(tmp_path):
     arts = plot_kernel_run(k, r)
     assert arts
     assert (tmp_path / "k.png").stat().st_size > 0
+    from tether.plot_kernel import kernel_run_strip
+
+    fig = kernel_run_strip(k, r, frames=3)
+    assert len(fig.axes) == 3 and "t = 2.0 s" in fig.axes[-1].get_title()
+    save(fig, tmp_path / "strip.png")
+    assert (tmp_path / "strip.png").stat().st_size > 0
 
 
 # ---- the kernel controller in ``tether simulate`` ------------------------------------------
