@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
+from hypothesis import settings
 from hypothesis import strategies as st
 
 from tether import Environment
+
+# CI runs the property tests on a fixed sequence of examples (HYPOTHESIS_PROFILE=ci, set by
+# .ci/run), so that a landing never depends on luck; locally each run explores new examples and
+# keeps the failures it finds in .hypothesis/ to replay them.
+settings.register_profile("ci", derandomize=True, print_blob=True)
+settings.register_profile("dev", print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 
 SQUARE_HOLE = Environment([[0, 0], [12, 0], [12, 12], [0, 12]], ([[4, 4], [4, 6], [6, 6], [6, 4]],),
                           "square_hole")

@@ -112,12 +112,13 @@ def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], i
     return parse
 
 
+MAP_HELP = "map file (.json, .geojson, .wkt or ROS .yaml)"
 LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diameter "
             "(the largest distance between two of its vertices)")
 
 
 def add_map_lss(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
 
 

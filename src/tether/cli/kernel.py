@@ -7,6 +7,7 @@ import math
 
 from tether.cli.common import (
     LSS_HELP,
+    MAP_HELP,
     check_plot_arg,
     finite_arg,
     float_arg,
@@ -74,7 +75,7 @@ def register(add) -> None:
     sp = add("kernel", cmd_kernel,
              "the surveillance kernel: the states from which the observer can keep the target "
              "in sight forever (bounded-speed game on a grid)")
-    sp.add_argument("map", help="map file (.json, .geojson or .wkt)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
     sp.add_argument("--vt", type=float_arg, required=True, help="target speed bound")
     sp.add_argument("--vo", type=float_arg, required=True, help="observer speed bound (> vt)")

@@ -7,6 +7,7 @@ import math
 
 from tether.cli.common import (
     LSS_HELP,
+    MAP_HELP,
     add_map_lss,
     check_plot_arg,
     deg,
@@ -220,13 +221,13 @@ def register(add) -> None:
     sp.add_argument("--out", default="tether-demo", help="folder for the demo's figures")
 
     sp = add("info", cmd_info, "summarize a map: vertices (coordinates, reflex), edges, area")
-    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--all", action="store_true",
                     help=f"list every vertex (default: the first {INFO_MAX_ROWS})")
 
     sp = add("arcs", cmd_arcs, "exact free rod orientations at a target point")
-    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
     sp.add_argument("--at", nargs=2, type=finite_arg, required=True, metavar=("X", "Y"),
                     help="target point")

@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from tether.cli.common import finite_arg, float_arg, int_range, print_json
+from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
 from tether.output import IMAGE_KINDS
 
@@ -199,7 +199,7 @@ def register(add) -> None:
     sp = add("convert", cmd_convert,
              "convert a map (a ROS occupancy map .yaml among them) to .json, .geojson, .wkt or "
              "a ROS map .yaml")
-    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("out", help="output file (.json, .geojson, .wkt, or .yaml with --resolution)")
     _add_ros_options(sp)
     sp.add_argument("--resolution", type=float_arg, metavar="M",
@@ -207,7 +207,7 @@ def register(add) -> None:
 
     sp = add("sweep", cmd_sweep,
              "verdict over a range of lss and the intervals with a strategy (bisection)")
-    sp.add_argument("map", help="map file (.json, .geojson, .wkt or ROS .yaml)")
+    sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", required=True, metavar="RANGE",
                     help="START:STOP:STEP (both ends included), a list 0.5,1,2, or a number")
     sp.add_argument("--vt", type=float_arg, help="target speed bound (with --vo: kernel column)")
