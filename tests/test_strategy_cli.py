@@ -80,3 +80,17 @@ def test_simulate_bad_input(capsys, argv, words):
     code, _, err = run(capsys, *base, *argv)
     assert code == 2
     assert err.startswith("tether: error:") and words in err
+
+
+def test_assess_rejects_a_target_outside_the_free_space(capsys):
+    code, out, err = run(capsys, "assess", NC, "--lss", "2", "--vt", "0.5", "--vo", "1",
+                         "--at", "-50", "1", "0")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "(-50, 1) is outside the free space" in err
+
+
+def test_assess_calls_a_blocked_rod_unsafe(capsys):
+    code, out, _ = run(capsys, "assess", NC, "--lss", "2", "--vt", "0.5", "--vo", "1",
+                       "--at", "5", "0.5", "-1.57", "--json")
+    d = json.loads(out)
+    assert code == 0 and d["safe"] is False and d["rod_free"] is False

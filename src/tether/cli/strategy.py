@@ -19,14 +19,25 @@ def _speeds(args: argparse.Namespace) -> None:
         raise InvalidParameterError(f"vo must exceed vt (vo={args.vo:g}, vt={args.vt:g})")
 
 
-def _world(args: argparse.Namespace):
+def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
+    """The scene of ``args``. The target ``start = (x, y, a)`` must be inside the free space and,
+    with ``rod``, the rod free: checked before the decomposition, so a wrong start costs no
+    wait."""
+    import numpy as np
+
+    from tether.arcs import check_inside
     from tether.decomposition import decompose
     from tether.escape import analyze
     from tether.progress import Progress
     from tether.sim.protocols import World
+    from tether.sim.simulate import check_start
 
     env = load_map_lss(args)
     _speeds(args)
+    if rod:
+        check_start(World(env, args.lss, args.vt, args.vo), *start)
+    else:
+        check_inside(env, np.array([start[:2]], dtype=float))
     dec = decompose(env, args.lss, progress=Progress("decompose"))
     return World(env, args.lss, args.vt, args.vo, dec, analyze(dec))
 
@@ -53,8 +64,8 @@ def cmd_assess(args: argparse.Namespace) -> int:
     from tether.assess import assess
 
     _check_outputs(args)
-    world = _world(args)
     x, y, a = args.at
+    world = _world(args, args.at, rod=False)
     res = assess(world.verdict, args.vt, args.vo, x, y, a)
     if args.plot:
         import matplotlib.pyplot as plt
@@ -95,7 +106,7 @@ def cmd_assess(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tether.progress import Progress
     from tether.sim.controller import CONTROLLERS
-    from tether.sim.simulate import check_start, save_trace, simulate
+    from tether.sim.simulate import save_trace, simulate
     from tether.sim.targets import TARGETS, make_target
 
     _check_outputs(args)
@@ -114,15 +125,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                                     "--target kernel-evader only")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
-    env = load_map_lss(args)
-    _speeds(args)
-    # reject a bad start before the decomposition
-    from tether.sim.protocols import World
-
-    pre = World(env, args.lss, args.vt, args.vo)
-    check_start(pre, *args.start)
-    kernel = _load_kernel(args, pre) if args.kernel else None
-    world = _world(args)
+    kernel = _load_kernel(args) if args.kernel else None
+    world = _world(args, args.start, rod=True)
     if kernel is not None:
         world.extra["kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
@@ -163,9 +167,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _load_kernel(args: argparse.Namespace, world):
+def _load_kernel(args: argparse.Namespace):
     """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``), checked against the
-    map, ``--lss`` and the speeds of the run."""
+    map, ``--lss`` and the speeds of the run (before the decomposition)."""
     from pathlib import Path
 
     from tether.game import load_kernel
@@ -177,13 +181,14 @@ def _load_kernel(args: argparse.Namespace, world):
         k = load_kernel(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error
         raise InvalidParameterError(f"--kernel: cannot read {args.kernel!r} ({exc})") from exc
-    for name, mine, theirs in (("lss", k.lss, world.lss), ("vt", k.vt, world.vt),
-                               ("vo", k.vo, world.vo)):
+    env = load_map_lss(args)
+    for name, mine, theirs in (("lss", k.lss, args.lss), ("vt", k.vt, args.vt),
+                               ("vo", k.vo, args.vo)):
         if not math.isclose(mine, theirs, rel_tol=1e-9, abs_tol=1e-12):
             raise InvalidParameterError(f"--kernel was computed with {name}={mine:g}, the run "
                                         f"has {name}={theirs:g}")
     if tuple(round(b, 9) for b in k.grid.env.bounds) != tuple(
-            round(b, 9) for b in world.env.bounds):
+            round(b, 9) for b in env.bounds):
         raise InvalidParameterError("--kernel was computed on another map")
     return k
 
