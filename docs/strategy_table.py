@@ -156,21 +156,24 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
                   f"![{name}](figures/{fname})", ""]
     if g is not None:
         lp, la = g["pieces"], g["all"]
-        lines += ["## A gap in the paper's conditions, and its repair", "",
-                  "Smallest counterexample found: the non-convex corner (a 10×10 room), lss = 2, "
-                  f"vt = 0.5, vo = 1, start (x, y, a) = {g['start']}: the rod is in a surviving "
-                  "cell and every escape point of Def. 2 (escape pieces) is at least "
-                  f"{g['margin']:.2f} farther than its L_g, yet a target that walks along the "
-                  "floor into the corner and up the right wall wins against the trigger "
-                  f"strategy built on those escape points alone: **{lp.outcome}** at "
-                  f"{lp.lost_at:.2f} s, {lp.reason}.", "",
-                  "The rod's tip meets the right wall nearly head-on, where §5a says sliding "
-                  "is infeasible for some headings (`vt·|cos(θ_w − α)| > vo·|cos α|`). Def. 2 "
-                  "knows nothing of this: the cells on both sides survive. tether therefore "
-                  "adds *steep-wall escape rows* (orientations within arcsin(vt/vo) of a wall's "
-                  "normal, at distance lss from the wall) and *reflex-vertex rows* (the no-pivot "
-                  "radius lss·vt/(vo+vt)) to the escape table; with them the same run is "
-                  f"**{la.outcome}** (modes " + " → ".join(la.modes) + ").", "",
+        lines += ["## The paper's escape points alone, on the room corner", "",
+                  "The non-convex corner (a 10×10 room), lss = 2, vt = 0.5, vo = 1, start "
+                  f"(x, y, a) = {g['start']}, a target walking along the floor into the corner "
+                  "and up the right wall: every escape point of Def. 2 (escape pieces) is at "
+                  f"least {g['margin']:.2f} farther than its L_g. With those rows alone the "
+                  f"trigger strategy is **{lp.outcome}**"
+                  + (f" at {lp.lost_at:.2f} s, {lp.reason}" if lp.reason else "")
+                  + f"; with every row kind **{la.outcome}** (modes "
+                  + " → ".join(la.modes) + ").", "",
+                  "This run used to be lost with the pieces alone. The cause was not a gap in "
+                  "Def. 2 but an escape row that ignored rods lying in the blocked gap next to "
+                  "its cell at the sample point (the rod pointing at the right wall): the "
+                  "follow law turns such a rod into the cell right at the escape piece. Rows "
+                  "now concern the cell's arc widened over its neighbouring gaps. tether still "
+                  "adds *steep-wall rows* (orientations within arcsin(vt/vo) of a wall's "
+                  "normal, at distance lss from the wall, §5a) and *reflex-vertex rows* (the "
+                  "no-pivot radius lss·vt/(vo+vt)) to the escape table, and `assess` applies "
+                  "Prop. 3 to every pair of escape points of any kind.", "",
                   "The losses below (from starts that `assess` calls safe, with every row "
                   "kind) are not proven to be gaps: the trigger assumes a straight dash to one "
                   "escape point, and targets that round reflex corners at a hair's breadth or "

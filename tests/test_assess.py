@@ -109,3 +109,111 @@ def test_second_critical_curves_are_distance_levels():
     fp = critical_distance_field(v, 0.5, 1.0, 0.0, xs, ys, paper=True)
     assert np.isfinite(f).any()
     assert np.all(fp[np.isfinite(fp)] >= f[np.isfinite(f)] - 1e-9)  # L <= L_g
+
+
+# --- issue #10: losses of the paper's controller from starts once called safe -------------------
+def _gallery_world(vt):
+    from tether.sim.protocols import World
+
+    v = verdict("gallery")
+    return World(v.dec.env, 2.0, vt, 1.0, v.dec, v)
+
+
+def test_rows_concern_the_blocked_gap_next_to_their_cell():
+    """Gallery, vt/vo = 0.6, start (13.885, 7.978, 1.458): the rod points up, into the gap that
+    the top wall E2 blocks at the escape piece P120 (x = 14, 10 < y < 12). The follow law
+    turns it CW into the corner cell (R66,E2,E2) right at P120; the row must count that sweep.
+    It used to be called safe, and the dash target won there (seed 4)."""
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    t = escape_table_of(v, 0.6)
+    rows = np.flatnonzero(t.piece == 120)
+    assert len(rows)
+    # every P120 row now concerns the upward rod (it is blocked at q, in the gap next to K)
+    concern, _, _ = t.sweeps(1.458)
+    assert concern[rows].all()
+    st = (13.885, 7.978, 1.458)
+    res = assess(v, 0.6, 1.0, *st)
+    assert not res.safe and "P120" in res.reasons[0]
+    w = _gallery_world(0.6)
+    r = simulate(w, PaperController(w), make_target("dash", w), st, duration=6.0, dt=0.02,
+                 seed=4)
+    assert r.outcome == "lost"  # the verdict is right: this start can be lost
+
+
+def test_prop3_applies_to_vertex_escape_points():
+    """Gallery, vt/vo = 0.6, start (0.939, 2.344, 6.143): reflex vertex V6 (5, 4) needs a CW
+    sweep toward the floor, V7 (5, 6) a CCW one, and neither order finishes in time (Prop. 3).
+    It used to be called safe (conflicts were checked between pieces only); the controller
+    served V6, drove the rod steeply into the floor E0 and lost to a random walker (seed 19):
+    its committed rotation kept pushing into the floor's arc end. Now the committed sense is
+    re-chosen for the rod's arc each step, and this run is held (monitor on)."""
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    st = (0.939, 2.344, 6.143)
+    res = assess(v, 0.6, 1.0, *st)
+    assert not res.safe and "Prop. 3" in res.reasons[0]
+    kinds = {res.escape_points[i].piece for pair in res.conflicts for i in pair}
+    assert {"V6", "V7"} <= kinds
+    w = _gallery_world(0.6)
+    r = simulate(w, PaperController(w), make_target("random", w), st, duration=4.0, dt=0.02,
+                 seed=19)
+    assert r.outcome == "held"
+
+
+def test_wall_rows_cover_every_contact_point_and_inclination():
+    """Gallery, vt/vo = 0.3, start (7.95, 2.97, 0.074): a random walker (seed 4) heads right
+    along y = 2.97 and the rod's tip meets the hole's wall E10 (x = 11) 7° off its normal,
+    near its end V10, within arcsin(vt/vo) = 17.5°. The wall rows sampled only perpendicular
+    contacts every lss/2 along the edge, 0.5 away from that contact, so the trigger never fired
+    and the run was lost at 3.54 s. The wall's escape point is now the nearest point of the
+    whole wall translated by −lss·u(a); the run is held, monitor on."""
+    from tether.assess import wall_contact_points
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    env = v.dec.env
+    # the translated wall is exactly where the rod's tip touches the wall (brute force)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a = rng.uniform(0, 2 * math.pi)
+        pts = rng.uniform((0, 0), (16, 12), (5, 2))
+        near = wall_contact_points(env, np.arange(env.n), 2.0, pts, a)
+        tips = near + 2.0 * np.array([math.cos(a), math.sin(a)])
+        A, B, _, _ = env.oriented_edges
+        e = B - A
+        cross = (e[:, None, 0] * (tips[..., 1] - A[:, None, 1])
+                 - e[:, None, 1] * (tips[..., 0] - A[:, None, 0]))
+        assert np.abs(cross).max() < 1e-9 * 16 * 16
+    w = _gallery_world(0.3)
+    st = (7.95, 2.97, 0.074)
+    assert assess(v, 0.3, 1.0, *st).safe
+    r = simulate(w, PaperController(w), make_target("random", w), st, duration=6.0, dt=0.02,
+                 seed=4)
+    assert r.outcome == "held"
+
+
+def test_committed_rotation_turns_the_other_way_when_pinned():
+    """Gallery, vt/vo = 0.3, safe start (4.078, 5.341, 3.17), random walker seed 1: the
+    controller committed to a CW sweep for reflex vertex V4 (8, 9) while the rod lay on the
+    wall E4 (y = 9), pinned in compliant motion; it never re-chose the sense when the arc
+    opened CCW toward the goal, and the rod pivoted about V4 at 17.96 s. Held now."""
+    from tether.sim.controller import PaperController
+    from tether.sim.simulate import simulate
+    from tether.sim.targets import make_target
+
+    v = verdict("gallery")
+    st = (4.078, 5.341, 3.17)
+    assert assess(v, 0.3, 1.0, *st).safe
+    w = _gallery_world(0.3)
+    r = simulate(w, PaperController(w), make_target("random", w), st, duration=19.0, dt=0.02,
+                 seed=1)
+    assert r.outcome == "held"

@@ -98,7 +98,9 @@ def test_fig7_rotation_needed_and_made():
 def test_fig8_slide_rotate_slide():
     _, r = fig8("paper")
     assert r.outcome == "held"
-    assert r.modes[:2] == ["reactive", "rotational"] and "compliant" in r.modes
+    # the escape rows also concern rods in the blocked gap next to a cell (assess._widened),
+    # so the rotation now starts early enough that the rod need not slide on the wall
+    assert r.modes[:2] == ["reactive", "rotational"]
     _, r0 = fig8("follow")  # the rod meets the right wall head-on
     assert r0.outcome == "lost" and "E0" in r0.reason
 
@@ -128,18 +130,21 @@ def test_escape_target_wins_from_random_starts(seed):
 
 
 def test_gap_def2_alone_loses_walls_repair_it():
-    """The smallest counterexample to the paper's literal escape points (docs/strategy.md)."""
+    """The former counterexample to the paper's literal escape points (docs/strategy.md): it
+    came from the escape rows ignoring rods in the blocked gap next to their cell (the rod
+    points at the right wall, blocked at the split); with the rows widened over the gaps the
+    paper's escape points alone hold it, and so do all rows."""
     from tether.assess import escape_table_of
     from tether.sim.targets import PathTarget
 
     w = world("nonconvex_corner")
     st = (3.0, 0.8, 0.0)
     t = escape_table_of(w.verdict, 0.5).subset("pieces")
-    assert t.margins(np.array(st[:2]), st[2], 0.5, 1.0)[3].min() > 4.0
+    assert t.margins(np.array(st[:2]), st[2], 0.5, 1.0)[3].min() > 3.5
     runs = {rows: simulate(w, PaperController(w, escape_rows=rows),
                            PathTarget(w, waypoints=[[9.2, 0.8], [9.2, 6.0]]), st,
                            duration=25.0, dt=0.02) for rows in ("pieces", "all")}
-    assert runs["pieces"].outcome == "lost" and "E0" in runs["pieces"].reason
+    assert runs["pieces"].outcome == "held"
     assert runs["all"].outcome == "held"
 
 

@@ -44,8 +44,10 @@ class EscapeTable:
     """Escape samples of every surviving cell (vectorized rows) and the reflex vertices.
 
     Row ``i``: point ``q[i]`` on piece ``piece[i]`` just inside the region of cell
-    ``cell[i]``; that cell's arc there is CCW ``(k_start[i], k_end[i])`` (equal ends: the full
-    circle); the goal is the union of CCW arcs ``(g_start[i, j], g_end[i, j])`` (NaN padded).
+    ``cell[i]``; ``(k_start[i], k_end[i])`` (CCW; equal ends: the full circle) is that cell's
+    arc there widened over the blocked gaps on both sides (:func:`_widened`): the orientations
+    the row concerns; the goal is the union of CCW arcs ``(g_start[i, j], g_end[i, j])``
+    (NaN padded).
     """
 
     verdict: Verdict = field(repr=False)
@@ -95,9 +97,25 @@ class EscapeTable:
         :meth:`sweeps`): ``margin = |p − q| − L_g(Δ) − offset`` (``inf`` where the row does
         not concern the rod)."""
         concern, delta, sense = self.sweeps(a, arc)
-        d = np.hypot(self.q[:, 0] - p[0], self.q[:, 1] - p[1])
+        q = self.points_for(p, a)
+        d = np.hypot(q[:, 0] - p[0], q[:, 1] - p[1])
         m = d - l_safe(delta, vt, vo, self.verdict.dec.lss) - self.offsets(vt, vo)
         return concern, delta, sense, np.where(concern, m, np.inf)
+
+    def points_for(self, p: Any, a: float) -> np.ndarray:
+        """The escape point of each row for the rod ``(p, a)`` (m, 2): ``q`` itself, except at
+        a steep-wall row, where it is the point nearest ``p`` of the wall translated by
+        ``−lss·u(a)``: every target position from which rod ``a`` touches the wall (the wall
+        row's ``q`` is only the perpendicular contact at the wall's middle)."""
+        q = self.q
+        wall = self.is_wall
+        if not wall.any():
+            return q
+        q = q.copy()
+        edges = WALL_CODE - self.piece[wall]
+        q[wall] = wall_contact_points(self.verdict.dec.env, edges, self.verdict.dec.lss,
+                                      np.asarray(p, float).reshape(1, 2), a)[:, 0]
+        return q
 
     @property
     def pieces(self) -> list[str]:
@@ -217,6 +235,28 @@ def _arc_of(table: Any, env: Any, i: int, region: int, wanted: set[str]
     return out
 
 
+def _widened(table: Any, i: int, s: float, e: float) -> tuple[float, float]:
+    """Arc ``(s, e)`` of point ``i`` widened over the blocked gaps on both sides, up to the
+    neighbouring free arcs (``(0, 0)``, the full circle, when it is the only arc).
+
+    A rod that is blocked at the escape sample ``q`` (free where the target is now) is pushed
+    into one of the two arcs bounding its gap by the time the target reaches ``q``, so the
+    escape rows of both concern it: a rod pointing into the gap next to ``K`` must count the
+    sweep to ``K``'s goal as well (otherwise a start a few degrees outside ``K``'s arc at ``q``
+    is called safe while the follow law turns it into ``K`` right at the escape piece)."""
+    if table.full[i]:
+        return (0.0, 0.0)
+    rows = table.rows_of(i)
+    starts, ends = table.start[rows], table.end[rows]
+    if len(starts) <= 1:
+        return (0.0, 0.0)
+    before = np.mod(s - ends, TWO_PI)  # CW distance from each arc's end to K's start
+    after = np.mod(starts - e, TWO_PI)  # CCW distance from K's end to each arc's start
+    before = np.where(before == 0.0, TWO_PI, before)
+    after = np.where(after == 0.0, TWO_PI, after)
+    return (float(ends[int(np.argmin(before))]), float(starts[int(np.argmin(after))]))
+
+
 def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTable:
     """The escape samples of every surviving cell and the reflex vertices (see the module
     docstring)."""
@@ -253,7 +293,7 @@ def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTa
             rows_q.append(side[inside[i]])
             rows_cell.append(cid)
             rows_piece.append(k)
-            rows_k.append(karc[0][:2])
+            rows_k.append(_widened(table, int(inside[i]), karc[0][0], karc[0][1]))
             rows_g.append([g[:2] for g in goals])
     refl = np.asarray(env.reflex_indices, dtype=int)
     vq, vgoal = _vertex_goals(env, dec.lss, refl)
@@ -360,29 +400,40 @@ def escape_table_of(verdict: Verdict, ratio: float | None = None) -> EscapeTable
     return w
 
 
-def wall_rows(env: Any, lss: float, ratio: float, spacing: float | None = None
+def wall_rows(env: Any, lss: float, ratio: float
               ) -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
     """Steep wall contacts (§5a): a rod whose tip meets edge ``E_i`` within ``δ0 =
-    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. Rows: points
-    ``q`` at distance ``lss`` from each edge (where such a contact starts), the edge index, and
-    the goal arc: every orientation at least ``δ0`` away from pointing straight at the wall."""
+    arcsin(vt/vo)`` of the wall's normal cannot slide for every target heading. One row per
+    edge: a display point ``q`` (the perpendicular contact at the edge's middle, at distance
+    ``lss``), the edge index, and the goal arc: every orientation at least ``δ0`` away from
+    pointing straight at the wall. The escape point a rod ``a`` actually meets is the nearest
+    point of the edge translated by ``−lss·u(a)`` (:func:`wall_contact_points`), wherever
+    along the edge and at whatever inclination the contact happens."""
     d0 = math.asin(min(max(ratio, 0.0), 1.0))
     A, B, _, _ = env.oriented_edges
     nrm = env.free_normals
-    step = 0.5 * lss if spacing is None else spacing
     qs, edges, goals = [], [], []
     for i in range(len(A)):
-        e = B[i] - A[i]
-        n_s = max(1, int(np.ceil(np.hypot(*e) / step)))
-        s = (np.arange(n_s) + 0.5) / n_s
-        q = A[i] + s[:, None] * e + lss * nrm[i]
-        q = q[np.asarray(env.contains(q[:, 0], q[:, 1]), dtype=bool)]
         at_wall = math.atan2(-nrm[i, 1], -nrm[i, 0])
-        for qq in q:
-            qs.append(qq)
-            edges.append(i)
-            goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
+        qs.append(0.5 * (A[i] + B[i]) + lss * nrm[i])
+        edges.append(i)
+        goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
     return np.array(qs).reshape(-1, 2), np.array(edges, dtype=int), goals
+
+
+def wall_contact_points(env: Any, edges: np.ndarray, lss: float, pts: np.ndarray, a: float
+                        ) -> np.ndarray:
+    """For each edge in ``edges`` and each point in ``pts`` (n, 2): the point nearest it of the
+    edge translated by ``−lss·u(a)``, the target positions from which rod ``a`` has its tip on
+    the edge. Shape (len(edges), n, 2), map units."""
+    A, B, _, _ = env.oriented_edges
+    shift = lss * np.array([math.cos(a), math.sin(a)])
+    a0 = A[edges] - shift
+    e = B[edges] - A[edges]
+    ee = np.einsum("ij,ij->i", e, e)
+    rel = pts[None, :, :] - a0[:, None, :]
+    t = np.clip(np.einsum("enk,ek->en", rel, e) / ee[:, None], 0.0, 1.0)
+    return a0[:, None, :] + t[..., None] * e[:, None, :]
 
 
 def _with_walls(t: EscapeTable, ratio: float) -> EscapeTable:
@@ -429,11 +480,13 @@ class EscapePoint:
     L: float  # paper's straight-dash bound
     L_g: float  # safe bound
     margin: float  # |p − q| − L_g
+    goal: tuple[tuple[float, float], ...] = ()  # CCW arcs (start, end), rad; (0, 0) = all
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
                 "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
-                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin}
+                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin,
+                "goal": [list(g) for g in self.goal]}
 
 
 @dataclass(frozen=True)
@@ -511,7 +564,7 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
                     f"{math.degrees(e.sweep):.0f}° {'CCW' if e.sense > 0 else 'CW'} sweep): "
                     "the target gets there before the rotation finishes")
                 break
-        conflicts = _conflicts(points, vt, vo, lss)
+        conflicts = _conflicts(points, vt, vo, lss, a, _arc_at(env, p, a, lss))
         for i, j in conflicts[:1]:
             reasons.append(
                 f"escape points {i} and {j} need opposite sweeps and neither order finishes "
@@ -544,7 +597,8 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
     if not len(table):
         return out
     concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
-    dist = np.hypot(*(table.q - p).T)
+    qs = table.points_for(p, a)
+    dist = np.hypot(*(qs - p).T)
     lg = l_safe(delta, vt, vo, lss)
     reach = _reach(vt, vo, lss) + lss
     best: dict[int, int] = {}
@@ -556,28 +610,76 @@ def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: f
         vertex = bool(table.piece[i] < 0)
         kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
         out.append(EscapePoint(kind,
-                               (float(table.q[i, 0]), float(table.q[i, 1])),
+                               (float(qs[i, 0]), float(qs[i, 1])),
                                None if vertex else table.cell[i], _row_name(int(table.piece[i])),
                                float(dist[i]), float(delta[i]), int(sense[i]),
                                float(l_paper(delta[i], vt, vo, lss)), float(lg[i]),
-                               float(margin[i])))
+                               float(margin[i]),
+                               tuple((float(g0), float(g1)) for g0, g1
+                                     in zip(table.g_start[i], table.g_end[i], strict=True)
+                                     if np.isfinite(g0))))
     return out
 
 
-def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float
+#: Directions sampled to find the orientations two goals share (0.25°).
+_GRID = (np.arange(1440) + 0.5) * (TWO_PI / 1440)
+
+
+def _in_arcs(arcs: tuple[tuple[float, float], ...], ang: np.ndarray) -> np.ndarray:
+    """Whether each angle lies in one of the CCW arcs (``(s, s)``: the full circle)."""
+    out = np.zeros(len(ang), dtype=bool)
+    for s, e in arcs:
+        width = (e - s) % TWO_PI or TWO_PI
+        out |= np.mod(ang - s, TWO_PI) <= width
+    return out
+
+
+def _common_sweep(a: float, gi: tuple, gj: tuple, arc: tuple[float, float] | None) -> float:
+    """Smallest sweep (rad, either sense, inside the free ``arc`` when it allows) from ``a``
+    into an orientation both goals hold; ``inf`` when there is none. Rounded up by one grid
+    step."""
+    both = _in_arcs(gi, _GRID) & _in_arcs(gj, _GRID)
+    if not both.any():
+        return math.inf
+    ccw = np.mod(_GRID - a, TWO_PI)
+    cw = np.mod(a - _GRID, TWO_PI)
+    free = np.minimum(ccw, cw)
+    if arc is not None:
+        free = np.minimum(np.where(ccw <= np.mod(arc[1] - a, TWO_PI), ccw, np.inf),
+                          np.where(cw <= np.mod(a - arc[0], TWO_PI), cw, np.inf))
+    best = float(free[both].min())
+    if not math.isfinite(best):
+        # none reachable inside the arc now: the arc opens as the target moves (as in
+        # :func:`sweeps`), so count the unconstrained sweep
+        best = float(np.minimum(ccw, cw)[both].min())
+    return best + TWO_PI / len(_GRID)
+
+
+def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float,
+               a: float | None = None, arc: tuple[float, float] | None = None
                ) -> list[tuple[int, int]]:
-    """Pairs of piece escape points (indices into ``points``) that conflict (Prop. 3)."""
+    """Pairs of escape points (indices into ``points``) that conflict (Prop. 3): they need
+    opposite sweeps and no schedule serves both in time: neither order (serve one, then sweep
+    back through it to the other) nor one sweep into an orientation both goals share
+    finishes before the target can reach the escape point concerned. Every kind counts
+    (pieces, reflex vertices, steep walls: all are escape points, erratum 12), each with its
+    extra distance (the no-pivot radius at a vertex)."""
     out = []
-    idx = [i for i, e in enumerate(points) if e.kind == "piece"]
-    for ii, i in enumerate(idx):
-        for j in idx[ii + 1:]:
-            ei, ej = points[i], points[j]
+    room = [e.distance - e.L_g - e.margin for e in points]  # the row's offset
+    for i, ei in enumerate(points):
+        for j in range(i + 1, len(points)):
+            ej = points[j]
             if ei.sense == ej.sense:
                 continue
+            di, dj = ei.distance - room[i], ej.distance - room[j]
             # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
-            i_first = ej.distance >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
-            j_first = ei.distance >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
-            if not (i_first or j_first):
+            i_first = dj >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
+            j_first = di >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
+            common = False
+            if a is not None and ei.goal and ej.goal:
+                both = _common_sweep(a, ei.goal, ej.goal, arc)
+                common = min(di, dj) >= float(l_safe(both, vt, vo, lss))
+            if not (i_first or j_first or common):
                 out.append((i, j))
     return out
 
@@ -622,6 +724,13 @@ def critical_distance_field(verdict: Verdict, vt: float, vo: float, a: float, xs
     lss = verdict.dec.lss
     bound = (l_paper(delta[concern], vt, vo, lss) if paper
              else l_safe(delta[concern], vt, vo, lss)) + table.offsets(vt, vo)[concern]
-    for qi, bi in zip(q, bound, strict=True):
+    wall = table.is_wall[concern]
+    grid = np.column_stack((X.ravel(), Y.ravel()))
+    for qi, bi in zip(q[~wall], bound[~wall], strict=True):
         out = np.minimum(out, np.hypot(X - qi[0], Y - qi[1]) - bi)
+    if wall.any():  # distance to the translated wall (see EscapeTable.points_for)
+        edges = WALL_CODE - table.piece[concern][wall]
+        near = wall_contact_points(verdict.dec.env, edges, lss, grid, a)
+        d = np.hypot(near[..., 0] - grid[:, 0], near[..., 1] - grid[:, 1]) - bound[wall][:, None]
+        out = np.minimum(out, d.min(axis=0).reshape(X.shape))
     return out

@@ -225,10 +225,16 @@ class PaperController(_Compliant):
             # keep the committed rotation until the rod is ``overshoot`` rad inside the goal
             # (hysteresis: the reactive law would otherwise pull it straight back); only the
             # committed row is checked meanwhile
-            if not self._still_concerned(p, a - self.sense * self.overshoot):
+            if not self._still_concerned(p, a - self.sense * self.overshoot)[0]:
                 self.goal_row, self.sense = None, 0
                 self.bound = -math.inf
             else:
+                # the sense is re-chosen every step for the rod's arc now: a rotation pinned
+                # against an arc end (the goal unreachable that way, compliant and making no
+                # progress) turns the other way as soon as the arc opens toward the goal
+                concerned, sense = self._still_concerned(p, a)
+                if concerned and sense:
+                    self.sense = sense
                 return self.goal_row, self.sense
         if self.bound <= 2.0 * pad or self.since >= self.refresh:
             row, margin, sense = self._scan(p, a)
@@ -239,8 +245,9 @@ class PaperController(_Compliant):
             self.since += 1
         return self.goal_row, self.sense
 
-    def _still_concerned(self, p: np.ndarray, a: float) -> bool:
-        """Whether the committed row still concerns orientation ``a`` (one row only)."""
+    def _still_concerned(self, p: np.ndarray, a: float) -> tuple[bool, int]:
+        """Whether the committed row still concerns orientation ``a`` (one row only), and the
+        sense of its sweep to the goal inside the rod's free arc now."""
         t, k = self.table, self.goal_row
         ks, ke = t.k_start[k:k + 1], t.k_end[k:k + 1]
         if t.piece[k] < 0:
@@ -248,8 +255,8 @@ class PaperController(_Compliant):
             if math.isfinite(e.ccw_gap):
                 ks = np.array([(a - e.cw_gap) % TWO_PI])
                 ke = np.array([(a + e.ccw_gap) % TWO_PI])
-        concern, _, _ = sweeps(ks, ke, t.g_start[k:k + 1], t.g_end[k:k + 1], a)
-        return bool(concern[0])
+        concern, _, sense = sweeps(ks, ke, t.g_start[k:k + 1], t.g_end[k:k + 1], a)
+        return bool(concern[0]), int(sense[0])
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
         row, sense = self._trigger(p, a, dt)
@@ -268,9 +275,20 @@ class PaperController(_Compliant):
         return cmd
 
 
+def _kernel_controller(world: World | None = None, **options: Any) -> Any:
+    """The surveillance kernel's controller (:class:`tether.game.controller.KernelController`):
+    follows ``world.extra["kernel"]``, computed there on demand (coarse grid, see
+    :func:`tether.game.controller.kernel_of`) unless ``kernel=`` is given or the caller stored
+    one (``tether simulate --kernel FILE.npz``)."""
+    from tether.game.controller import KernelController
+
+    return KernelController(**options)
+
+
 #: Controllers by name: ``CONTROLLERS[name](world)``.
 CONTROLLERS: dict[str, Any] = {
     "paper": PaperController,
     "follow": FollowController,
     "translate": TranslateController,
+    "kernel": _kernel_controller,
 }

@@ -262,7 +262,7 @@ class DashTarget:
         if self.table is not None and len(self.table):
             concern, _, _, margin = self.table.margins(p, a, self.world.vt, self.world.vo)
             if concern.any():
-                goal = self.table.q[int(np.argmin(margin))]
+                goal = self.table.points_for(p, a)[int(np.argmin(margin))]
         if goal is None or not self.planner.contains(goal):
             if goal is None:
                 goal = self.planner.random_point(self.rng)
