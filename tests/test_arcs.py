@@ -123,6 +123,20 @@ def test_reflex_corner_gives_a_vertex_label():
     assert structure(SQUARE_HOLE, (7, 5.999), 2.0) == {("E6", "V6")}
 
 
+@pytest.mark.parametrize("h", [2e-5, 1e-6, 1e-3])
+def test_edge_nearly_in_line_still_ends_the_arc(h):
+    # issue #9: q sits delta = 1e-4 inside the vertex circle B(V6) and h above the extension of
+    # E5 (the hole's top edge, y = 6) through V6 = (6, 6). Rotating CW from pi + 0.01 the tip
+    # lands on E5 (at x = q_x - sqrt(lss^2 - h^2), inside [4, 6]) before the rod body reaches
+    # V6, so the arc end is E5, although E5's blocked interval is only ~ h * delta / lss^2
+    # radians wide (5e-10 for h = 2e-5: below ANGLE_TOL, yet no tangency).
+    lss, delta = 2.0, 1e-4
+    q = np.array([6 + lss - delta, 6 + h])
+    tip_x = q[0] - math.sqrt(lss**2 - h**2)
+    assert 4 < tip_x < 6 and np.hypot(*(q - (6, 6))) < lss  # exact: E5 is met before V6
+    assert structure(SQUARE_HOLE, q, lss) == {("E6", "E5")}
+
+
 def test_vertex_circle_examples():
     d = 2.0 / math.sqrt(2)
     assert structure(SQUARE_HOLE, (6 + d + 0.01, 6 + d + 0.01), 2.0) == "FULL"

@@ -67,3 +67,49 @@ def test_kernel_figures(tmp_path):
     arts = plot_kernel_run(k, r)
     assert arts
     assert (tmp_path / "k.png").stat().st_size > 0
+    from tether.plot_kernel import kernel_run_strip
+
+    fig = kernel_run_strip(k, r, frames=3)
+    assert len(fig.axes) == 3 and "t = 2.0 s" in fig.axes[-1].get_title()
+    save(fig, tmp_path / "strip.png")
+    assert (tmp_path / "strip.png").stat().st_size > 0
+
+
+# ---- the kernel controller in ``tether simulate`` ------------------------------------------
+SIM = ["simulate", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "--vo", "1",
+       "--start", "2", "2.5", "0.5", "--controller", "kernel", "--duration", "2", "--json"]
+
+
+def test_simulate_kernel_controller_with_saved_kernel(capsys, tmp_path):
+    npz = tmp_path / "k.npz"
+    assert main([*BASE, "--save", str(npz)]) == 0
+    capsys.readouterr()
+    assert main([*SIM, "--kernel", str(npz), "--target", "kernel-evader"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["controller"] == "kernel" and out["outcome"] == "held"
+    assert out["monitor"]["max_speed_ratio"] <= 1.0 + 1e-9
+
+
+def test_simulate_kernel_controller_on_demand(capsys):
+    assert main(SIM) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["controller"] == "kernel"
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--kernel", "missing.npz"], "no such file"),
+    (["--controller", "paper", "--kernel", "k.npz"], "applies to"),
+])
+def test_simulate_kernel_bad_input(capsys, extra, message):
+    assert main([*SIM, *extra]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_simulate_kernel_speed_mismatch(capsys, tmp_path):
+    npz = tmp_path / "k.npz"
+    assert main([*BASE, "--save", str(npz)]) == 0
+    capsys.readouterr()
+    args = [*SIM, "--kernel", str(npz)]
+    args[args.index("--vt") + 1] = "0.5"
+    assert main(args) == 2
+    assert "vt=0.6" in capsys.readouterr().err

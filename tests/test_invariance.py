@@ -16,6 +16,7 @@ from tether import Environment
 from tether.decomposition import check, decompose
 from tether.escape import analyze
 from tether.graph import build_graph
+from tether.tolerances import REL_CURVE_TOL
 
 CASES = {"square_hole": (SQUARE_HOLE, 2.0), "L": (L_SHAPE, 2.5), "convex": (CONVEX, 3.0)}
 SLOW_CASES = {**CASES, "generic": (GENERIC, 2.5)}
@@ -206,18 +207,52 @@ def test_features_exactly_lss_apart():
     assert got[0] == got[1] == got[2]
 
 
-@pytest.mark.xfail(strict=False, reason="pre-existing: a random map (found by hypothesis on "
-                   "main) where check found points of a small region without the arc (E4,V13); "
-                   "it passes since the diameter (and so the tolerances) changed, the cause "
-                   "was not found")
-def test_known_random_map_checks():
+def _known_random_map(name: str = "random_incomplete") -> tuple[Environment, float]:
+    """A map and lss kept in ``tests/data/<name>.json`` (found by hypothesis)."""
     import json
     from pathlib import Path
 
-    data = json.loads((Path(__file__).parent / "data" / "random_incomplete.json").read_text())
+    data = json.loads((Path(__file__).parent / "data" / f"{name}.json").read_text())
     m = data["map"]
     env = Environment(m["boundary"], tuple(np.asarray(h) for h in m["holes"]), m["name"])
-    assert check(decompose(env, data["lss"]), 8).ok
+    return env, data["lss"]
+
+
+def test_known_random_map_checks():
+    env, lss = _known_random_map()
+    assert check(decompose(env, lss), 8).ok
+
+
+def test_known_random_map_checks_at_its_original_tolerance():
+    """Found when the diameter was the bounding-box diagonal: a speck region of two faces was
+    absorbed face by face into two different neighbours, uniting them, so half of R59 showed
+    another structure (issue #9; fixed in ``decomposition._absorb_groups``)."""
+    env, lss = _known_random_map()
+    x0, y0, x1, y1 = env.bounds
+    rel_tol = REL_CURVE_TOL * math.hypot(x1 - x0, y1 - y0) / env.diameter
+    rep = check(decompose(env, lss, rel_tol=rel_tol), 8)
+    assert rep.ok, (rep.point_disagreements[:2], rep.piece_disagreements[:2])
+
+
+def test_random_map_of_issue_9_checks():
+    """The map where check found points of R122 ending an arc at V7 instead of E7: a blocked
+    interval of E7 narrower than ANGLE_TOL near the end of C(V7,E7) on B(V7) was dropped as a
+    tangency although its chord is ~1e-4 long (fixed in :func:`tether.arcs.blocked_intervals`).
+    """
+    env, lss = _known_random_map("random_r122")
+    rep = check(decompose(env, lss), 200)
+    assert rep.ok, rep.point_disagreements[:3]
+
+
+def test_random_map_with_a_slow_conchoid_end_checks():
+    """Found by hypothesis while verifying issue #9: the conchoid E(V9,E5) starts where
+    B(V5) and E(V9,E4) cross, but moves ~2000 times slower there than its mean speed, so its
+    overshoot (sized by the mean) was 0.01 tol instead of 20 tol and stayed short of the
+    other two polylines: a dangle inside a face, whose two sides then disagreed with a piece
+    (fixed in ``curves._reach``)."""
+    env, lss = _known_random_map("random_dangle")
+    rep = check(decompose(env, lss), 8)
+    assert rep.ok, (rep.point_disagreements[:2], rep.piece_disagreements[:2])
 
 
 def test_walls_keep_the_name_of_their_first_edge():

@@ -321,3 +321,47 @@ def test_levels_give_the_target_a_winning_move(room_kernels):
                 found = True
                 break
         assert found, (i, b, n)
+
+
+@pytest.mark.parametrize("scheme", ["inner", "outer"])
+def test_sixteen_directions_kernel_is_inside_the_eight_directions_kernel(room_kernels, scheme):
+    """``directions=16`` keeps the 8 lattice moves (same steps, same times) and adds the knight
+    moves: the target has more options, the operator is stronger, so its greatest fixed point
+    is smaller: ``K16 ⊆ K8`` on the same grid, for either scheme (equality is possible: the
+    outer scheme on this grid loses nothing)."""
+    g = room_kernels[0.6].grid
+    k8 = surveillance_kernel(g.env, 1.0, 0.6, 1.0, grid=g, scheme=scheme)
+    k16 = surveillance_kernel(g.env, 1.0, 0.6, 1.0, grid=g, scheme=scheme, directions=16)
+    assert k16.converged and k16.directions == 16
+    assert not (k16.kernel & ~k8.kernel).any()
+    # the knight moves refine the target's headings, they do not change the game much
+    assert 0.95 * k8.kernel_states < k16.kernel_states <= k8.kernel_states
+
+
+@pytest.mark.slow
+def test_lstar_between_paper_l_and_safe_lg_room():
+    """``L*`` on a real escape point (piece of the room's obstacle corner, Fig. 7's map) along
+    the worst straight dash: ``L ≤ L*`` for both schemes; the optimistic scheme's ``L* ≤ L_g``
+    within the grid's resolution; the conservative scheme's ``L*`` is at least the
+    optimistic one's (it may exceed ``L_g``: its rate rounding costs up to a bin per step)."""
+    from tether.assess import escape_table
+    from tether.game.lstar import lstar_cases, resolution
+
+    env = env_of("nonconvex_corner")
+    table = escape_table(analyze(decompose(env, 1.0)))
+    rows = np.flatnonzero(table.piece >= 0)
+    row = int(rows[np.argmin(np.hypot(*(table.q[rows] - [1.0, 0.56]).T))])
+    grid = build_grid(env, 1.0, 0.1, 180)
+    got = {}
+    for scheme in ("inner", "outer"):
+        k = surveillance_kernel(env, 1.0, 0.6, 1.0, grid=grid, scheme=scheme)
+        cases = lstar_cases(k, table, [row])
+        assert len(cases) == 3
+        tol = resolution(k)
+        for c in cases:
+            assert c.l_star is not None and c.l_star >= c.L - tol
+            assert c.L < c.L_g
+        got[scheme] = cases
+    for ci, co in zip(got["inner"], got["outer"], strict=True):
+        assert co.l_star <= ci.l_star + 1e-9
+        assert co.l_star <= co.L_g + co.tol

@@ -159,9 +159,10 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     ``env`` is taken as is (call it with :attr:`Environment.internal` and internal points).
 
     Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
-    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (ANGLE_TOL, pi)),
+    ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (0, pi)),
     ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
-    Intervals narrower than ``ANGLE_TOL`` (tangencies) are dropped.
+    Tangencies (intervals narrower than ``ANGLE_TOL`` whose edge part inside the disc is
+    shorter than ``env.length_tol``) are dropped.
     """
     A, B, tag_a, tag_b = env.oriented_edges
     pidx, eidx = env.edge_index(lss).query(pts)
@@ -185,9 +186,14 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     p2 = w[k] + t2[k, None] * d[k]
     start = np.mod(np.arctan2(p1[:, 1], p1[:, 0]), TWO_PI)
     length = np.arctan2(p1[:, 0] * p2[:, 1] - p1[:, 1] * p2[:, 0], np.einsum("ij,ij->i", p1, p2))
-    # an interval narrower than the angle tolerance is a tangency (the circle grazes the edge,
-    # or the point sits at distance lss of a vertex up to rounding): it blocks nothing
-    wide = length > ANGLE_TOL
+    # a tangency (the circle grazes the edge, or the point sits at distance lss of a vertex up
+    # to rounding) blocks nothing. It is told by the length of the edge's part inside the disc
+    # (the chord), not by the angle alone: seen from a point near the line of an edge, a long
+    # chord subtends an angle ~ h * chord / lss^2 (h: distance to the line) that falls below
+    # ANGLE_TOL far from any tangency. Dropping those intervals would move the structure's
+    # boundary off the critical curves C(Vj, Ei) and B(Vj) near their common end (issue #9).
+    chord = (t2[k] - t1[k]) * np.sqrt(dd[k])
+    wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
     k, start, length = k[wide], start[wide], length[wide]
     e = eidx[k]
     return {

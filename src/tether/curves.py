@@ -571,10 +571,35 @@ def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
     if fam.kind in "CD":  # t = 0 is the vertex itself, on the boundary: never extend below
         return max(lo - dt, 0.0), hi + dt
     if fam.kind == "E":  # never beyond the pole (the curve ends there, on the boundary)
-        lo = lo if lo <= fam.lo[c] and _pole_end(fam, c, fam.lo[c]) else lo - dt
-        hi = hi if hi >= fam.hi[c] and _pole_end(fam, c, fam.hi[c]) else hi + dt
+        lo = lo if lo <= fam.lo[c] and _pole_end(fam, c, fam.lo[c]) \
+            else lo - _reach(fam, c, lo, -dt, margin)
+        hi = hi if hi >= fam.hi[c] and _pole_end(fam, c, fam.hi[c]) \
+            else hi + _reach(fam, c, hi, dt, margin)
         return lo, hi
     return lo - dt, hi + dt
+
+
+#: At most this many doublings of a conchoid's overshoot step (a factor ~1e6 on its mean speed).
+_REACH_DOUBLINGS = 20
+
+
+def _reach(fam: Family, c: int, t: float, dt: float, margin: float) -> float:
+    """``|dt'|`` with ``dt'`` a multiple ``2**k dt`` of the parameter step ``dt`` that moves
+    the point of curve ``c`` from ``q(t)`` at least ``margin`` map units (a conchoid's speed
+    varies along it: near a stationary point it can be 1000 times below its mean, and an
+    overshoot sized by the mean then stays short of the curves meeting it there, leaving an
+    unclosed dangle inside a face, issue #9)."""
+    q0 = fam.points(np.array([c]), np.array([t]))[0]
+    span = max(float(fam.hi[c] - fam.lo[c]), abs(dt))  # never more than the domain's length
+    steps = dt * 2.0 ** np.arange(_REACH_DOUBLINGS + 1)
+    steps = np.append(steps[np.abs(steps) < span], math.copysign(span, dt))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        moved = np.hypot(*(fam.points(np.full(len(steps), c), t + steps) - q0).T)
+    ok = np.cumprod(np.isfinite(moved)).astype(bool)  # stop before any undefined point
+    far = np.flatnonzero(ok & (moved >= margin))
+    if len(far):
+        return float(abs(steps[far[0]]))
+    return float(abs(steps[np.flatnonzero(ok)[-1]])) if ok.any() else abs(dt)
 
 
 def _polyline(fam: Family, c: int, lo: float, hi: float, tol: float

@@ -536,10 +536,12 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         isolated = {r.id for r in regions if r.id not in touched} if len(regions) > 1 else set()
         if not isolated:
             break
-        specks = [f for f, r in face_region.items() if r in isolated]
-        for f in specks:
-            del face_struct[f]
-        _absorb(specks, adjacent, plen, uf, face_struct)
+        specks: dict[int, list[int]] = {}
+        for f, r in face_region.items():
+            if r in isolated:
+                specks.setdefault(r, []).append(f)
+                del face_struct[f]
+        _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
     report("pieces", 0.85)
     pieces, unresolved_pieces = _make_pieces(env, arr, regions, chains, cands, curves, lss)
     cells = tuple(Cell(cid, r.id, s, e) for r in regions
@@ -570,6 +572,38 @@ def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.n
             uf.union(f, g)
             face_struct[f] = face_struct[g]
             todo.discard(f)
+
+
+def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]],
+                   plen: np.ndarray, uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+    """Merge each pending group of faces (a speck region, its faces already united) as a whole
+    into the neighbour region it shares the most arrangement boundary with, taking that
+    region's structure.
+
+    Absorbing the faces one by one, as :func:`_absorb` does for single faces, would let two
+    faces of one speck join two different neighbours and so unite those two regions, whatever
+    their structures (issue #9: half of R59 of ``tests/data/random_incomplete.json`` showed
+    another structure)."""
+    todo = {f: i for i, faces in enumerate(pending) for f in faces}
+    for _ in range(16):
+        if not todo:
+            return
+        shared: dict[int, dict[int, tuple[float, int]]] = {}
+        for a, b, k in adjacent:
+            for f, g in ((a, b), (b, a)):
+                if f in todo and g not in todo and g in face_struct:
+                    per = shared.setdefault(todo[f], {})
+                    root = uf.find(g)
+                    total, _ = per.get(root, (0.0, g))
+                    per[root] = (total + float(plen[k]), g)
+        if not shared:
+            return
+        for i, per in shared.items():
+            _, g = max(per.values())
+            for f in pending[i]:
+                uf.union(f, g)
+                face_struct[f] = face_struct[g]
+                del todo[f]
 
 
 def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],

@@ -108,3 +108,34 @@ def plot_kernel_run(kernel: Any, result: Any, ax: Any = None) -> list:
     ax.legend(loc="upper right", fontsize=7)
     ax.set_title(f"{result.controller} vs {result.target}: {result.outcome}")
     return arts
+
+
+def kernel_run_strip(kernel: Any, result: Any, frames: int = 4, fig: Any = None) -> Figure:
+    """A simulator run as a strip of ``frames`` panels at evenly spaced times: each panel is
+    the kernel's slice at the rod's orientation then (green: in the kernel), with the target's
+    and observer's paths so far and the rod. A controller that keeps the state in the kernel
+    keeps the target's dot on green."""
+    from tether.plot import ROD_COLOUR, TARGET_COLOUR
+
+    observer = "tab:purple"  # the slice's orange means 'outside'
+
+    tr = result.trace
+    if fig is None:
+        fig = Figure(figsize=(3.6 * frames, 3.6), layout="constrained")
+    axes = fig.subplots(1, frames, squeeze=False)[0]
+    idx = np.linspace(0, len(tr.p) - 1, frames).astype(int)
+    for ax, i in zip(axes, idx, strict=True):
+        a = float(tr.a[i])
+        plot_kernel_slice(kernel, a, ax)
+        p, o = tr.p[: i + 1], tr.observer[: i + 1]
+        ax.plot(p[:, 0], p[:, 1], color=TARGET_COLOUR, lw=1.2, zorder=4)
+        ax.plot(o[:, 0], o[:, 1], color=observer, lw=1.2, zorder=4)
+        ax.plot([p[-1, 0], o[-1, 0]], [p[-1, 1], o[-1, 1]], color=ROD_COLOUR, lw=2.5,
+                zorder=5)
+        ax.plot(*p[-1], "o", color=TARGET_COLOUR, ms=5, zorder=6)
+        inside = bool(kernel.contains(p[-1:], a)[0])
+        ax.set_title(f"t = {tr.t[i]:.1f} s, a = {math.degrees(a) % 360:.0f}°"
+                     f"{'' if inside else ' (outside)'}", fontsize=9)
+    fig.suptitle(f"{result.controller} vs {result.target}: {result.outcome} — the kernel's "
+                 "slice at the rod's orientation (green: safe)", fontsize=9)
+    return fig

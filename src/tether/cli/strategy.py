@@ -120,9 +120,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InvalidParameterError(f"--dt must be > 0 (got {args.dt:g})")
     if not (args.duration >= 0 and math.isfinite(args.duration)):
         raise InvalidParameterError(f"--duration must be >= 0 (got {args.duration:g})")
+    if args.kernel and args.controller != "kernel" and args.target != "kernel-evader":
+        raise InvalidParameterError("--kernel applies to --controller kernel or "
+                                    "--target kernel-evader only")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
+    kernel = _load_kernel(args) if args.kernel else None
     world = _world(args, args.start, rod=True)
+    if kernel is not None:
+        world.extra["kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
     target = make_target(args.target, world, **opts)
     controller = CONTROLLERS[args.controller](world)
@@ -161,6 +167,32 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _load_kernel(args: argparse.Namespace):
+    """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``), checked against the
+    map, ``--lss`` and the speeds of the run (before the decomposition)."""
+    from pathlib import Path
+
+    from tether.game import load_kernel
+
+    path = Path(args.kernel)
+    if not path.is_file():
+        raise InvalidParameterError(f"--kernel: no such file {args.kernel!r}")
+    try:
+        k = load_kernel(path)
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error
+        raise InvalidParameterError(f"--kernel: cannot read {args.kernel!r} ({exc})") from exc
+    env = load_map_lss(args)
+    for name, mine, theirs in (("lss", k.lss, args.lss), ("vt", k.vt, args.vt),
+                               ("vo", k.vo, args.vo)):
+        if not math.isclose(mine, theirs, rel_tol=1e-9, abs_tol=1e-12):
+            raise InvalidParameterError(f"--kernel was computed with {name}={mine:g}, the run "
+                                        f"has {name}={theirs:g}")
+    if tuple(round(b, 9) for b in k.grid.env.bounds) != tuple(
+            round(b, 9) for b in env.bounds):
+        raise InvalidParameterError("--kernel was computed on another map")
+    return k
+
+
 def register(add) -> None:
     sp = add("assess", cmd_assess, "analyse a start (x, y, a): cell, escape points, L, L_g, "
              "margins, safe or unsafe with reasons")
@@ -180,9 +212,15 @@ def register(add) -> None:
     sp.add_argument("--start", type=float_arg, nargs=3, required=True, metavar=("X", "Y", "A"),
                     help="start target position and rod orientation (radians)")
     sp.add_argument("--target", default="random",
-                    help="target kind: path, random, wall, tangential, dash, escape, search")
+                    help="target kind: path, random, wall, tangential, dash, escape, search, "
+                    "kernel-evader")
     sp.add_argument("--path", help="waypoint file for --target path (JSON or 'x y' lines)")
-    sp.add_argument("--controller", default="paper", help="paper, follow or translate")
+    sp.add_argument("--controller", default="paper",
+                    help="paper, follow, translate or kernel (the surveillance kernel's "
+                    "controller; the kernel is computed on a coarse grid unless --kernel)")
+    sp.add_argument("--kernel", metavar="FILE.npz",
+                    help="kernel for --controller kernel / --target kernel-evader, saved by "
+                    "'tether kernel --save' with the same map, lss and speeds")
     sp.add_argument("--duration", type=float_arg, default=20.0, help="seconds (default 20)")
     sp.add_argument("--dt", type=float_arg, default=0.02, help="step in seconds (0.02)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the target (0)")

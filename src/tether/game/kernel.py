@@ -348,7 +348,10 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
     orientations : int
         Number of orientation bins (default 180, 2° each).
     directions : int
-        Target headings: 8 (lattice neighbours) or 16 (adding knight moves).
+        Target headings: 8 (lattice neighbours) or 16 (adding knight moves). The 16-move
+        game keeps the 8 moves unchanged and gives the target more, so on the same grid its
+        kernel is a subset of the 8-move kernel (more conservative, closer to the continuous
+        game; tested).
     scheme : ``"inner"`` or ``"outer"``
         Rounding of the observer's reachable orientations: conservative (default) or
         optimistic; see the module docstring.

@@ -275,9 +275,20 @@ class PaperController(_Compliant):
         return cmd
 
 
+def _kernel_controller(world: World | None = None, **options: Any) -> Any:
+    """The surveillance kernel's controller (:class:`tether.game.controller.KernelController`):
+    follows ``world.extra["kernel"]``, computed there on demand (coarse grid, see
+    :func:`tether.game.controller.kernel_of`) unless ``kernel=`` is given or the caller stored
+    one (``tether simulate --kernel FILE.npz``)."""
+    from tether.game.controller import KernelController
+
+    return KernelController(**options)
+
+
 #: Controllers by name: ``CONTROLLERS[name](world)``.
 CONTROLLERS: dict[str, Any] = {
     "paper": PaperController,
     "follow": FollowController,
     "translate": TranslateController,
+    "kernel": _kernel_controller,
 }
