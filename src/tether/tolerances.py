@@ -17,6 +17,9 @@ REL_LENGTH_TOL = 1e-9
 
 #: Angular tolerance in radians: blocked intervals closer than this merge, free arcs shorter
 #: than this (isolated semi-free orientations, which exist only on critical curves) are dropped.
+#: A blocked interval narrower than this is a tangency (dropped) only if the edge's part inside
+#: the rod's disc is also shorter than the length tolerance: seen nearly end-on, a long edge
+#: part subtends less than ANGLE_TOL without being a tangency (issue #9).
 ANGLE_TOL = 1e-9
 
 #: Polyline approximation of the critical curves, relative to the map diameter: every curve is
