@@ -115,12 +115,18 @@ def test_dask_executor():
     _same(sweep(RECT, [0.5, 1.0], tol=0.1), res)
 
 
-def test_kernel_hook(monkeypatch):
+@pytest.mark.slow
+def test_kernel_hook_gives_the_kernels_safe_fraction():
     import tether.game as game
 
     res = sweep(RECT, [0.5], vt=1.0, vo=2.0, tol=0)
     direct = game.surveillance_kernel(RECT, 0.5, 1.0, 2.0).safe_fraction_total()
     assert res.rows[0].safe_fraction == pytest.approx(direct)
+
+
+def test_kernel_hook_failure_keeps_the_verdict(monkeypatch):
+    import tether.game as game
+
     assert all(r.safe_fraction is None for r in sweep(RECT, [0.5], tol=0).rows)
 
     def broken(env, lss, vt, vo):
