@@ -117,12 +117,20 @@ def concerning_orientations(table: EscapeTable, i: int,
                             fractions: tuple[float, ...] = (0.25, 0.5, 0.75),
                             samples: int = 360) -> list[float]:
     """Rod orientations (rad) at the fractions ``fractions`` of the orientations that concern
-    row ``i`` (in the cell's arc, not in the goal; ``samples`` evenly over the cell's arc,
-    the ends left out)."""
+    row ``i`` (in the row's arc, not in the goal, and free at ``q`` itself; ``samples`` evenly
+    over the row's arc, the ends left out).
+
+    The row's arc is widened over the blocked gaps next to the cell (:func:`_widened`), and is
+    the full circle when the cell's arc is the only one at ``q``; the rods inside the gaps are
+    left out here: a case starts with the rod free at ``q``."""
     ks, ke = float(table.k_start[i]), float(table.k_end[i])
     klen = (ke - ks) % TWO_PI or TWO_PI
     cand = (ks + klen * (np.arange(1, samples) / samples)) % TWO_PI
-    good = [float(a) for a in cand if _sense_sweeps(table, i, float(a))[2]]
+    dec = table.verdict.dec
+    q = np.asarray(table.q[i], float)
+    free = rod_is_free_many(dec.env, np.repeat(q[None, :], len(cand), axis=0), cand, dec.lss)
+    good = [float(a) for a, f in zip(cand, free, strict=True)
+            if f and _sense_sweeps(table, i, float(a))[2]]
     if not good:
         return []
     return [good[min(len(good) - 1, int(f * len(good)))] for f in fractions]
