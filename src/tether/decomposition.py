@@ -40,17 +40,39 @@ FREE = "*"  # feature name of both ends of the single cell of a FULL region
 
 def structures(env: Environment, table: ArcTable, npts: int) -> list[Structure]:
     """Structure key of each point of an :class:`ArcTable`: a frozenset of
-    ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``."""
-    out: list[Structure] = ["EMPTY"] * npts
-    for i in np.flatnonzero(table.full):
-        out[i] = "FULL"
-    groups: dict[int, list] = {}
-    for p, s, e in zip(table.point.tolist(), table.start_code.tolist(), table.end_code.tolist(),
-                       strict=True):
-        groups.setdefault(p, []).append((s, e))
-    for p, pairs in groups.items():
-        out[p] = frozenset(pairs)
-    return out
+    ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``. Points with equal
+    structures share one object."""
+    ids, keys = structure_ids(env, table, npts)
+    return [keys[i] for i in ids.tolist()]
+
+
+def structure_ids(env: Environment, table: ArcTable, npts: int
+                  ) -> tuple[np.ndarray, list[Structure]]:
+    """An integer id per point of an :class:`ArcTable`, equal for equal structures, and the
+    structure of each id (vectorized: one frozenset per distinct structure)."""
+    ids = np.zeros(npts, dtype=np.int64)  # id 0: EMPTY
+    keys: list[Structure] = ["EMPTY", "FULL"]
+    ids[np.asarray(table.full, dtype=bool)] = 1
+    if len(table.point) == 0:
+        return ids, keys
+    base = 2 * env.n + 1
+    pair = table.start_code.astype(np.int64) * base + table.end_code
+    order = np.lexsort((pair, table.point))
+    point, pair = table.point[order], pair[order]
+    counts = np.bincount(point, minlength=npts)
+    width = int(counts.max())
+    first = np.cumsum(counts) - counts
+    rows = np.flatnonzero(counts)
+    grid = np.full((len(rows), width), -1, dtype=np.int64)
+    slot = np.arange(len(point)) - first[point]
+    row_of = np.searchsorted(rows, point)
+    grid[row_of, slot] = pair
+    void = np.ascontiguousarray(grid).view(np.dtype((np.void, 8 * width))).ravel()
+    _, first_row, inv = np.unique(void, return_index=True, return_inverse=True)
+    ids[rows] = inv.ravel() + 2
+    for u in grid[first_row].tolist():
+        keys.append(frozenset(divmod(x, base) for x in u if x >= 0))
+    return ids, keys
 
 
 def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
