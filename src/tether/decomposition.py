@@ -631,25 +631,45 @@ def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]
 def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],
                   face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
                   ) -> tuple[list[Region], dict[int, int]]:
-    """Regions from groups of faces, numbered by representative point (x, then y)."""
-    drafts = []
+    """Regions from groups of faces, numbered by representative point (x, then y): the point
+    of the group's face farthest from its boundary. A group's polygon (the union of its faces)
+    is cached on ``arr``: the merges repeated after absorbing specks keep most groups."""
     face_area = arr.__dict__.get("_face_area")
     if face_area is None:
         face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
-    for faces in groups.values():
-        best = max(faces, key=lambda f: clear[f])
-        poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
-        area = float(face_area[faces].sum())
-        drafts.append((tuple(np.round(pts[best], 9)), faces, poly, area, face_struct[best]))
-    drafts.sort(key=lambda d: d[0])
+    unions = arr.__dict__.setdefault("_group_unions", {})
+    lists = list(groups.values())
+    size = np.array([len(g) for g in lists], dtype=np.int64)
+    flat = np.fromiter((f for g in lists for f in g), dtype=np.int64, count=int(size.sum()))
+    group = np.repeat(np.arange(len(lists)), size)
+    # the face of largest clearance of each group (the first one among equals)
+    order = np.lexsort((-clear[flat], group))
+    head = np.r_[True, group[order][1:] != group[order][:-1]] if len(order) else \
+        np.zeros(0, bool)
+    best = flat[order[head]]
+    # numpy sums 8 or more values pairwise: those few groups are summed as before, bit for bit
+    area = np.bincount(group, weights=face_area[flat], minlength=len(lists))
+    for g in np.flatnonzero(size >= 8).tolist():
+        area[g] = face_area[lists[g]].sum()
+    point = np.round(pts[best], 9)
+    rank = np.lexsort((point[:, 1], point[:, 0]))  # stable: ties keep the groups' order
     regions, face_region = [], {}
-    for rid, (pt, faces, poly, area, st) in enumerate(drafts):
-        names = structure_names(env, st)
-        cells = tuple(cell_name(rid, s, e) for s, e in names)
-        shapely.prepare(poly)
-        regions.append(Region(rid, poly, area, (float(pt[0]), float(pt[1])), st, cells))
+    for rid, g in enumerate(rank.tolist()):
+        faces = lists[g]
+        if len(faces) > 1:
+            key = tuple(faces)
+            poly = unions.get(key)
+            if poly is None:
+                poly = unions[key] = shapely.union_all(arr.faces[faces])
+        else:
+            poly = arr.faces[faces[0]]
+        st = face_struct[int(best[g])]
+        cells = tuple(cell_name(rid, s, e) for s, e in structure_names(env, st))
+        regions.append(Region(rid, poly, float(area[g]),
+                              (float(point[g, 0]), float(point[g, 1])), st, cells))
         for f in faces:
             face_region[f] = rid
+    shapely.prepare([r.polygon for r in regions])
     return regions, face_region
 
 
@@ -751,23 +771,7 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     part_chain = np.full(len(arr.parts), -1)
     for c, ks in enumerate(chains):
         part_chain[ks] = c
-    coords, idx = shapely.get_coordinates(arr.parts, return_index=True)
-    seg = np.flatnonzero((idx[1:] == idx[:-1]) & (part_chain[idx[:-1]] >= 0))
-    a, b, part = coords[seg], coords[seg + 1], idx[seg]
-    ln = np.hypot(*(b - a).T)
-    order = np.lexsort((-ln, part))
-    part_o = part[order]
-    rank = np.arange(len(order)) - np.searchsorted(part_o, part_o)
-    take = order[(rank < 6) & (ln[order] > 0)]
-    Q = 0.5 * (a[take] + b[take])
-    mine = part[take]
-    reach = max(1e3 * tol, 1e-3 * lss)
-    clear = np.full(len(Q), reach)
-    if len(Q):
-        sa, sb, sowner, tree = arr.segments()
-        qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
-        other = sowner[sj] != mine[qi]
-        np.minimum.at(clear, qi[other], d[other])
+    Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
     ok = ok[np.lexsort((-clear[ok], chain[ok]))]
@@ -778,6 +782,47 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
         if len(lst) < 8:
             lst.append((Q[i], min(0.25 * (clear[i] - tol), cap)))
     return out
+
+
+def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate crossing points of the parts flagged in ``need``: the midpoints of each
+    part's 6 longest segments (part by part, longest first), their part and their clearance
+    (distance to the nearest segment of another part, at most ``max(1e3 tol, 1e-3 lss)``).
+    A part's candidates depend on the arrangement only: they are computed once per part and
+    cached on ``arr`` (region merges recompute the chains, not the parts)."""
+    sa, sb, sowner, tree = arr.segments()
+    cache = arr.__dict__.get("_part_candidates")
+    if cache is None:
+        cache = arr.__dict__["_part_candidates"] = {
+            "done": np.zeros(len(arr.parts), bool), "Q": np.zeros((0, 2)),
+            "part": np.zeros(0, np.int64), "rank": np.zeros(0, np.int64), "clear": np.zeros(0)}
+    todo = need & ~cache["done"]
+    if todo.any():
+        seg = np.flatnonzero(todo[sowner])
+        a, b, part = sa[seg], sb[seg], sowner[seg]
+        ln = np.hypot(*(b - a).T)
+        order = np.lexsort((-ln, part))
+        part_o = part[order]
+        rank = np.arange(len(order)) - np.searchsorted(part_o, part_o)
+        keep = (rank < 6) & (ln[order] > 0)
+        take = order[keep]
+        Q = 0.5 * (a[take] + b[take])
+        mine = part[take]
+        reach = max(1e3 * tol, 1e-3 * lss)
+        clear = np.full(len(Q), reach)
+        if len(Q):
+            qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
+            other = sowner[sj] != mine[qi]
+            np.minimum.at(clear, qi[other], d[other])
+        cache["Q"] = np.vstack((cache["Q"], Q))
+        cache["part"] = np.concatenate((cache["part"], mine))
+        cache["rank"] = np.concatenate((cache["rank"], rank[keep]))
+        cache["clear"] = np.concatenate((cache["clear"], clear))
+        cache["done"] |= todo
+    rows = np.flatnonzero(need[cache["part"]])
+    rows = rows[np.lexsort((cache["rank"][rows], cache["part"][rows]))]
+    return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
 
 
 def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[Region],
