@@ -344,6 +344,36 @@ class _Arrangement:
             self.__dict__["_segments"] = got
         return got
 
+    def sources(self) -> tuple[np.ndarray, np.ndarray]:
+        """``part_sources`` as CSR arrays: part ``k``'s sources are
+        ``src[ptr[k]:ptr[k + 1]]`` (increasing), built once."""
+        got = self.__dict__.get("_sources")
+        if got is None:
+            count = np.fromiter((len(t) for t in self.part_sources), np.int64,
+                                len(self.part_sources))
+            src = np.fromiter((c for t in self.part_sources for c in t), np.int64,
+                              int(count.sum()))
+            got = self.__dict__["_sources"] = (np.concatenate(([0], np.cumsum(count))), src)
+        return got
+
+    def chain_sources(self, chains: list) -> list[list[int]]:
+        """The curves (no walls) of each chain ``(pair, parts)``, sorted, distinct;
+        vectorized over all chains."""
+        ptr, src = self.sources()
+        nparts = np.fromiter((len(ks) for _, ks in chains), np.int64, len(chains))
+        parts = np.fromiter((k for _, ks in chains for k in ks), np.int64, int(nparts.sum()))
+        chain = np.repeat(np.arange(len(chains), dtype=np.int64), nparts)
+        nsrc = ptr[parts + 1] - ptr[parts]
+        rows = _ragged(ptr[parts], nsrc)
+        base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
+        key = np.unique(np.repeat(chain, nsrc) * base + src[rows] + 1)
+        c, s = np.divmod(key, base)
+        s = s - 1
+        c, s = c[s >= 0], s[s >= 0]
+        bounds = np.searchsorted(c, np.arange(len(chains) + 1)).tolist()
+        flat = s.tolist()
+        return [flat[bounds[i]:bounds[i + 1]] for i in range(len(chains))]
+
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
     lines = [LineString(np.vstack((r, r[:1]))) for r in env.rings]
@@ -690,9 +720,9 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     ends = np.vstack((shapely.get_coordinates(shapely.get_point(arr.parts[parts], 0)),
                       shapely.get_coordinates(shapely.get_point(arr.parts[parts], -1))))
     end_id = _point_ids(ends)
-    nsrc = np.array([len(arr.part_sources[k]) for k in parts.tolist()], dtype=int)
-    src = np.fromiter((s for k in parts.tolist() for s in arr.part_sources[k]), dtype=int,
-                      count=int(nsrc.sum()))
+    sptr, sflat = arr.sources()
+    nsrc = sptr[parts + 1] - sptr[parts]
+    src = sflat[_ragged(sptr[parts], nsrc)]
     local = np.tile(np.repeat(np.arange(len(parts)), nsrc), 2)  # rows: (end, source)
     end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
                                  np.repeat(end_id[len(parts):], nsrc)))
@@ -713,6 +743,16 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     flat = parts_o.tolist()
     return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
             zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
+
+
+def _ragged(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
+    counts = np.asarray(counts, dtype=np.int64)
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offs = np.cumsum(counts) - counts
+    return np.repeat(np.asarray(starts, np.int64) - offs, counts) + np.arange(total)
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -745,22 +785,40 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only)."""
-    samples = _pick_crossings(env, chains, cands, regions, curves, arr, lss)
+    chain_srcs = arr.chain_sources(chains)
+    samples = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
+    geoms = _chain_geometries(arr, chains, samples)
     pieces, dropped = [], 0
-    for ((ra, rb), ks), sample in zip(chains, samples, strict=True):
+    for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
+                                                 strict=True):
         if sample is None:
             dropped += 1
             continue
-        srcs = sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
         q, n, eps, verified = sample
         kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
         feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
-        geom = shapely.line_merge(shapely.union_all(arr.parts[ks])) if len(ks) > 1 \
-            else arr.parts[ks[0]]
         pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
                             (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
                             bool(verified)))
     return pieces, dropped
+
+
+def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
+    """Each kept chain's line: its part, or its parts merged into as few lines as they form
+    (all multi-part chains at once); None for chains without a sample."""
+    out: list = [None] * len(chains)
+    multi = [i for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True))
+             if smp is not None and len(ks) > 1]
+    for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True)):
+        if smp is not None and len(ks) == 1:
+            out[i] = arr.parts[ks[0]]
+    if multi:
+        ks = [chains[i][1] for i in multi]
+        idx = np.repeat(np.arange(len(multi)), [len(k) for k in ks])
+        lines = shapely.multilinestrings(arr.parts[np.concatenate(ks)], indices=idx)
+        for i, g in zip(multi, shapely.line_merge(lines).tolist(), strict=True):
+            out[i] = g
+    return out
 
 
 def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float, lss: float
@@ -826,7 +884,7 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
 
 
 def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[Region],
-                    curves: list[Curve], arr: _Arrangement, lss: float) -> list:
+                    curves: list[Curve], chain_srcs: list[list[int]], lss: float) -> list:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
     are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
@@ -835,8 +893,6 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
-    chain_srcs = [sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
-                  for _, ks in chains]
     rnd = 0
     while pending:
         q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)
