@@ -16,10 +16,11 @@ from hypothesis import strategies as st
 
 from tether import load_map
 from tether.cli import example_path
-from tether.decomposition import decompose
+from tether.decomposition import crossing_points, decompose
 from tether.escape import analyze, fixed_point
 from tether.floorplan import floor_plan
-from tether.graph import build_graph
+from tether.graph import _arc_rows, _cell_index, _overlap, build_graph
+from tether.tolerances import ANGLE_TOL
 
 
 def ref_partners(dec, edge_list):
@@ -92,8 +93,37 @@ def ref_witness(dec, removed, alive):
     return None
 
 
+def brute_edges(dec):
+    """Every arc pair of the two sides of every piece tested for overlap (all pairs, no
+    search: the implementation before the candidate search)."""
+    m = len(dec.pieces)
+    if m == 0:
+        return []
+    rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
+    counts = np.bincount(rows["point"], minlength=2 * m)
+    first = np.cumsum(counts) - counts
+    a_rows = np.flatnonzero(rows["point"] < m)
+    nb = counts[m + rows["point"][a_rows]]
+    pair_a = np.repeat(a_rows, nb)
+    within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
+    pair_b = np.repeat(first[m + rows["point"][a_rows]], nb) + within
+    ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
+                  rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
+    keep = np.flatnonzero(ov > ANGLE_TOL)
+    k = rows["point"][pair_a[keep]]
+    regs = np.array([p.regions for p in dec.pieces]).reshape(-1, 2)
+    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
+                     rows["end_code"][pair_a[keep]])
+    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
+                     rows["end_code"][pair_b[keep]])
+    ok = (ca >= 0) & (cb >= 0)
+    return list(zip(ca[ok].tolist(), cb[ok].tolist(), k[ok].tolist(), strict=True))
+
+
 def assert_same_as_reference(dec):
     g = build_graph(dec)
+    got = list(zip(g.edge_a.tolist(), g.edge_b.tolist(), g.edge_piece.tolist(), strict=True))
+    assert got == brute_edges(dec)
     partners, pieces_of = ref_partners(dec, g.edge_list)
     assert list(g.partners.items()) == list(partners.items())
     assert list(g.pieces_of.items()) == list(pieces_of.items())

@@ -235,14 +235,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if m == 0:
         return empty, empty, empty
     rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
-    counts = np.bincount(rows["point"], minlength=2 * m)
-    first = np.cumsum(counts) - counts
-    a_rows = np.flatnonzero(rows["point"] < m)  # side of regions[0], grouped by piece
-    piece_of_a = rows["point"][a_rows]
-    nb = counts[m + piece_of_a]
-    pair_a = np.repeat(a_rows, nb)
-    within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
-    pair_b = np.repeat(first[m + piece_of_a], nb) + within
+    pair_a, pair_b = _candidate_pairs(rows, m)
     ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
                   rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
     keep = np.flatnonzero(ov > ANGLE_TOL)
@@ -254,6 +247,49 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                      rows["end_code"][pair_b[keep]])
     ok = (ca >= 0) & (cb >= 0)
     return (ca[ok].astype(np.int64), cb[ok].astype(np.int64), k[ok].astype(np.int64))
+
+
+#: Angular margin (radians) of the candidate search: a superset of the overlapping arc pairs,
+#: each pair then tested exactly by :func:`_overlap`. Far above the rounding of the search keys.
+_SEARCH_MARGIN = 1e-6
+
+
+def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Arc pairs (row on the side of ``regions[0]``, row on the other side) of each piece that
+    may overlap, sorted by (a, b): every pair whose arcs overlap is among them, and their number
+    is linear in the number of arcs. The arcs at a point are disjoint and sorted by start, so
+    an arc ``a`` can only overlap the arc containing its start (the last one starting before
+    it, around the circle) and the arcs starting inside it."""
+    point, start = rows["point"], rows["start"]
+    counts = np.bincount(point, minlength=2 * m)
+    first = np.cumsum(counts) - counts
+    key = point * 8.0 + start  # increasing: rows are sorted by point, then start (< 2π)
+    a = np.flatnonzero(point < m)
+    pb = point[a] + m  # the point across the piece
+    has = counts[pb] > 0
+    a, pb = a[has], pb[has]
+    s1 = start[a]
+    lo = s1 - _SEARCH_MARGIN
+    hi = s1 + _arc_length(s1, rows["end"][a], rows["full"][a]) + _SEARCH_MARGIN
+    base = pb * 8.0
+    ranges = [(lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), np.ones(len(a), bool)),
+              (np.zeros(len(a)), hi - TWO_PI, hi > TWO_PI),
+              (lo + TWO_PI, np.full(len(a), TWO_PI), lo < 0)]
+    got_a, got_b = [], []
+    for r0, r1, use in ranges:
+        i0 = np.searchsorted(key, base[use] + r0[use], side="left")
+        i1 = np.searchsorted(key, base[use] + r1[use], side="right")
+        n = np.maximum(i1 - i0, 0)
+        got_a.append(np.repeat(a[use], n))
+        got_b.append(_ragged_arange(i0, n))
+    # the arc containing a's start: the last starting at or before it, else the point's last
+    j = np.searchsorted(key, base + lo, side="right") - 1
+    j = np.where(j >= first[pb], j, first[pb] + counts[pb] - 1)
+    got_a.append(a)
+    got_b.append(j)
+    ga, gb = np.concatenate(got_a), np.concatenate(got_b)
+    pair = np.unique(ga * len(point) + gb)
+    return pair // len(point), pair % len(point)
 
 
 def _piece_regions(dec: Decomposition) -> np.ndarray:
