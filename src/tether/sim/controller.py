@@ -255,7 +255,7 @@ class PaperController(_Compliant):
     def _still_concerned(self, p: np.ndarray, a: float) -> tuple[bool, int]:
         """Whether the committed row still concerns orientation ``a`` (one row only), and the
         sense of its sweep to the goal inside the rod's free arc now."""
-        t, k = self.table, self.goal_row
+        k = self.goal_row
         ks, ke = self._k_arcs[k]
         if self._anywhere[k]:
             e = self.local.ends(float(p[0]), float(p[1]), a)
