@@ -10,6 +10,7 @@ held/lost and every loss's reason. It also runs the scripted Figs. 7 and 8 and d
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
@@ -113,9 +114,27 @@ def _run(job):
     return r.held, r.lost_at, r.reason
 
 
-def table(runs, duration, dt, workers=1):
-    """Held/lost per (map, ratio, kind) from ``runs`` seeded safe starts each (the same starts
-    for every kind), simulated on ``workers`` processes."""
+def kernel_check(label, ratio, starts):
+    """The optimistic (``outer``) surveillance kernel (§11, default grid) of a map spec at
+    ``vt/vo = ratio``: its safe fraction and, per start, whether the start lies in it. A start
+    outside even the optimistic kernel can be lost against the best target, whatever the
+    observer does (up to the grid's resolution)."""
+    from tether.game import surveillance_kernel
+
+    if not starts:
+        return None, []
+    w = _world(label, ratio)
+    k = surveillance_kernel(w.env, w.lss, ratio, 1.0, scheme="outer")
+    pts = np.array([st[:2] for st in starts], float)
+    inside = k.contains(pts, np.array([st[2] for st in starts], float))
+    return float(k.safe_fraction_total()), [bool(b) for b in inside]
+
+
+def simulate_all(runs, duration, dt, workers=1):
+    """Seeded safe starts per (map, ratio) and one simulation per (start, target kind):
+    a JSON-ready dict (``cells``: map, lss, ratio, strategy exists, starts, the kernel's safe
+    fraction and membership of each start; ``results``: per cell and kind, per start
+    ``[held, lost_at, reason]``)."""
     from concurrent.futures import ProcessPoolExecutor
 
     cells, jobs = [], []
@@ -123,32 +142,50 @@ def table(runs, duration, dt, workers=1):
         for ratio in RATIOS:
             w = _world(label, ratio)
             starts = safe_starts(w, runs, np.random.default_rng(7))
-            for kind in KINDS:
-                cells.append((label, lss, ratio, kind, starts, w.verdict.strategy_exists))
-                jobs += [(label, ratio, kind, k, st, duration, dt)
-                         for k, st in enumerate(starts)]
+            frac, inside = kernel_check(label, ratio, starts)
+            cells.append({"map": label, "lss": lss, "ratio": ratio,
+                          "exists": bool(w.verdict.strategy_exists), "starts": starts,
+                          "kernel_fraction": frac, "in_kernel": inside})
+            jobs += [(label, ratio, kind, k, st, duration, dt)
+                     for kind in KINDS for k, st in enumerate(starts)]
     print(f"{len(jobs)} simulations on {workers} process(es)", file=sys.stderr)
     if workers > 1:
         with ProcessPoolExecutor(workers) as ex:
-            results = list(ex.map(_run, jobs, chunksize=8))
+            results = list(ex.map(_run, jobs, chunksize=4))
     else:
         results = [_run(j) for j in jobs]
-    rows, losses = [], []
     i = 0
-    for label, lss, ratio, kind, starts, exists in cells:
-        held = lost = 0
-        reasons = Counter()
-        for k, st in enumerate(starts):
-            ok, lost_at, reason = results[i]
-            i += 1
-            if ok:
-                held += 1
-            else:
+    for cell in cells:
+        cell["results"] = {}
+        for kind in KINDS:
+            n = len(cell["starts"])
+            cell["results"][kind] = [list(r) for r in results[i:i + n]]
+            i += n
+    return {"runs": runs, "duration": duration, "dt": dt, "cells": cells}
+
+
+def table(data):
+    """Rows (per map, ratio, kind) and losses (each with whether its start is in the
+    kernel) from :func:`simulate_all`'s data."""
+    rows, losses = [], []
+    for cell in data["cells"]:
+        label, lss, ratio = cell["map"], cell["lss"], cell["ratio"]
+        for kind in KINDS:
+            held = lost = lost_in = 0
+            reasons = Counter()
+            for k, (ok, lost_at, reason) in enumerate(cell["results"][kind]):
+                if ok:
+                    held += 1
+                    continue
                 lost += 1
+                inside = cell["in_kernel"][k]
+                lost_in += inside
                 reasons[short(reason)] += 1
-                losses.append((label, lss, ratio, kind, st, k, lost_at, reason))
-        rows.append((label, lss, ratio, kind, len(starts), held, lost, reasons, exists))
-        print(f"{label} {ratio} {kind}: {held} held, {lost} lost", file=sys.stderr)
+                losses.append((label, lss, ratio, kind, cell["starts"][k], k, lost_at, reason,
+                               inside))
+            rows.append((label, lss, ratio, kind, len(cell["starts"]), held, lost, reasons,
+                         cell["exists"], cell["kernel_fraction"], sum(cell["in_kernel"]),
+                         lost_in))
     return rows, losses
 
 
@@ -244,32 +281,49 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
               f"number); {total} simulations in all. The floor plans are "
               "`tether.floorplan.floor_plan(n, seed=0)`, saved as "
               "`docs/maps/floorplan-40.json` and `docs/maps/floorplan-80.json`.", "",
-              "| map | lss | vt/vo | target | runs | held | lost | loss reasons |",
-              "|---|---|---|---|---|---|---|---|"]
-    for name, lss, ratio, kind, n, held, lost, reasons, exists in rows:
+              "*Kernel %*: the share of free configurations in the optimistic (`outer`) "
+              "surveillance kernel (§11, default grid); *starts in kernel*: how many of the "
+              "starts lie in it. A start outside even the optimistic kernel is lost against "
+              "the best target whatever the observer does (up to the grid's resolution), so "
+              "a loss from there is a gap in the paper's sufficient conditions (Props. 2–3 "
+              "call the start safe), not a controller bug; *lost in kernel* counts the losses "
+              "the kernel says an observer could have avoided.", "",
+              "| map | lss | vt/vo | target | runs | held | lost | kernel % | starts in kernel "
+              "| lost in kernel | loss reasons |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for (name, lss, ratio, kind, n, held, lost, reasons, exists, frac, n_in,
+         lost_in) in rows:
         rs = "; ".join(f"{c}× {r}" for r, c in reasons.most_common()) or "—"
         label = name if exists else f"{name} (no strategy)"
+        kf = "—" if frac is None else f"{100 * frac:.1f}"
         lines.append(f"| {label} | {lss:g} | {ratio:g} | {kind} | {n} | {held} | {lost} | "
-                     f"{rs} |")
+                     f"{kf} | {n_in if n else '—'} | {lost_in if n else '—'} | {rs} |")
     held = sum(r[5] for r in rows)
-    lines += ["", f"In all: **{held} held, {total - held} lost** of {total} runs from safe "
-              "starts.", "",
+    lost_in = sum(r[11] for r in rows)
+    lost = total - held
+    lines += ["", f"In all: **{held} held, {lost} lost** of {total} runs from safe starts; "
+              f"**{lost - lost_in}** of the losses start outside the optimistic kernel "
+              f"(proven gaps of the paper's conditions, up to the grid), **{lost_in}** inside "
+              "it (the paper's controller lost where some observer could hold).", "",
               "A map with no strategy has no safe start, so its rows are empty. A map with a "
               "strategy can still have none at a given speed ratio, since Prop. 1 assumes an "
               "unbounded observer speed: the gallery at vt/vo = 0.6 has an empty surveillance "
               "kernel (§11) under both rounding schemes (`tether kernel "
               "src/tether/examples/gallery.json --lss 2 --vt 0.6 --vo 1 --scheme outer`), so "
               "no start there can be held against the best evader, and `assess` calls none "
-              "safe. At 0.9 the paper's conditions call no start safe on these maps.", "",
+              "safe.", "",
               "## Every loss from a safe start", "",
-              "| map | lss | vt/vo | target | start (x, y, a) | seed | t | reason |",
-              "|---|---|---|---|---|---|---|---|"]
-    for name, lss, ratio, kind, st, k, t, reason in losses:
+              "| map | lss | vt/vo | target | start (x, y, a) | seed | t | in kernel | reason |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for name, lss, ratio, kind, st, k, t, reason, inside in losses:
         lines.append(f"| {name} | {lss:g} | {ratio:g} | {kind} | ({st[0]:.3f}, {st[1]:.3f}, "
-                     f"{st[2]:.3f}) | {k} | {t:.2f} | {reason} |")
+                     f"{st[2]:.3f}) | {k} | {t:.2f} | {'yes' if inside else 'no'} | "
+                     f"{reason} |")
     lines += ["", "Rerun one: `tether simulate MAP.json --lss LSS --vt R --vo 1 --start X Y A "
               "--target KIND --seed K --duration D --plot run.png` (MAP.json: "
-              "`src/tether/examples/<map>.json` or `docs/maps/<floorplan>.json`).", ""]
+              "`src/tether/examples/<map>.json` or `docs/maps/<floorplan>.json`); the kernel "
+              "there: `tether kernel MAP.json --lss LSS --vt R --vo 1 --scheme outer --at X Y "
+              "A`.", ""]
     (HERE / "strategy.md").write_text("\n".join(lines))
 
 
@@ -279,14 +333,23 @@ def main(argv=None):
     p.add_argument("--duration", type=float, default=20.0)
     p.add_argument("--dt", type=float, default=0.02)
     p.add_argument("--workers", type=int, default=1, help="processes for the simulations")
+    p.add_argument("--reuse", action="store_true",
+                   help="rewrite the page from the saved runs (strategy_runs.json)")
     args = p.parse_args(argv)
     t0 = time.perf_counter()
     FIGS.mkdir(exist_ok=True)
     scen = scenarios()
     g = gap()
     save_floor_plans()
-    rows, losses = table(args.runs, args.duration, args.dt, args.workers)
-    write(rows, losses, scen, args.runs, args.duration, args.dt, time.perf_counter() - t0, g)
+    runs_file = HERE / "strategy_runs.json"
+    if args.reuse:
+        data = json.loads(runs_file.read_text())
+    else:
+        data = simulate_all(args.runs, args.duration, args.dt, args.workers)
+        runs_file.write_text(json.dumps(data))
+    rows, losses = table(data)
+    write(rows, losses, scen, data["runs"], data["duration"], data["dt"],
+          time.perf_counter() - t0, g)
 
 
 if __name__ == "__main__":

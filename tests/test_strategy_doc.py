@@ -24,6 +24,7 @@ def script(tmp_path, monkeypatch):
     return mod
 
 
+@pytest.mark.slow
 def test_strategy_table_runs(script, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     script.main(["--runs", "1", "--duration", "1"])
@@ -32,6 +33,11 @@ def test_strategy_table_runs(script, tmp_path, monkeypatch):
     assert "| nonconvex_corner | 2 | 0.5 | dash | 1 |" in text
     assert "| floorplan-40 | 0.6 | 0.5 | dash | 1 |" in text
     assert (tmp_path / "maps" / "floorplan-40.json").is_file()
+    assert "| in kernel |" in text
+    # the page is rewritten from the saved runs, unchanged but for the timing
+    script.main(["--reuse"])
+    again = (tmp_path / "strategy.md").read_text()
+    assert again.split("\n")[4:] == text.split("\n")[4:]
 
 
 def test_committed_page_is_from_the_script():
