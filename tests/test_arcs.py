@@ -72,6 +72,7 @@ def test_brute_force_can_disagree():
     assert bad > 0
 
 
+@pytest.mark.slow
 def test_rod_test_agrees_with_shapely_covers(any_map):
     """Independent check of the rod test itself: shapely's exact predicate on random rods."""
     rng = np.random.default_rng(7)

@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tether.arcs import free_arcs
 from tether.assess import (
@@ -13,6 +15,7 @@ from tether.assess import (
     is_safe,
     l_paper,
     l_safe,
+    sweep_row,
     sweeps,
 )
 from tether.cli import example_path
@@ -217,3 +220,27 @@ def test_committed_rotation_turns_the_other_way_when_pinned():
     r = simulate(w, PaperController(w), make_target("random", w), st, duration=19.0, dt=0.02,
                  seed=1)
     assert r.outcome == "held"
+
+
+_ANG = st.floats(0.0, 2 * math.pi, exclude_max=True, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(ks=_ANG, ke=_ANG, a=st.floats(-10.0, 10.0, allow_nan=False),
+       goals=st.lists(st.tuples(_ANG, _ANG), min_size=0, max_size=3), pad=st.integers(0, 2),
+       snap=st.booleans())
+def test_sweep_row_equals_the_vectorized_sweeps(ks, ke, a, goals, pad, snap):
+    """The controller's scalar check of one row agrees with the vectorized table sweeps,
+    including full circles (equal ends), NaN-padded goal lists and a rod exactly on an arc end."""
+    if snap:
+        a = ks if not goals else goals[0][1]
+    gs = np.array([g[0] for g in goals] + [np.nan] * pad, float)
+    ge = np.array([g[1] for g in goals] + [np.nan] * pad, float)
+    if not len(gs):
+        gs, ge = np.full(1, np.nan), np.full(1, np.nan)
+    concern, delta, sense = sweeps(np.array([ks]), np.array([ke]), gs[None, :], ge[None, :], a)
+    c1, d1, s1 = sweep_row(ks, ke, gs.tolist(), ge.tolist(), a)
+    assert c1 == bool(concern[0])
+    if c1:
+        assert d1 == pytest.approx(float(delta[0]), abs=1e-12)
+        assert s1 == int(sense[0])

@@ -48,6 +48,7 @@ def test_user_errors_exit_2_with_one_line(capsys, argv, message):
     assert err.startswith("tether: error: ") and err.count("\n") == 1 and message in err
 
 
+@pytest.mark.slow
 def test_demo_runs(capsys):
     assert main(["demo"]) == 0
     out = capsys.readouterr().out

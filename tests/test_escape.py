@@ -117,6 +117,7 @@ def test_elimination_equals_naive_iteration_on_random_graphs():
         assert {c: r for c, _, r, _ in removed} == rounds
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(env=random_maps(), lss=st.floats(0.5, 6.0))
 def test_all_or_nothing(env, lss):

@@ -15,7 +15,8 @@ def script(tmp_path, monkeypatch):
     spec.loader.exec_module(mod)
     monkeypatch.setattr(mod, "HERE", tmp_path)
     monkeypatch.setattr(mod, "FIGS", tmp_path / "figures")
-    monkeypatch.setattr(mod, "MAPS", ["nonconvex_corner"])
+    monkeypatch.setattr(mod, "MAP_SPECS", [("nonconvex_corner", "nonconvex_corner", 2.0),
+                                           ("floorplan-40", 40, 0.6)])
     monkeypatch.setattr(mod, "RATIOS", (0.5,))
     monkeypatch.setattr(mod, "KINDS", ("random", "dash"))
     monkeypatch.setattr(mod, "scenarios", lambda: [])
@@ -23,12 +24,20 @@ def script(tmp_path, monkeypatch):
     return mod
 
 
+@pytest.mark.slow
 def test_strategy_table_runs(script, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     script.main(["--runs", "1", "--duration", "1"])
     text = (tmp_path / "strategy.md").read_text()
-    assert "| nonconvex_corner | 0.5 | random | 1 |" in text
-    assert "| nonconvex_corner | 0.5 | dash | 1 |" in text
+    assert "| nonconvex_corner | 2 | 0.5 | random | 1 |" in text
+    assert "| nonconvex_corner | 2 | 0.5 | dash | 1 |" in text
+    assert "| floorplan-40 | 0.6 | 0.5 | dash | 1 |" in text
+    assert (tmp_path / "maps" / "floorplan-40.json").is_file()
+    assert "| in kernel |" in text
+    # the page is rewritten from the saved runs, unchanged but for the timing
+    script.main(["--reuse"])
+    again = (tmp_path / "strategy.md").read_text()
+    assert again.split("\n")[4:] == text.split("\n")[4:]
 
 
 def test_committed_page_is_from_the_script():

@@ -194,6 +194,37 @@ def sweeps(ks: Any, ke: Any, gs: Any, ge: Any, a: Any
     return concern, np.where(concern, delta, 0.0), sense
 
 
+def sweep_row(ks: float, ke: float, gs: Any, ge: Any, a: float) -> tuple[bool, float, int]:
+    """:func:`sweeps` for one row, in scalar arithmetic (the controller's per-step check of its
+    committed row: a few µs instead of a dozen numpy calls). ``gs``, ``ge``: the row's goal
+    arcs (NaN-padded). Returns ``(concern, Δ, σ)``."""
+    klen = (ke - ks) % TWO_PI or TWO_PI
+    in_k = (a - ks) % TWO_PI <= klen
+    full = klen >= TWO_PI
+    ahead, behind = (ke - a) % TWO_PI, (a - ks) % TWO_PI
+    in_g = False
+    best = [math.inf, math.inf]  # CCW, CW inside the arc
+    raw = [math.inf, math.inf]  # CCW, CW unconstrained
+    for s, e in zip(gs, ge, strict=True):
+        s, e = float(s), float(e)
+        if not math.isfinite(s):
+            continue
+        if (a - s) % TWO_PI <= ((e - s) % TWO_PI or TWO_PI):
+            in_g = True
+        r_ccw, r_cw = (s - a) % TWO_PI, (a - e) % TWO_PI
+        raw[0], raw[1] = min(raw[0], r_ccw), min(raw[1], r_cw)
+        if full or r_ccw <= ahead:
+            best[0] = min(best[0], r_ccw)
+        if full or r_cw <= behind:
+            best[1] = min(best[1], r_cw)
+    if not math.isfinite(min(best)):
+        best = raw
+    delta = min(best)
+    sense = 1 if best[0] <= best[1] else -1
+    concern = in_k and not in_g and math.isfinite(delta)
+    return concern, (delta if concern else 0.0), sense
+
+
 def _piece_samples(piece: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Points along a piece and unit normals there (map units)."""
     geom = piece.geometry

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.assess import escape_table_of, sweeps
+from tether.assess import escape_table_of, sweep_row
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
@@ -191,6 +191,13 @@ class PaperController(_Compliant):
             self.table = escape_table_of(world.verdict, self.vt / self.vo)
             if self.escape_rows != "all":
                 self.table = self.table.subset(self.escape_rows)
+            # per-row Python values for the committed row's check, made once
+            t = self.table
+            self._k_arcs = list(zip(t.k_start.tolist(), t.k_end.tolist(), strict=True))
+            self._anywhere = (t.piece < 0).tolist()
+            gs, ge = t.g_start.reshape(len(t), -1), t.g_end.reshape(len(t), -1)
+            self._goals = [(g[np.isfinite(g)].tolist(), h[np.isfinite(g)].tolist())
+                           for g, h in zip(gs, ge, strict=True)]
         self.gain = self.vt * self.lss / (self.vo - self.vt)  # L_g per radian
         self._reset_state()
 
@@ -248,15 +255,14 @@ class PaperController(_Compliant):
     def _still_concerned(self, p: np.ndarray, a: float) -> tuple[bool, int]:
         """Whether the committed row still concerns orientation ``a`` (one row only), and the
         sense of its sweep to the goal inside the rod's free arc now."""
-        t, k = self.table, self.goal_row
-        ks, ke = t.k_start[k:k + 1], t.k_end[k:k + 1]
-        if t.piece[k] < 0:
+        k = self.goal_row
+        ks, ke = self._k_arcs[k]
+        if self._anywhere[k]:
             e = self.local.ends(float(p[0]), float(p[1]), a)
             if math.isfinite(e.ccw_gap):
-                ks = np.array([(a - e.cw_gap) % TWO_PI])
-                ke = np.array([(a + e.ccw_gap) % TWO_PI])
-        concern, _, sense = sweeps(ks, ke, t.g_start[k:k + 1], t.g_end[k:k + 1], a)
-        return bool(concern[0]), int(sense[0])
+                ks, ke = (a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI
+        concern, _, sense = sweep_row(ks, ke, self._goals[k][0], self._goals[k][1], a % TWO_PI)
+        return concern, sense
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
         row, sense = self._trigger(p, a, dt)
