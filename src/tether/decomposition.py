@@ -558,22 +558,29 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     # between an overshooting curve end and an obstacle, are dropped)
     keep = np.flatnonzero(inside)
     resolved = clear[keep] >= 2 * tol
-    face_struct: dict[int, Structure] = {}
     ok = keep[resolved]
     table = free_arcs_many(env, pts[ok], lss, check=False)
-    for f, s in zip(ok.tolist(), structures(env, table, len(ok)), strict=True):
-        face_struct[f] = s
+    sid, skeys = structure_ids(env, table, len(ok))
+    face_struct: dict[int, Structure] = {f: skeys[i] for f, i in zip(ok.tolist(), sid.tolist(),
+                                                                    strict=True)}
     report("regions", 0.7)
-    uf = _UnionFind(len(arr.faces))
-    kept = set(keep.tolist())
-    adjacent = [(int(a), int(b), k) for k, (a, b) in enumerate(arr.part_faces)
-                if a >= 0 and b >= 0 and a != b and a in kept and b in kept]
-    for a, b, _ in adjacent:
-        if a in face_struct and b in face_struct and face_struct[a] == face_struct[b]:
-            uf.union(a, b)
+    nf = len(arr.faces)
+    kept = np.zeros(nf, bool)
+    kept[keep] = True
+    pa, pb = arr.part_faces[:, 0], arr.part_faces[:, 1]
+    adj = np.flatnonzero((pa >= 0) & (pb >= 0) & (pa != pb) & kept[np.maximum(pa, 0)]
+                         & kept[np.maximum(pb, 0)])
+    adjacent = np.column_stack((pa[adj], pb[adj], adj))  # (face, face, part) rows
+    # faces adjacent across a part with equal structures are one region (components)
+    face_sid = np.full(nf, -1)
+    face_sid[ok] = sid
+    same = (face_sid[adjacent[:, 0]] >= 0) & (face_sid[adjacent[:, 0]]
+                                              == face_sid[adjacent[:, 1]])
+    uf = _UnionFind(nf)
+    uf.parent = _components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
     plen = shapely.length(arr.parts)
     # sub-resolution faces join the neighbour they share most boundary with
-    _absorb(keep[~resolved].tolist(), adjacent, plen, uf, face_struct)
+    _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
     for _ in range(4):
         groups: dict[int, list[int]] = {}
         for f in keep.tolist():
@@ -604,30 +611,37 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
                          unresolved_pieces)
 
 
-def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.ndarray,
-            uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
+            face_struct: dict[int, Structure]) -> None:
     """Merge each pending face (no structure of its own) into the resolved neighbour face it
-    shares the longest arrangement part with, taking that neighbour's structure."""
-    todo = set(pending)
+    shares the longest arrangement part with (the first such pair in ``adjacent`` order among
+    equals), taking that neighbour's structure; repeated while faces are taken (vectorized)."""
+    nf = len(uf.parent)
+    todo = np.zeros(nf, bool)
+    todo[np.asarray(pending, dtype=np.int64)] = True
+    has = np.zeros(nf, bool)
+    has[np.fromiter(face_struct, np.int64, len(face_struct))] = True
+    # both directions of every pair, in the order a loop over the pairs would meet them
+    f = adjacent[:, :2].ravel()
+    g = adjacent[:, 1::-1].ravel()
+    length = plen[np.repeat(adjacent[:, 2], 2)]
     for _ in range(16):
-        if not todo:
+        if not todo.any():
             return
-        best: dict[int, tuple[float, int]] = {}
-        for a, b, k in adjacent:
-            for f, g in ((a, b), (b, a)):
-                if f in todo and g not in todo and g in face_struct \
-                        and plen[k] > best.get(f, (-1.0, -1))[0]:
-                    best[f] = (float(plen[k]), g)
-        if not best:
+        rows = np.flatnonzero(todo[f] & ~todo[g] & has[g])
+        if len(rows) == 0:
             return
-        for f, (_, g) in best.items():
-            uf.union(f, g)
-            face_struct[f] = face_struct[g]
-            todo.discard(f)
+        rows = rows[np.lexsort((rows, -length[rows], f[rows]))]
+        rows = rows[np.r_[True, f[rows][1:] != f[rows][:-1]]]
+        for a, b in zip(f[rows].tolist(), g[rows].tolist(), strict=True):
+            uf.union(a, b)
+            face_struct[a] = face_struct[b]
+        todo[f[rows]] = False
+        has[f[rows]] = True
 
 
-def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]],
-                   plen: np.ndarray, uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+def _absorb_groups(pending: list[list[int]], adjacent: np.ndarray, plen: np.ndarray,
+                   uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
     """Merge each pending group of faces (a speck region, its faces already united) as a whole
     into the neighbour region it shares the most arrangement boundary with, taking that
     region's structure.
@@ -637,11 +651,15 @@ def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]
     their structures (issue #9: half of R59 of ``tests/data/random_incomplete.json`` showed
     another structure)."""
     todo = {f: i for i, faces in enumerate(pending) for f in faces}
+    mark = np.zeros(len(uf.parent), bool)
+    mark[list(todo)] = True
+    # only the pairs touching a pending face matter (in their order)
+    near = adjacent[mark[adjacent[:, 0]] | mark[adjacent[:, 1]]].tolist()
     for _ in range(16):
         if not todo:
             return
         shared: dict[int, dict[int, tuple[float, int]]] = {}
-        for a, b, k in adjacent:
+        for a, b, k in near:
             for f, g in ((a, b), (b, a)):
                 if f in todo and g not in todo and g in face_struct:
                     per = shared.setdefault(todo[f], {})
