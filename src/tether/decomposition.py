@@ -860,6 +860,11 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     return out
 
 
+#: Candidate points handled per batch when measuring their clearance: each brings one row per
+#: segment near it, so this bounds the working memory (not the speed).
+CLEARANCE_BATCH = 20_000
+
+
 def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Candidate crossing points of the parts flagged in ``need``: the midpoints of each
@@ -887,10 +892,10 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         mine = part[take]
         reach = max(1e3 * tol, 1e-3 * lss)
         clear = np.full(len(Q), reach)
-        if len(Q):
-            qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
-            other = sowner[sj] != mine[qi]
-            np.minimum.at(clear, qi[other], d[other])
+        for i in range(0, len(Q), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
+            qi, sj, d = _segments_near(Q[i:i + CLEARANCE_BATCH], sa, sb, reach, tree)
+            other = sowner[sj] != mine[i + qi]
+            np.minimum.at(clear, i + qi[other], d[other])
         cache["Q"] = np.vstack((cache["Q"], Q))
         cache["part"] = np.concatenate((cache["part"], mine))
         cache["rank"] = np.concatenate((cache["rank"], rank[keep]))
