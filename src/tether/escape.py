@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.decomposition import Decomposition
+from tether.decomposition import Decomposition, gc_paused
 from tether.graph import ConnectivityGraph, build_graph, cell_regions
 
 
@@ -140,7 +140,8 @@ class Eliminations(Sequence):
     def _all(self) -> tuple[Elimination, ...]:
         got = self.__dict__.get("_tuple")
         if got is None:
-            got = self.__dict__["_tuple"] = tuple(self._one(i) for i in range(len(self)))
+            with gc_paused():
+                got = self.__dict__["_tuple"] = tuple(self._one(i) for i in range(len(self)))
         return got
 
     def __getitem__(self, i: Any) -> Any:
@@ -324,8 +325,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
         from tether.decomposition import self_check as run_self_check
 
         report = run_self_check(dec)
-    graph = build_graph(dec) if graph is None else graph
-    surviving, elim = eliminate(graph)
+    with gc_paused():
+        graph = build_graph(dec) if graph is None else graph
+        surviving, elim = eliminate(graph)
     witness = None
     if not surviving:
         empty = [r.id for r in dec.regions if not r.cells]

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
-from tether.decomposition import FREE, Decomposition, crossing_points
+from tether.decomposition import FREE, Decomposition, crossing_points, gc_paused
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -65,8 +65,10 @@ class ConnectivityGraph:
     def edge_list(self) -> tuple[tuple[str, str, int], ...]:
         """``(cell, cell, piece index)`` per edge, cells by id (in build order)."""
         ids = self.cell_ids
-        return tuple((ids[a], ids[b], p) for a, b, p in zip(
-            self.edge_a.tolist(), self.edge_b.tolist(), self.edge_piece.tolist(), strict=True))
+        with gc_paused():
+            return tuple((ids[a], ids[b], p) for a, b, p in zip(
+                self.edge_a.tolist(), self.edge_b.tolist(), self.edge_piece.tolist(),
+                strict=True))
 
     @cached_property
     def pieces_of(self) -> dict[int, tuple[int, ...]]:
@@ -78,6 +80,10 @@ class ConnectivityGraph:
     def partners(self) -> dict[tuple[str, int], tuple[str, ...]]:
         """``partners[(cell id, piece)]``: the ids of the cells adjacent across the piece, for
         every cell of both regions of every piece (piece by piece)."""
+        with gc_paused():
+            return self._partners()
+
+    def _partners(self) -> dict[tuple[str, int], tuple[str, ...]]:
         ids = self.cell_ids
         dec = self.dec
         first = cell_first(dec).tolist()

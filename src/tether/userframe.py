@@ -21,15 +21,22 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
     code_map = env.code_map
     k2 = frame.scale * frame.scale
 
-    # every cell renamed at once (cells are listed region by region, in the regions' order)
-    ids = [f"(R{c.region},{names[c.start_feature]},{names[c.end_feature]})"
-           for c in inner.cells]
-    first = np.concatenate(([0], np.cumsum([len(r.cells) for r in inner.regions]))).tolist()
+    # the map's features keep their internal numbering (no straight vertex, same order): the
+    # names, cells and structures carry over as they are
+    same = len(code_map) == 2 * env.internal.n and bool(
+        np.array_equal(code_map, np.arange(len(code_map))))
+    ids: list[str] = []
+    first: list[int] = []
+    if not same:  # every cell renamed at once (cells are listed region by region, in order)
+        ids = [f"(R{c.region},{names[c.start_feature]},{names[c.end_feature]})"
+               for c in inner.cells]
+        first = np.concatenate(([0], np.cumsum([len(r.cells) for r in inner.regions]))
+                               ).tolist()
 
     structures: dict = {}  # many regions share a structure: remap each once
 
     def structure(st):
-        if isinstance(st, str):
+        if isinstance(st, str) or same:
             return st
         got = structures.get(st)
         if got is None:
@@ -42,14 +49,16 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
     shapely.prepare(polys)
     pts = frame.to_user(np.array([r.point for r in inner.regions]).reshape(-1, 2)).tolist()
     regions = [Region(r.id, poly, r.area / k2, (pt[0], pt[1]), structure(r.structure),
-                      tuple(ids[first[i]:first[i + 1]]))
+                      r.cells if same else tuple(ids[first[i]:first[i + 1]]))
                for i, (r, poly, pt) in enumerate(zip(inner.regions, polys, pts, strict=True))]
-    cells = tuple(Cell(cid, c.region, names[c.start_feature], names[c.end_feature])
-                  for cid, c in zip(ids, inner.cells, strict=True))
+    cells = inner.cells if same else tuple(
+        Cell(cid, c.region, names[c.start_feature], names[c.end_feature])
+        for cid, c in zip(ids, inner.cells, strict=True))
     lines = frame.geometry_to_user(np.array([p.geometry for p in inner.pieces], dtype=object))
     qs = frame.to_user(np.array([p.sample for p in inner.pieces]).reshape(-1, 2)).tolist()
     pieces = [Piece(p.id, p.regions, p.curves, p.kind,
-                    tuple(names.get(f, f) for f in p.features), line, (q[0], q[1]),
+                    p.features if same else tuple(names.get(f, f) for f in p.features),
+                    line, (q[0], q[1]),
                     p.normal, p.eps / frame.scale, p.verified)
               for p, line, q in zip(inner.pieces, lines, qs, strict=True)]
     curves = tuple(c.to_user(frame, names) for c in inner.curves)
