@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import shapely
 
 from tether.arcs import rod_is_free_many
 from tether.environment import Environment
@@ -451,10 +452,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
     if m == 0:
         return np.zeros(0, int), np.zeros(0)
     cs, ts = [], []
-    for lo in range(0, m, max(1, 200_000 // max(env.n, 1))):
-        c = np.arange(lo, min(m, lo + max(1, 200_000 // max(env.n, 1))))
-        cc = np.repeat(c, env.n)
-        vk = np.tile(np.arange(env.n), len(c))
+    pair_c, pair_v = _breakpoint_pairs(env, fam)
+    for lo in range(0, len(pair_c), 200_000):  # bounded memory
+        cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
         if fam.kind == "A":  # rod = foot + λ n, foot = A + s d
             a0 = fam.p[cc] - L * fam.w[cc]
             rel = V[vk] - a0
@@ -516,6 +516,42 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
         cs.append(cc[ok])
         ts.append(t[ok])
     return np.concatenate(cs), np.concatenate(ts)
+
+
+def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
+    """The (curve, vertex) pairs :func:`_breakpoints` must test: vertex ``k`` and its edge
+    ``(V_k, V_next)`` near the curve. Every breakpoint within ``1e-4`` of its domain's span of
+    the domain (the only ones whose samples fall inside it) comes from a pair whose edge's
+    bounding box meets the curve's box: A, the target segment padded by ``lss`` (a vertex on
+    the rod is within ``lss`` of the target); B, E, the vertex's or pole's box padded by
+    ``lss`` or ``2 lss``; C, D, the line's stretch ``[lo - lss, hi]`` (breakpoints ``τ`` and
+    ``τ + lss``). The test was of every curve against every vertex (quadratic)."""
+    V = env.vertices
+    L = fam.lss
+    m = len(fam)
+    span = fam.hi - fam.lo
+    tiny = 1e-9 * env.diameter
+    if fam.kind in "ACD":
+        lo_t = fam.lo - 1e-4 * span - (L if fam.kind in "CD" else 0.0)
+        hi_t = fam.hi + 1e-4 * span
+        a = fam.p + lo_t[:, None] * fam.d
+        b = fam.p + hi_t[:, None] * fam.d
+        pad = (L if fam.kind == "A" else 0.0) + tiny
+        x0, y0 = np.minimum(a, b).T - pad
+        x1, y1 = np.maximum(a, b).T + pad
+    else:  # B: vertex circle of radius lss; E: vertices within 2 lss of the pole
+        pad = (L if fam.kind == "B" else 2 * L) + tiny
+        x0, y0 = fam.p.T - pad
+        x1, y1 = fam.p.T + pad
+    tree = env.__dict__.get("_edge_box_tree")
+    if tree is None:
+        seg = np.stack((V, V[env.next_vertex]), axis=1)
+        tree = env.__dict__["_edge_box_tree"] = shapely.STRtree(shapely.linestrings(seg))
+    if m == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    ci, vi = tree.query(shapely.box(x0, y0, x1, y1))
+    order = np.lexsort((vi, ci))
+    return ci[order].astype(np.int64), vi[order].astype(np.int64)
 
 
 def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: np.ndarray,

@@ -1,0 +1,49 @@
+"""The breakpoint search near each curve against the search over every (curve, vertex) pair:
+the critical intervals of every curve must be exactly equal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, random_maps
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import tether.curves as curves_mod
+from tether.curves import _critical_intervals, candidate_families
+from tether.floorplan import floor_plan
+
+
+def all_pairs(env, fam):
+    """Every curve against every vertex (the quadratic search)."""
+    m = len(fam)
+    return (np.repeat(np.arange(m), env.n).astype(np.int64),
+            np.tile(np.arange(env.n), m).astype(np.int64))
+
+
+def assert_same_intervals(env, lss, monkeypatch):
+    inner = env.internal
+    fams = list(candidate_families(inner, lss * env.frame.scale))
+    near = [_critical_intervals(inner, fam) for fam in fams]
+    with monkeypatch.context() as mp:
+        mp.setattr(curves_mod, "_breakpoint_pairs", all_pairs)
+        every = [_critical_intervals(inner, fam) for fam in fams]
+    assert near == every
+
+
+@pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5),
+                                          (GENERIC, 6.0), (STAR_HOLE, 0.4)])
+def test_test_maps(env, lss, monkeypatch):
+    assert_same_intervals(env, lss, monkeypatch)
+
+
+def test_floor_plan(monkeypatch):
+    env = floor_plan(60, seed=0)
+    assert_same_intervals(env, (env.bounds[2] - env.bounds[0]) / 15, monkeypatch)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[
+    HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(env=random_maps(), lss=st.floats(0.3, 8.0))
+def test_random_maps(env, lss, monkeypatch):
+    assert_same_intervals(env, lss, monkeypatch)
