@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tether import load_map
+from tether.arcs import free_arcs_many
 from tether.cli import example_path
 from tether.decomposition import crossing_points, decompose
 from tether.escape import analyze, fixed_point
@@ -206,3 +207,20 @@ def test_abstract_fixed_point_equals_reference_on_random_graphs():
         alive2, removed2 = ref_fixed_point(region_of, pieces_of, partners)
         assert alive == alive2
         assert removed == removed2
+
+
+@pytest.mark.parametrize(("name", "frac"), [("gallery", 0.1), ("rectangle", 0.2),
+                                            ("nonconvex_corner", 0.35)])
+def test_crossing_arcs_equal_fresh_evaluation(name, frac):
+    """The arcs kept from choosing the crossings are those at the pieces' crossing points:
+    same rows, codes and fullness; angles equal up to the frame's rounding."""
+    env = load_map(example_path(name))
+    x0, y0, x1, y1 = env.bounds
+    dec = decompose(env, frac * max(x1 - x0, y1 - y0))
+    kept = dec.crossing_arcs()
+    fresh = free_arcs_many(env, crossing_points(*dec.piece_crossings()), dec.lss, check=False)
+    for f in ("point", "start_code", "end_code", "full"):
+        assert np.array_equal(getattr(kept, f), getattr(fresh, f)), f
+    for f in ("start", "end"):
+        d = np.abs(getattr(kept, f) - getattr(fresh, f))
+        assert np.all(np.minimum(d, 2 * np.pi - d) < 1e-9), f

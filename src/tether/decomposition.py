@@ -220,6 +220,18 @@ class Decomposition:
                 np.array([p.normal for p in self.pieces]).reshape(-1, 2),
                 np.array([p.eps for p in self.pieces], dtype=float))
 
+    def crossing_arcs(self) -> ArcTable:
+        """The exact free arcs at both sides of every piece's crossing (the points
+        :func:`crossing_points` of :meth:`piece_crossings`: point ``k`` is ``sample + eps
+        normal`` of piece ``k``, point ``m + k`` the other side), as found while the
+        crossings were chosen (computed now if the decomposition was built otherwise)."""
+        got = self.__dict__.get("_crossing_arcs")
+        if got is None:
+            got = free_arcs_many(self.env, crossing_points(*self.piece_crossings()), self.lss,
+                                 check=False)
+            self.__dict__["_crossing_arcs"] = got
+        return got
+
     def region_at(self, points: Any) -> np.ndarray:
         """Index of the region containing each point (``-1`` outside every region: outside the
         free space, or on a region boundary). Vectorized over points of shape (m, 2)."""
@@ -620,13 +632,16 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
             del face_struct[f]
         _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
     report("pieces", 0.85)
-    pieces, unresolved_pieces = _make_pieces(env, arr, regions, chains, cands, curves, lss)
+    pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
+                                                    lss)
     cells = tuple(Cell(cid, r.id, s, e) for r in regions
                   for cid, (s, e) in zip(r.cells, structure_names(env, r.structure),
                                          strict=True))
     report("done", 1.0)
-    return Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                         unresolved_pieces)
+    dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                        unresolved_pieces)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    return dec
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -839,27 +854,30 @@ def _point_ids(pts: np.ndarray) -> np.ndarray:
 
 
 def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
-                 cands: list, curves: list[Curve], lss: float) -> tuple[list[Piece], int]:
-    """One piece per chain with a crossing sample. Returns the pieces and the number of
+                 cands: list, curves: list[Curve], lss: float
+                 ) -> tuple[list[Piece], int, ArcTable]:
+    """One piece per chain with a crossing sample. Returns the pieces, the number of
     chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
-    touch at a point only)."""
+    touch at a point only) and the exact arcs at both sides of every piece's crossing (see
+    :meth:`Decomposition.crossing_arcs`)."""
     chain_srcs = arr.chain_sources(chains)
-    samples = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
+    samples, tables = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
     geoms = _chain_geometries(arr, chains, samples)
-    pieces, dropped = [], 0
+    pieces, dropped, at = [], 0, []
     for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
                                                  strict=True):
         if sample is None:
             dropped += 1
             continue
-        q, n, eps, verified = sample
+        q, n, eps, verified, where = sample
+        at.append(where)
         kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
         feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
         pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
                             (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
                             bool(verified)))
-    return pieces, dropped
+    return pieces, dropped, _crossing_table(tables, at)
 
 
 def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
@@ -957,32 +975,75 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
+    tables: list[ArcTable] = []
     rnd = 0
     while pending:
         q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)
         eps = [cands[i][rnd][1] for i in pending]
         q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending], q0)
         trial = list(zip(pending, q, n, eps, strict=True))
-        for i, qi, ni, ei in trial:
-            first.setdefault(i, (qi, ni, ei))
-        plus, minus = structures_across(env, lss, np.array([t[1] for t in trial]),
-                                        np.array([t[2] for t in trial]),
-                                        np.array([t[3] for t in trial]))
+        for j, (i, qi, ni, ei) in enumerate(trial):
+            first.setdefault(i, (qi, ni, ei, (rnd, j, j + len(trial))))
+        table, plus, minus = _arcs_across(env, lss, np.array([t[1] for t in trial]),
+                                          np.array([t[2] for t in trial]),
+                                          np.array([t[3] for t in trial]))
+        tables.append(table)
         still = []
         for j, (i, q, n, e) in enumerate(trial):
             ra, rb = (regions[r] for r in chains[i][0])
             sp, sm = plus[j], minus[j]
+            # the last item: where the arcs of the two sides are in this round's table
             if sp == ra.structure and sm == rb.structure:
-                out[i] = (q, n, e, True)
+                out[i] = (q, n, e, True, (rnd, j, j + len(trial)))
             elif sp == rb.structure and sm == ra.structure:
-                out[i] = (q, -n, e, True)
+                out[i] = (q, -n, e, True, (rnd, j + len(trial), j))
             elif rnd + 1 < len(cands[i]):
                 still.append(i)
             else:
-                out[i] = (*first[i], False)
+                qi, ni, ei, at = first[i]
+                out[i] = (qi, ni, ei, False, at)
         pending = still
         rnd += 1
-    return out
+    return out, tables
+
+
+def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
+                 ) -> tuple[ArcTable, list[Structure], list[Structure]]:
+    """Exact free arcs at both sides of crossings (rows ``0..k-1``: ``q + eps n``, then
+    ``q - eps n``) and the structures of the two sides."""
+    pts = crossing_points(q, n, eps)
+    table = free_arcs_many(env, pts, lss, check=False)
+    st = structures(env, table, len(pts))
+    return table, st[: len(q)], st[len(q):]
+
+
+def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> ArcTable:
+    """The arcs at both sides of every piece's crossing, gathered from the tables of the
+    rounds that chose them (the very points of :meth:`Decomposition.piece_crossings`):
+    points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other."""
+    m = len(at)
+    at_arr = np.array(at, dtype=np.int64).reshape(-1, 3)
+    parts = []
+    full = np.zeros(2 * m, bool)
+    for r, table in enumerate(tables):
+        k = np.flatnonzero(at_arr[:, 0] == r)
+        if len(k) == 0:
+            continue
+        src = np.concatenate((at_arr[k, 1], at_arr[k, 2]))
+        dst = np.concatenate((k, k + m))
+        full[dst] = table.full[src]
+        lo = np.searchsorted(table.point, src, side="left")
+        hi = np.searchsorted(table.point, src, side="right")
+        rows = _ragged(lo, hi - lo)
+        parts.append((np.repeat(dst, hi - lo), table, rows))
+    if not parts:
+        z, zi = np.zeros(0), np.zeros(0, dtype=np.int64)
+        return ArcTable(zi, z, z, zi, zi, full)
+    point = np.concatenate([p for p, _, _ in parts])
+    order = np.argsort(point, kind="stable")  # each point's rows come from one source point
+    cols = [np.concatenate([getattr(t, f)[rows] for _, t, rows in parts])[order]
+            for f in ("start", "end", "start_code", "end_code")]
+    return ArcTable(point[order], *cols, full)
 
 
 def _project_on_sources(curves: list[Curve], srcs: list[list[int]], q0: np.ndarray

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
-from tether.decomposition import FREE, Decomposition, crossing_points, gc_paused
+from tether.decomposition import FREE, Decomposition, gc_paused
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -173,10 +173,12 @@ def _arc_length(s: np.ndarray, e: np.ndarray, full: Any) -> np.ndarray:
     return np.where(np.asarray(full, dtype=bool), TWO_PI, length)
 
 
-def _arc_rows(dec: Decomposition, pts: np.ndarray) -> dict[str, np.ndarray]:
-    """All free arcs at the points as flat arrays sorted by point; a FULL point contributes
-    one full-circle arc (``full`` flag set, from 0 to 2π) with feature codes -1."""
-    table = free_arcs_many(dec.env, pts, dec.lss, check=False)
+def _arc_rows(dec: Decomposition, pts: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """All free arcs at the points (default: both sides of every piece's crossing, as the
+    decomposition found them) as flat arrays sorted by point; a FULL point contributes one
+    full-circle arc (``full`` flag set, from 0 to 2π) with feature codes -1."""
+    table = dec.crossing_arcs() if pts is None else free_arcs_many(dec.env, pts, dec.lss,
+                                                                   check=False)
     full = np.flatnonzero(table.full)
     point = np.concatenate((table.point, full))
     order = np.argsort(point, kind="stable")
@@ -240,7 +242,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     empty = np.zeros(0, dtype=np.int64)
     if m == 0:
         return empty, empty, empty
-    rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
+    rows = _arc_rows(dec)
     pair_a, pair_b = _candidate_pairs(rows, m)
     ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
                   rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])

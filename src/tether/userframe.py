@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from tether.arcs import ArcTable
 from tether.decomposition import FREE, Cell, Decomposition, Piece, Region
 from tether.environment import Environment
 
@@ -62,5 +63,11 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
                     p.normal, p.eps / frame.scale, p.verified)
               for p, line, q in zip(inner.pieces, lines, qs, strict=True)]
     curves = tuple(c.to_user(frame, names) for c in inner.curves)
-    return Decomposition(env, lss, curves, tuple(regions), cells, tuple(pieces),
-                         inner.curve_tol / frame.scale, inner.unresolved_pieces)
+    dec = Decomposition(env, lss, curves, tuple(regions), cells, tuple(pieces),
+                        inner.curve_tol / frame.scale, inner.unresolved_pieces)
+    arcs = inner.__dict__.get("_crossing_arcs")
+    if arcs is not None:  # angles are those of the map's frame: only the codes change
+        dec.__dict__["_crossing_arcs"] = ArcTable(
+            arcs.point, arcs.start, arcs.end, code_map[arcs.start_code],
+            code_map[arcs.end_code], arcs.full)
+    return dec
