@@ -179,10 +179,12 @@ def test_unverified_crossings_reach_the_users_verdict(monkeypatch):
     self-check fail, through the conversion to the user's frame."""
     import tether.decomposition as D
 
-    def garbage(env, lss, q, n, eps):
-        return ["?"] * len(q), ["?"] * len(q)
+    real = D._arcs_across
 
-    monkeypatch.setattr(D, "structures_across", garbage)
+    def garbage(env, lss, q, n, eps):  # the arcs as found, the structures unrecognizable
+        return real(env, lss, q, n, eps)[0], ["?"] * len(q), ["?"] * len(q)
+
+    monkeypatch.setattr(D, "_arcs_across", garbage)
     verdict = analyze(decompose(load_map(example_path("rectangle")), 1.0))
     assert verdict.verified is False
     assert verdict.self_check.piece_disagreements
