@@ -40,17 +40,39 @@ FREE = "*"  # feature name of both ends of the single cell of a FULL region
 
 def structures(env: Environment, table: ArcTable, npts: int) -> list[Structure]:
     """Structure key of each point of an :class:`ArcTable`: a frozenset of
-    ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``."""
-    out: list[Structure] = ["EMPTY"] * npts
-    for i in np.flatnonzero(table.full):
-        out[i] = "FULL"
-    groups: dict[int, list] = {}
-    for p, s, e in zip(table.point.tolist(), table.start_code.tolist(), table.end_code.tolist(),
-                       strict=True):
-        groups.setdefault(p, []).append((s, e))
-    for p, pairs in groups.items():
-        out[p] = frozenset(pairs)
-    return out
+    ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``. Points with equal
+    structures share one object."""
+    ids, keys = structure_ids(env, table, npts)
+    return [keys[i] for i in ids.tolist()]
+
+
+def structure_ids(env: Environment, table: ArcTable, npts: int
+                  ) -> tuple[np.ndarray, list[Structure]]:
+    """An integer id per point of an :class:`ArcTable`, equal for equal structures, and the
+    structure of each id (vectorized: one frozenset per distinct structure)."""
+    ids = np.zeros(npts, dtype=np.int64)  # id 0: EMPTY
+    keys: list[Structure] = ["EMPTY", "FULL"]
+    ids[np.asarray(table.full, dtype=bool)] = 1
+    if len(table.point) == 0:
+        return ids, keys
+    base = 2 * env.n + 1
+    pair = table.start_code.astype(np.int64) * base + table.end_code
+    order = np.lexsort((pair, table.point))
+    point, pair = table.point[order], pair[order]
+    counts = np.bincount(point, minlength=npts)
+    width = int(counts.max())
+    first = np.cumsum(counts) - counts
+    rows = np.flatnonzero(counts)
+    grid = np.full((len(rows), width), -1, dtype=np.int64)
+    slot = np.arange(len(point)) - first[point]
+    row_of = np.searchsorted(rows, point)
+    grid[row_of, slot] = pair
+    void = np.ascontiguousarray(grid).view(np.dtype((np.void, 8 * width))).ravel()
+    _, first_row, inv = np.unique(void, return_index=True, return_inverse=True)
+    ids[rows] = inv.ravel() + 2
+    for u in grid[first_row].tolist():
+        keys.append(frozenset(divmod(x, base) for x in u if x >= 0))
+    return ids, keys
 
 
 def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
@@ -322,6 +344,36 @@ class _Arrangement:
             self.__dict__["_segments"] = got
         return got
 
+    def sources(self) -> tuple[np.ndarray, np.ndarray]:
+        """``part_sources`` as CSR arrays: part ``k``'s sources are
+        ``src[ptr[k]:ptr[k + 1]]`` (increasing), built once."""
+        got = self.__dict__.get("_sources")
+        if got is None:
+            count = np.fromiter((len(t) for t in self.part_sources), np.int64,
+                                len(self.part_sources))
+            src = np.fromiter((c for t in self.part_sources for c in t), np.int64,
+                              int(count.sum()))
+            got = self.__dict__["_sources"] = (np.concatenate(([0], np.cumsum(count))), src)
+        return got
+
+    def chain_sources(self, chains: list) -> list[list[int]]:
+        """The curves (no walls) of each chain ``(pair, parts)``, sorted, distinct;
+        vectorized over all chains."""
+        ptr, src = self.sources()
+        nparts = np.fromiter((len(ks) for _, ks in chains), np.int64, len(chains))
+        parts = np.fromiter((k for _, ks in chains for k in ks), np.int64, int(nparts.sum()))
+        chain = np.repeat(np.arange(len(chains), dtype=np.int64), nparts)
+        nsrc = ptr[parts + 1] - ptr[parts]
+        rows = _ragged(ptr[parts], nsrc)
+        base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
+        key = np.unique(np.repeat(chain, nsrc) * base + src[rows] + 1)
+        c, s = np.divmod(key, base)
+        s = s - 1
+        c, s = c[s >= 0], s[s >= 0]
+        bounds = np.searchsorted(c, np.arange(len(chains) + 1)).tolist()
+        flat = s.tolist()
+        return [flat[bounds[i]:bounds[i + 1]] for i in range(len(chains))]
+
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
     lines = [LineString(np.vstack((r, r[:1]))) for r in env.rings]
@@ -506,22 +558,29 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     # between an overshooting curve end and an obstacle, are dropped)
     keep = np.flatnonzero(inside)
     resolved = clear[keep] >= 2 * tol
-    face_struct: dict[int, Structure] = {}
     ok = keep[resolved]
     table = free_arcs_many(env, pts[ok], lss, check=False)
-    for f, s in zip(ok.tolist(), structures(env, table, len(ok)), strict=True):
-        face_struct[f] = s
+    sid, skeys = structure_ids(env, table, len(ok))
+    face_struct: dict[int, Structure] = {f: skeys[i] for f, i in zip(ok.tolist(), sid.tolist(),
+                                                                    strict=True)}
     report("regions", 0.7)
-    uf = _UnionFind(len(arr.faces))
-    kept = set(keep.tolist())
-    adjacent = [(int(a), int(b), k) for k, (a, b) in enumerate(arr.part_faces)
-                if a >= 0 and b >= 0 and a != b and a in kept and b in kept]
-    for a, b, _ in adjacent:
-        if a in face_struct and b in face_struct and face_struct[a] == face_struct[b]:
-            uf.union(a, b)
+    nf = len(arr.faces)
+    kept = np.zeros(nf, bool)
+    kept[keep] = True
+    pa, pb = arr.part_faces[:, 0], arr.part_faces[:, 1]
+    adj = np.flatnonzero((pa >= 0) & (pb >= 0) & (pa != pb) & kept[np.maximum(pa, 0)]
+                         & kept[np.maximum(pb, 0)])
+    adjacent = np.column_stack((pa[adj], pb[adj], adj))  # (face, face, part) rows
+    # faces adjacent across a part with equal structures are one region (components)
+    face_sid = np.full(nf, -1)
+    face_sid[ok] = sid
+    same = (face_sid[adjacent[:, 0]] >= 0) & (face_sid[adjacent[:, 0]]
+                                              == face_sid[adjacent[:, 1]])
+    uf = _UnionFind(nf)
+    uf.parent = _components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
     plen = shapely.length(arr.parts)
     # sub-resolution faces join the neighbour they share most boundary with
-    _absorb(keep[~resolved].tolist(), adjacent, plen, uf, face_struct)
+    _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
     for _ in range(4):
         groups: dict[int, list[int]] = {}
         for f in keep.tolist():
@@ -552,30 +611,37 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
                          unresolved_pieces)
 
 
-def _absorb(pending: list[int], adjacent: list[tuple[int, int, int]], plen: np.ndarray,
-            uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
+            face_struct: dict[int, Structure]) -> None:
     """Merge each pending face (no structure of its own) into the resolved neighbour face it
-    shares the longest arrangement part with, taking that neighbour's structure."""
-    todo = set(pending)
+    shares the longest arrangement part with (the first such pair in ``adjacent`` order among
+    equals), taking that neighbour's structure; repeated while faces are taken (vectorized)."""
+    nf = len(uf.parent)
+    todo = np.zeros(nf, bool)
+    todo[np.asarray(pending, dtype=np.int64)] = True
+    has = np.zeros(nf, bool)
+    has[np.fromiter(face_struct, np.int64, len(face_struct))] = True
+    # both directions of every pair, in the order a loop over the pairs would meet them
+    f = adjacent[:, :2].ravel()
+    g = adjacent[:, 1::-1].ravel()
+    length = plen[np.repeat(adjacent[:, 2], 2)]
     for _ in range(16):
-        if not todo:
+        if not todo.any():
             return
-        best: dict[int, tuple[float, int]] = {}
-        for a, b, k in adjacent:
-            for f, g in ((a, b), (b, a)):
-                if f in todo and g not in todo and g in face_struct \
-                        and plen[k] > best.get(f, (-1.0, -1))[0]:
-                    best[f] = (float(plen[k]), g)
-        if not best:
+        rows = np.flatnonzero(todo[f] & ~todo[g] & has[g])
+        if len(rows) == 0:
             return
-        for f, (_, g) in best.items():
-            uf.union(f, g)
-            face_struct[f] = face_struct[g]
-            todo.discard(f)
+        rows = rows[np.lexsort((rows, -length[rows], f[rows]))]
+        rows = rows[np.r_[True, f[rows][1:] != f[rows][:-1]]]
+        for a, b in zip(f[rows].tolist(), g[rows].tolist(), strict=True):
+            uf.union(a, b)
+            face_struct[a] = face_struct[b]
+        todo[f[rows]] = False
+        has[f[rows]] = True
 
 
-def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]],
-                   plen: np.ndarray, uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+def _absorb_groups(pending: list[list[int]], adjacent: np.ndarray, plen: np.ndarray,
+                   uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
     """Merge each pending group of faces (a speck region, its faces already united) as a whole
     into the neighbour region it shares the most arrangement boundary with, taking that
     region's structure.
@@ -585,11 +651,15 @@ def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]
     their structures (issue #9: half of R59 of ``tests/data/random_incomplete.json`` showed
     another structure)."""
     todo = {f: i for i, faces in enumerate(pending) for f in faces}
+    mark = np.zeros(len(uf.parent), bool)
+    mark[list(todo)] = True
+    # only the pairs touching a pending face matter (in their order)
+    near = adjacent[mark[adjacent[:, 0]] | mark[adjacent[:, 1]]].tolist()
     for _ in range(16):
         if not todo:
             return
         shared: dict[int, dict[int, tuple[float, int]]] = {}
-        for a, b, k in adjacent:
+        for a, b, k in near:
             for f, g in ((a, b), (b, a)):
                 if f in todo and g not in todo and g in face_struct:
                     per = shared.setdefault(todo[f], {})
@@ -609,25 +679,45 @@ def _absorb_groups(pending: list[list[int]], adjacent: list[tuple[int, int, int]
 def _make_regions(env: Environment, arr: _Arrangement, groups: dict[int, list[int]],
                   face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
                   ) -> tuple[list[Region], dict[int, int]]:
-    """Regions from groups of faces, numbered by representative point (x, then y)."""
-    drafts = []
+    """Regions from groups of faces, numbered by representative point (x, then y): the point
+    of the group's face farthest from its boundary. A group's polygon (the union of its faces)
+    is cached on ``arr``: the merges repeated after absorbing specks keep most groups."""
     face_area = arr.__dict__.get("_face_area")
     if face_area is None:
         face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
-    for faces in groups.values():
-        best = max(faces, key=lambda f: clear[f])
-        poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
-        area = float(face_area[faces].sum())
-        drafts.append((tuple(np.round(pts[best], 9)), faces, poly, area, face_struct[best]))
-    drafts.sort(key=lambda d: d[0])
+    unions = arr.__dict__.setdefault("_group_unions", {})
+    lists = list(groups.values())
+    size = np.array([len(g) for g in lists], dtype=np.int64)
+    flat = np.fromiter((f for g in lists for f in g), dtype=np.int64, count=int(size.sum()))
+    group = np.repeat(np.arange(len(lists)), size)
+    # the face of largest clearance of each group (the first one among equals)
+    order = np.lexsort((-clear[flat], group))
+    head = np.r_[True, group[order][1:] != group[order][:-1]] if len(order) else \
+        np.zeros(0, bool)
+    best = flat[order[head]]
+    # numpy sums 8 or more values pairwise: those few groups are summed as before, bit for bit
+    area = np.bincount(group, weights=face_area[flat], minlength=len(lists))
+    for g in np.flatnonzero(size >= 8).tolist():
+        area[g] = face_area[lists[g]].sum()
+    point = np.round(pts[best], 9)
+    rank = np.lexsort((point[:, 1], point[:, 0]))  # stable: ties keep the groups' order
     regions, face_region = [], {}
-    for rid, (pt, faces, poly, area, st) in enumerate(drafts):
-        names = structure_names(env, st)
-        cells = tuple(cell_name(rid, s, e) for s, e in names)
-        shapely.prepare(poly)
-        regions.append(Region(rid, poly, area, (float(pt[0]), float(pt[1])), st, cells))
+    for rid, g in enumerate(rank.tolist()):
+        faces = lists[g]
+        if len(faces) > 1:
+            key = tuple(faces)
+            poly = unions.get(key)
+            if poly is None:
+                poly = unions[key] = shapely.union_all(arr.faces[faces])
+        else:
+            poly = arr.faces[faces[0]]
+        st = face_struct[int(best[g])]
+        cells = tuple(cell_name(rid, s, e) for s, e in structure_names(env, st))
+        regions.append(Region(rid, poly, float(area[g]),
+                              (float(point[g, 0]), float(point[g, 1])), st, cells))
         for f in faces:
             face_region[f] = rid
+    shapely.prepare([r.polygon for r in regions])
     return regions, face_region
 
 
@@ -648,9 +738,9 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     ends = np.vstack((shapely.get_coordinates(shapely.get_point(arr.parts[parts], 0)),
                       shapely.get_coordinates(shapely.get_point(arr.parts[parts], -1))))
     end_id = _point_ids(ends)
-    nsrc = np.array([len(arr.part_sources[k]) for k in parts.tolist()], dtype=int)
-    src = np.fromiter((s for k in parts.tolist() for s in arr.part_sources[k]), dtype=int,
-                      count=int(nsrc.sum()))
+    sptr, sflat = arr.sources()
+    nsrc = sptr[parts + 1] - sptr[parts]
+    src = sflat[_ragged(sptr[parts], nsrc)]
     local = np.tile(np.repeat(np.arange(len(parts)), nsrc), 2)  # rows: (end, source)
     end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
                                  np.repeat(end_id[len(parts):], nsrc)))
@@ -671,6 +761,16 @@ def _chains(arr: _Arrangement, face_region: dict[int, int]) -> list[tuple[tuple,
     flat = parts_o.tolist()
     return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
             zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
+
+
+def _ragged(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
+    counts = np.asarray(counts, dtype=np.int64)
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offs = np.cumsum(counts) - counts
+    return np.repeat(np.asarray(starts, np.int64) - offs, counts) + np.arange(total)
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -703,22 +803,40 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only)."""
-    samples = _pick_crossings(env, chains, cands, regions, curves, arr, lss)
+    chain_srcs = arr.chain_sources(chains)
+    samples = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
+    geoms = _chain_geometries(arr, chains, samples)
     pieces, dropped = [], 0
-    for ((ra, rb), ks), sample in zip(chains, samples, strict=True):
+    for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
+                                                 strict=True):
         if sample is None:
             dropped += 1
             continue
-        srcs = sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
         q, n, eps, verified = sample
         kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
         feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
-        geom = shapely.line_merge(shapely.union_all(arr.parts[ks])) if len(ks) > 1 \
-            else arr.parts[ks[0]]
         pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
                             (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
                             bool(verified)))
     return pieces, dropped
+
+
+def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
+    """Each kept chain's line: its part, or its parts merged into as few lines as they form
+    (all multi-part chains at once); None for chains without a sample."""
+    out: list = [None] * len(chains)
+    multi = [i for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True))
+             if smp is not None and len(ks) > 1]
+    for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True)):
+        if smp is not None and len(ks) == 1:
+            out[i] = arr.parts[ks[0]]
+    if multi:
+        ks = [chains[i][1] for i in multi]
+        idx = np.repeat(np.arange(len(multi)), [len(k) for k in ks])
+        lines = shapely.multilinestrings(arr.parts[np.concatenate(ks)], indices=idx)
+        for i, g in zip(multi, shapely.line_merge(lines).tolist(), strict=True):
+            out[i] = g
+    return out
 
 
 def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float, lss: float
@@ -729,23 +847,7 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     part_chain = np.full(len(arr.parts), -1)
     for c, ks in enumerate(chains):
         part_chain[ks] = c
-    coords, idx = shapely.get_coordinates(arr.parts, return_index=True)
-    seg = np.flatnonzero((idx[1:] == idx[:-1]) & (part_chain[idx[:-1]] >= 0))
-    a, b, part = coords[seg], coords[seg + 1], idx[seg]
-    ln = np.hypot(*(b - a).T)
-    order = np.lexsort((-ln, part))
-    part_o = part[order]
-    rank = np.arange(len(order)) - np.searchsorted(part_o, part_o)
-    take = order[(rank < 6) & (ln[order] > 0)]
-    Q = 0.5 * (a[take] + b[take])
-    mine = part[take]
-    reach = max(1e3 * tol, 1e-3 * lss)
-    clear = np.full(len(Q), reach)
-    if len(Q):
-        sa, sb, sowner, tree = arr.segments()
-        qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
-        other = sowner[sj] != mine[qi]
-        np.minimum.at(clear, qi[other], d[other])
+    Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
     ok = ok[np.lexsort((-clear[ok], chain[ok]))]
@@ -758,8 +860,49 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     return out
 
 
+def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate crossing points of the parts flagged in ``need``: the midpoints of each
+    part's 6 longest segments (part by part, longest first), their part and their clearance
+    (distance to the nearest segment of another part, at most ``max(1e3 tol, 1e-3 lss)``).
+    A part's candidates depend on the arrangement only: they are computed once per part and
+    cached on ``arr`` (region merges recompute the chains, not the parts)."""
+    sa, sb, sowner, tree = arr.segments()
+    cache = arr.__dict__.get("_part_candidates")
+    if cache is None:
+        cache = arr.__dict__["_part_candidates"] = {
+            "done": np.zeros(len(arr.parts), bool), "Q": np.zeros((0, 2)),
+            "part": np.zeros(0, np.int64), "rank": np.zeros(0, np.int64), "clear": np.zeros(0)}
+    todo = need & ~cache["done"]
+    if todo.any():
+        seg = np.flatnonzero(todo[sowner])
+        a, b, part = sa[seg], sb[seg], sowner[seg]
+        ln = np.hypot(*(b - a).T)
+        order = np.lexsort((-ln, part))
+        part_o = part[order]
+        rank = np.arange(len(order)) - np.searchsorted(part_o, part_o)
+        keep = (rank < 6) & (ln[order] > 0)
+        take = order[keep]
+        Q = 0.5 * (a[take] + b[take])
+        mine = part[take]
+        reach = max(1e3 * tol, 1e-3 * lss)
+        clear = np.full(len(Q), reach)
+        if len(Q):
+            qi, sj, d = _segments_near(Q, sa, sb, reach, tree)
+            other = sowner[sj] != mine[qi]
+            np.minimum.at(clear, qi[other], d[other])
+        cache["Q"] = np.vstack((cache["Q"], Q))
+        cache["part"] = np.concatenate((cache["part"], mine))
+        cache["rank"] = np.concatenate((cache["rank"], rank[keep]))
+        cache["clear"] = np.concatenate((cache["clear"], clear))
+        cache["done"] |= todo
+    rows = np.flatnonzero(need[cache["part"]])
+    rows = rows[np.lexsort((cache["rank"][rows], cache["part"][rows]))]
+    return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
+
+
 def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[Region],
-                    curves: list[Curve], arr: _Arrangement, lss: float) -> list:
+                    curves: list[Curve], chain_srcs: list[list[int]], lss: float) -> list:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
     are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
@@ -768,8 +911,6 @@ def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[R
     out: list = [None] * len(chains)
     pending = [i for i in range(len(chains)) if cands[i]]
     first: dict[int, tuple] = {}
-    chain_srcs = [sorted({s for k in ks for s in arr.part_sources[k] if s >= 0})
-                  for _, ks in chains]
     rnd = 0
     while pending:
         q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)

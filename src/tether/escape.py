@@ -11,11 +11,14 @@ survives (with unbounded observer speed, any start in a surviving cell can be he
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from tether.decomposition import Decomposition
-from tether.graph import ConnectivityGraph, build_graph
+from tether.graph import ConnectivityGraph, build_graph, cell_regions
 
 
 @dataclass(frozen=True)
@@ -42,7 +45,8 @@ class Verdict:
     dec: Decomposition = field(repr=False)
     graph: ConnectivityGraph = field(repr=False)
     surviving: frozenset[str]
-    eliminated: tuple[Elimination, ...]
+    #: the eliminations in order (a tuple-like :class:`Eliminations` from :func:`analyze`)
+    eliminated: Sequence[Elimination]
     witness_region: int | None
     #: the cheap self-check run by :func:`analyze` (a
     #: :class:`tether.decomposition.CheckReport`), or None if it was skipped
@@ -61,7 +65,10 @@ class Verdict:
 
     @property
     def rounds(self) -> int:
-        return max((e.round for e in self.eliminated), default=0)
+        el = self.eliminated
+        if isinstance(el, Eliminations):
+            return int(el.round.max()) if len(el) else 0
+        return max((e.round for e in el), default=0)
 
     def is_safe(self, points: Any, angles: Any) -> list[bool]:
         """Whether each rod configuration ``(x, y, a)`` lies in a surviving cell."""
@@ -73,7 +80,7 @@ class Verdict:
 
     def counts(self) -> dict:
         return {"regions": len(self.dec.regions), "cells": len(self.dec.cells),
-                "pieces": len(self.dec.pieces), "edges": len(self.graph.edge_list),
+                "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
                 "surviving_cells": len(self.surviving)}
 
     def to_dict(self) -> dict:
@@ -107,54 +114,193 @@ class Verdict:
         return plot_verdict(self, fig)
 
 
-def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], tuple[Elimination, ...]]:
+class Eliminations(Sequence):
+    """The eliminations of :func:`eliminate` in the order they happened, held as integer
+    arrays; each :class:`Elimination` (string ids) is built when asked for."""
+
+    def __init__(self, graph: ConnectivityGraph, cell: np.ndarray, piece: np.ndarray,
+                 rnd: np.ndarray, because: np.ndarray) -> None:
+        self.graph = graph
+        #: cell index, piece index, round (from 1) and ``because`` cell index (-1: None)
+        self.cell, self.piece, self.round, self.because = cell, piece, rnd, because
+
+    def __len__(self) -> int:
+        return len(self.cell)
+
+    def _one(self, i: int) -> Elimination:
+        ids = self.graph.cell_ids
+        dec = self.graph.dec
+        c, k, b = int(self.cell[i]), int(self.piece[i]), int(self.because[i])
+        ra, rb = dec.pieces[k].regions
+        other = rb if ra == dec.cells[c].region else ra
+        return Elimination(ids[c], f"R{other}", f"P{k}", int(self.round[i]),
+                           None if b < 0 else ids[b])
+
+    @property
+    def _all(self) -> tuple[Elimination, ...]:
+        got = self.__dict__.get("_tuple")
+        if got is None:
+            got = self.__dict__["_tuple"] = tuple(self._one(i) for i in range(len(self)))
+        return got
+
+    def __getitem__(self, i: Any) -> Any:
+        if isinstance(i, slice):
+            return self._all[i]
+        if "_tuple" in self.__dict__:
+            return self._all[i]
+        n = len(self)
+        j = int(i) + n if int(i) < 0 else int(i)
+        if not 0 <= j < n:
+            raise IndexError(i)
+        return self._one(j)
+
+    def __iter__(self) -> Iterator[Elimination]:
+        return iter(self._all)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Sequence):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all)
+
+    def __repr__(self) -> str:
+        return f"Eliminations({len(self)})"
+
+
+def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
     """Greatest fixed point of removing escapable cells, by rounds (linear in the graph).
 
     Returns the surviving cells and the eliminations in the order they happened.
     """
     dec = graph.dec
-    region_of = {c.id: c.region for c in dec.cells}
-    alive, removed = fixed_point(region_of, graph.pieces_of, graph.partners)
-    out = [Elimination(c, f"R{_other_region(dec, piece, region_of[c])}", f"P{piece}", rnd,
-                       because) for c, piece, rnd, because in removed]
-    return alive, tuple(out)
+    alive, cell, slot, rnd, because = fixed_point_arrays(
+        cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
+    ids = graph.cell_ids
+    surviving = frozenset(ids[i] for i in np.flatnonzero(alive).tolist())
+    return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
+
+
+def cell_rank(dec: Decomposition) -> np.ndarray:
+    """The rank of every cell in the elimination's processing order: by region, then start
+    feature name, then end feature name (as strings; the order of :func:`_cell_key`)."""
+    names = sorted({c.start_feature for c in dec.cells} | {c.end_feature for c in dec.cells})
+    code = {nm: i for i, nm in enumerate(names)}
+    n = len(dec.cells)
+    start = np.fromiter((code[c.start_feature] for c in dec.cells), np.int64, n)
+    end = np.fromiter((code[c.end_feature] for c in dec.cells), np.int64, n)
+    order = np.lexsort((end, start, cell_regions(dec)))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    return rank
+
+
+def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.ndarray,
+                       partner_slot: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The elimination on integer arrays, round by round (each round vectorized).
+
+    Cell ``c`` has slots ``slot_ptr[c]:slot_ptr[c + 1]`` (one per piece bounding its region,
+    in order); slot ``s`` has partner entries ``partner_ptr[s]:partner_ptr[s + 1]`` whose
+    ``partner_slot`` is the partner's slot for the same piece. ``rank`` orders the cells (all
+    distinct). A cell falls when one of its slots has no surviving partner left; the order of
+    the removals, the slot through which each falls and the partner whose removal made it fall
+    (``because``) are those of a worklist processing each round's cells by rank, their slots in
+    order and each slot's partners in order (the cell falls through its first slot to empty).
+
+    Returns ``alive`` (bool per cell) and, per removal in order, the cell, its slot, its round
+    (from 1) and the ``because`` cell (-1 in round 1).
+    """
+    ncell = len(slot_ptr) - 1
+    count = np.diff(partner_ptr)
+    slot_cell = np.repeat(np.arange(ncell, dtype=np.int64), np.diff(slot_ptr))
+    zs = np.flatnonzero(count == 0)
+    zc = slot_cell[zs]
+    head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
+    lvl_cell, lvl_slot = zc[head], zs[head]
+    lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
+    queued = np.zeros(ncell, dtype=bool)
+    queued[lvl_cell] = True
+    out_cell, out_slot, out_round, out_because = [], [], [], []
+    rnd = 0
+    while len(lvl_cell):
+        rnd += 1
+        order = np.argsort(rank[lvl_cell], kind="stable")
+        lvl_cell, lvl_slot, lvl_because = lvl_cell[order], lvl_slot[order], lvl_because[order]
+        out_cell.append(lvl_cell)
+        out_slot.append(lvl_slot)
+        out_round.append(np.full(len(lvl_cell), rnd, dtype=np.int64))
+        out_because.append(lvl_because)
+        # every partner entry of every slot of the level's cells, in processing order
+        nslot = slot_ptr[lvl_cell + 1] - slot_ptr[lvl_cell]
+        slots = _ragged(slot_ptr[lvl_cell], nslot)
+        npart = partner_ptr[slots + 1] - partner_ptr[slots]
+        ent = _ragged(partner_ptr[slots], npart)
+        src = np.repeat(np.repeat(lvl_cell, nslot), npart)
+        tgt = partner_slot[ent]
+        np.subtract.at(count, tgt, 1)
+        # a slot empties at its last entry of the round (its count never rises again)
+        hit = np.flatnonzero(count[tgt] == 0)
+        rev = hit[::-1]
+        _, last = np.unique(tgt[rev], return_index=True)
+        pos = rev[last]  # entry position where each emptied slot reached 0
+        cell = slot_cell[tgt[pos]]
+        fresh = ~queued[cell]
+        pos, cell = pos[fresh], cell[fresh]
+        # a cell falls through the slot that emptied first in processing order
+        first = np.lexsort((pos, cell))
+        pos, cell = pos[first], cell[first]
+        keep = np.r_[True, cell[1:] != cell[:-1]] if len(cell) else np.zeros(0, bool)
+        pos, cell = pos[keep], cell[keep]
+        queued[cell] = True
+        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src[pos]
+    alive = ~queued
+    if out_cell:
+        return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
+                np.concatenate(out_round), np.concatenate(out_because))
+    empty = np.zeros(0, dtype=np.int64)
+    return alive, empty, empty, empty, empty
+
+
+def _ragged(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offs = np.cumsum(counts) - counts
+    return np.repeat(starts - offs, counts) + np.arange(total)
 
 
 def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]],
                 partners: dict[tuple[str, int], tuple[str, ...]]
                 ) -> tuple[frozenset[str], list[tuple[str, int, int, str | None]]]:
     """The elimination on abstract data: cells with their regions, the pieces bounding each
-    region, and each (cell, piece)'s partners. A worklist keeps, per (cell, piece), the count
-    of surviving partners; a cell falls when one count reaches 0. Returns the survivors and
-    ``(cell, piece, round, because)`` per removal, in order."""
-    alive = set(region_of)
-    rank = {c: i for i, c in enumerate(sorted(region_of, key=_cell_key))}
-    count = {key: len(ps) for key, ps in partners.items()}
-    level: list[tuple[str, int, str | None]] = []
-    for c in sorted(alive, key=rank.__getitem__):
-        for piece in pieces_of[region_of[c]]:
-            if count.get((c, piece), 0) == 0:
-                level.append((c, piece, None))
-                break
-    queued = {c for c, _, _ in level}
-    removed: list[tuple[str, int, int, str | None]] = []
-    rnd = 0
-    while level:
-        rnd += 1
-        for c, piece, because in level:
-            alive.discard(c)
-            removed.append((c, piece, rnd, because))
-        nxt: list[tuple[str, int, str | None]] = []
-        for c, _, _ in level:
-            for piece in pieces_of[region_of[c]]:
-                for partner in partners.get((c, piece), ()):
-                    key = (partner, piece)
-                    count[key] -= 1
-                    if count[key] == 0 and partner in alive and partner not in queued:
-                        queued.add(partner)
-                        nxt.append((partner, piece, c))
-        level = sorted(nxt, key=lambda t: rank[t[0]])
-    return frozenset(alive), removed
+    region, and each (cell, piece)'s partners (a missing key: no partner). Cells are processed
+    in the order of :func:`_cell_key`. Returns the survivors and ``(cell, piece, round,
+    because)`` per removal, in order (see :func:`fixed_point_arrays`)."""
+    cells = sorted(region_of, key=_cell_key)
+    nslot = [len(pieces_of[region_of[c]]) for c in cells]
+    slot_ptr = np.concatenate(([0], np.cumsum(nslot, dtype=np.int64))).astype(np.int64)
+    slot_of = {}
+    slot_piece = []
+    for i, c in enumerate(cells):
+        for j, k in enumerate(pieces_of[region_of[c]]):
+            slot_of[(c, k)] = int(slot_ptr[i]) + j
+            slot_piece.append(k)
+    counts, flat = [], []
+    for c in cells:
+        for k in pieces_of[region_of[c]]:
+            ps = partners.get((c, k), ())
+            counts.append(len(ps))
+            flat.extend(slot_of[(p, k)] for p in ps)
+    partner_ptr = np.concatenate(([0], np.cumsum(counts, dtype=np.int64))).astype(np.int64)
+    alive, cell, slot, rnd, because = fixed_point_arrays(
+        np.arange(len(cells), dtype=np.int64), slot_ptr, partner_ptr,
+        np.asarray(flat, dtype=np.int64))
+    removed = [(cells[c], slot_piece[s], r, None if b < 0 else cells[b]) for c, s, r, b in
+               zip(cell.tolist(), slot.tolist(), rnd.tolist(), because.tolist(), strict=True)]
+    return frozenset(c for c, a in zip(cells, alive.tolist(), strict=True) if a), removed
 
 
 def _cell_key(cid: str) -> tuple:
@@ -163,11 +309,6 @@ def _cell_key(cid: str) -> tuple:
     if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
         return (0, int(parts[0][1:]), parts[1], parts[2])
     return (1, cid, "", "")
-
-
-def _other_region(dec: Decomposition, piece: int, region: int) -> int:
-    a, b = dec.pieces[piece].regions
-    return b if a == region else a
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
@@ -191,14 +332,20 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
         if empty:
             witness = empty[0]
         else:
-            left = {r.id: len(r.cells) for r in dec.regions}
-            for e in elim:
-                r = int(e.cell.strip("()").split(",")[0][1:])
-                left[r] -= 1
-                if left[r] == 0:
-                    witness = r
-                    break
+            witness = _first_emptied(dec, elim)
     return Verdict(dec, graph, surviving, elim, witness, report)
+
+
+def _first_emptied(dec: Decomposition, elim: Eliminations) -> int | None:
+    """The first region whose last cell is eliminated (all its cells fell)."""
+    reg = cell_regions(dec)[elim.cell]
+    # the position of each region's last removal; the region emptied first has the smallest
+    last = np.full(len(dec.regions), -1, dtype=np.int64)
+    np.maximum.at(last, reg, np.arange(len(reg)))
+    left = np.bincount(reg, minlength=len(dec.regions))
+    full = np.array([len(r.cells) for r in dec.regions]) == left
+    cand = np.flatnonzero(full & (last >= 0))
+    return int(cand[np.argmin(last[cand])]) if len(cand) else None
 
 
 def escape_story(v: Verdict) -> list[str]:

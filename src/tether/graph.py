@@ -11,6 +11,7 @@ between pieces shared by the same two regions.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -25,17 +26,76 @@ if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for a
 
 @dataclass(frozen=True, eq=False)
 class ConnectivityGraph:
-    """G: cells (nodes) and ``(cell, cell, piece)`` edges.
+    """G: cells (nodes) and ``(cell, cell, piece)`` edges, on integer arrays.
 
-    ``partners[(cell, piece)]`` lists the cells adjacent to ``cell`` across ``piece``;
-    ``pieces_of[region]`` the pieces bounding a region. :attr:`graph` gives G as a networkx
-    ``MultiGraph`` (edge keys are piece indices), built on first use.
+    Cells are indices into ``dec.cells``. Each cell has one *slot* per piece bounding its
+    region (in increasing piece order): slots ``slot_ptr[c]:slot_ptr[c + 1]``, their pieces
+    ``slot_piece``. The partners of a slot (the cells adjacent to the cell across the piece)
+    are ``partner_cell[partner_ptr[s]:partner_ptr[s + 1]]`` (CSR), and ``partner_slot`` the
+    partner's own slot for the same piece. Edges are ``(edge_a[i], edge_b[i], edge_piece[i])``.
+
+    The string views :attr:`edge_list`, :attr:`partners` (``partners[(cell, piece)]`` lists
+    the cells adjacent to ``cell`` across ``piece``), :attr:`pieces_of` (``pieces_of[region]``
+    the pieces bounding a region) and :attr:`graph` (a networkx ``MultiGraph``, edge keys are
+    piece indices) are built on first use.
     """
 
     dec: Decomposition = field(repr=False)
-    edge_list: tuple[tuple[str, str, int], ...] = field(repr=False)
-    partners: dict[tuple[str, int], tuple[str, ...]] = field(repr=False)
-    pieces_of: dict[int, tuple[int, ...]] = field(repr=False)
+    edge_a: np.ndarray = field(repr=False)
+    edge_b: np.ndarray = field(repr=False)
+    edge_piece: np.ndarray = field(repr=False)
+    region_ptr: np.ndarray = field(repr=False)
+    region_pieces: np.ndarray = field(repr=False)
+    slot_ptr: np.ndarray = field(repr=False)
+    slot_piece: np.ndarray = field(repr=False)
+    partner_ptr: np.ndarray = field(repr=False)
+    partner_cell: np.ndarray = field(repr=False)
+    partner_slot: np.ndarray = field(repr=False)
+
+    @property
+    def n_edges(self) -> int:
+        return len(self.edge_a)
+
+    @cached_property
+    def cell_ids(self) -> list[str]:
+        """``dec.cells[i].id`` for every cell index ``i``."""
+        return cell_ids(self.dec)
+
+    @cached_property
+    def edge_list(self) -> tuple[tuple[str, str, int], ...]:
+        """``(cell, cell, piece index)`` per edge, cells by id (in build order)."""
+        ids = self.cell_ids
+        return tuple((ids[a], ids[b], p) for a, b, p in zip(
+            self.edge_a.tolist(), self.edge_b.tolist(), self.edge_piece.tolist(), strict=True))
+
+    @cached_property
+    def pieces_of(self) -> dict[int, tuple[int, ...]]:
+        """The pieces bounding each region, increasing."""
+        ptr, pcs = self.region_ptr.tolist(), self.region_pieces.tolist()
+        return {r: tuple(pcs[ptr[r]:ptr[r + 1]]) for r in range(len(ptr) - 1)}
+
+    @cached_property
+    def partners(self) -> dict[tuple[str, int], tuple[str, ...]]:
+        """``partners[(cell id, piece)]``: the ids of the cells adjacent across the piece, for
+        every cell of both regions of every piece (piece by piece)."""
+        ids = self.cell_ids
+        dec = self.dec
+        first = cell_first(dec).tolist()
+        sptr, pptr = self.slot_ptr.tolist(), self.partner_ptr.tolist()
+        pc = self.partner_cell.tolist()
+        rptr, rpcs = self.region_ptr.tolist(), self.region_pieces.tolist()
+        pos = {}  # (region, piece) -> position of the piece among the region's pieces
+        for r in range(len(rptr) - 1):
+            for j in range(rptr[r], rptr[r + 1]):
+                pos[(r, rpcs[j])] = j - rptr[r]
+        out: dict[tuple[str, int], tuple[str, ...]] = {}
+        for k, piece in enumerate(dec.pieces):
+            for r in piece.regions:
+                j = pos[(r, k)]
+                for c in range(first[r], first[r + 1]):
+                    s = sptr[c] + j
+                    out[(ids[c], k)] = tuple(ids[x] for x in pc[pptr[s]:pptr[s + 1]])
+        return out
 
     @property
     def graph(self) -> nx.MultiGraph:
@@ -56,7 +116,31 @@ class ConnectivityGraph:
         return sorted((min(a, b), max(a, b), f"P{k}") for a, b, k in self.edge_list)
 
     def __repr__(self) -> str:
-        return f"ConnectivityGraph(cells={len(self.dec.cells)}, edges={len(self.edge_list)})"
+        return f"ConnectivityGraph(cells={len(self.dec.cells)}, edges={self.n_edges})"
+
+
+def cell_ids(dec: Decomposition) -> list[str]:
+    """The ids of ``dec.cells`` as a list, cached on the decomposition."""
+    got = dec.__dict__.get("_cell_id_list")
+    if got is None:
+        got = dec.__dict__["_cell_id_list"] = [c.id for c in dec.cells]
+    return got
+
+
+def cell_regions(dec: Decomposition) -> np.ndarray:
+    """The region of every cell of ``dec.cells`` (int array), cached."""
+    got = dec.__dict__.get("_cell_region_array")
+    if got is None:
+        got = np.fromiter((c.region for c in dec.cells), dtype=np.int64, count=len(dec.cells))
+        dec.__dict__["_cell_region_array"] = got
+    return got
+
+
+def cell_first(dec: Decomposition) -> np.ndarray:
+    """``first[r]:first[r + 1]`` are the indices of region ``r``'s cells in ``dec.cells``
+    (cells are listed region by region)."""
+    counts = np.array([len(r.cells) for r in dec.regions], dtype=np.int64)
+    return np.concatenate(([0], np.cumsum(counts)))
 
 
 def _overlap(s1: Any, e1: Any, s2: Any, e2: Any, full1: Any = False, full2: Any = False
@@ -124,56 +208,133 @@ def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     base = 2 * dec.env.n + 1
     code = {feature_name(dec.env, c): c for c in range(2 * dec.env.n)}
     code[FREE] = -1
-    keys = np.array([(c.region * base + code[c.start_feature] + 1) * base
-                     + code[c.end_feature] + 1 for c in dec.cells], dtype=np.int64)
+    start = np.fromiter((code[c.start_feature] for c in dec.cells), np.int64, len(dec.cells))
+    end = np.fromiter((code[c.end_feature] for c in dec.cells), np.int64, len(dec.cells))
+    keys = (cell_regions(dec) * base + start + 1) * base + end + 1
     order = np.argsort(keys, kind="stable")
     got = (keys[order], order)
     dec.__dict__["_cell_keys"] = got
     return got
 
 
+def _ragged_arange(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
+    counts = np.asarray(counts, dtype=np.int64)
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offs = np.cumsum(counts) - counts
+    return np.repeat(np.asarray(starts, np.int64) - offs, counts) + np.arange(total)
+
+
+def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
+    arrays: arc pairs of the two sides of each piece whose arcs overlap (all at once)."""
+    m = len(dec.pieces)
+    empty = np.zeros(0, dtype=np.int64)
+    if m == 0:
+        return empty, empty, empty
+    rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
+    pair_a, pair_b = _candidate_pairs(rows, m)
+    ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
+                  rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
+    keep = np.flatnonzero(ov > ANGLE_TOL)
+    k = rows["point"][pair_a[keep]]
+    regs = _piece_regions(dec)
+    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
+                     rows["end_code"][pair_a[keep]])
+    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
+                     rows["end_code"][pair_b[keep]])
+    ok = (ca >= 0) & (cb >= 0)
+    return (ca[ok].astype(np.int64), cb[ok].astype(np.int64), k[ok].astype(np.int64))
+
+
+#: Angular margin (radians) of the candidate search: a superset of the overlapping arc pairs,
+#: each pair then tested exactly by :func:`_overlap`. Far above the rounding of the search keys.
+_SEARCH_MARGIN = 1e-6
+
+
+def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Arc pairs (row on the side of ``regions[0]``, row on the other side) of each piece that
+    may overlap, sorted by (a, b): every pair whose arcs overlap is among them, and their number
+    is linear in the number of arcs. The arcs at a point are disjoint and sorted by start, so
+    an arc ``a`` can only overlap the arc containing its start (the last one starting before
+    it, around the circle) and the arcs starting inside it."""
+    point, start = rows["point"], rows["start"]
+    counts = np.bincount(point, minlength=2 * m)
+    first = np.cumsum(counts) - counts
+    key = point * 8.0 + start  # increasing: rows are sorted by point, then start (< 2π)
+    a = np.flatnonzero(point < m)
+    pb = point[a] + m  # the point across the piece
+    has = counts[pb] > 0
+    a, pb = a[has], pb[has]
+    s1 = start[a]
+    lo = s1 - _SEARCH_MARGIN
+    hi = s1 + _arc_length(s1, rows["end"][a], rows["full"][a]) + _SEARCH_MARGIN
+    base = pb * 8.0
+    ranges = [(lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), np.ones(len(a), bool)),
+              (np.zeros(len(a)), hi - TWO_PI, hi > TWO_PI),
+              (lo + TWO_PI, np.full(len(a), TWO_PI), lo < 0)]
+    got_a, got_b = [], []
+    for r0, r1, use in ranges:
+        i0 = np.searchsorted(key, base[use] + r0[use], side="left")
+        i1 = np.searchsorted(key, base[use] + r1[use], side="right")
+        n = np.maximum(i1 - i0, 0)
+        got_a.append(np.repeat(a[use], n))
+        got_b.append(_ragged_arange(i0, n))
+    # the arc containing a's start: the last starting at or before it, else the point's last
+    j = np.searchsorted(key, base + lo, side="right") - 1
+    j = np.where(j >= first[pb], j, first[pb] + counts[pb] - 1)
+    got_a.append(a)
+    got_b.append(j)
+    ga, gb = np.concatenate(got_a), np.concatenate(got_b)
+    pair = np.unique(ga * len(point) + gb)
+    return pair // len(point), pair % len(point)
+
+
+def _piece_regions(dec: Decomposition) -> np.ndarray:
+    """``(m, 2)`` int array of every piece's two regions."""
+    return np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
+
+
 def build_graph(dec: Decomposition) -> ConnectivityGraph:
     """Build G from a decomposition: one edge per (cell, cell, piece) whose arcs continue into
-    each other across the piece (all arc pairs of all pieces compared at once).
+    each other across the piece (all arc pairs of all pieces compared at once), stored as
+    integer arrays (see :class:`ConnectivityGraph`).
 
     Returns
     -------
     ConnectivityGraph
     """
-    edges: list[tuple[str, str, int]] = []
-    partners: dict[tuple[str, int], list[str]] = {}
-    pieces_of: dict[int, list[int]] = {r.id: [] for r in dec.regions}
-    for k, piece in enumerate(dec.pieces):
-        for r in piece.regions:
-            pieces_of[r].append(k)
-            for c in dec.regions[r].cells:
-                partners[(c, k)] = []
-    m = len(dec.pieces)
-    if m:
-        rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
-        counts = np.bincount(rows["point"], minlength=2 * m)
-        first = np.cumsum(counts) - counts
-        a_rows = np.flatnonzero(rows["point"] < m)  # side of regions[0], grouped by piece
-        piece_of_a = rows["point"][a_rows]
-        nb = counts[m + piece_of_a]
-        pair_a = np.repeat(a_rows, nb)
-        within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
-        pair_b = np.repeat(first[m + piece_of_a], nb) + within
-        ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
-                      rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
-        keep = np.flatnonzero(ov > ANGLE_TOL)
-        k = rows["point"][pair_a[keep]]
-        regs = np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
-        ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
-                         rows["end_code"][pair_a[keep]])
-        cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
-                         rows["end_code"][pair_b[keep]])
-        ok = (ca >= 0) & (cb >= 0)
-        ids = [c.id for c in dec.cells]
-        for a, b, p in zip(ca[ok].tolist(), cb[ok].tolist(), k[ok].tolist(), strict=True):
-            ka, kb = ids[a], ids[b]
-            edges.append((ka, kb, p))
-            partners[(ka, p)].append(kb)
-            partners[(kb, p)].append(ka)
-    return ConnectivityGraph(dec, tuple(edges), {key: tuple(v) for key, v in partners.items()},
-                             {r: tuple(v) for r, v in pieces_of.items()})
+    ea, eb, ep = _edges(dec)
+    nreg, ncell = len(dec.regions), len(dec.cells)
+    regs = _piece_regions(dec)
+    m = len(regs)
+    # pieces of each region (CSR), increasing: entries (region, piece) per piece side
+    ent_region = regs.T.ravel()  # side 0 of every piece, then side 1
+    ent_piece = np.tile(np.arange(m, dtype=np.int64), 2)
+    order = np.lexsort((ent_piece, ent_region))
+    region_count = np.bincount(ent_region, minlength=nreg)
+    region_ptr = np.concatenate(([0], np.cumsum(region_count)))
+    region_pieces = ent_piece[order]
+    # position of each piece side among its region's pieces
+    pos = np.empty(2 * m, dtype=np.int64)
+    pos[order] = np.arange(2 * m) - region_ptr[ent_region[order]]
+    side_pos = pos.reshape(2, m)
+    # slots: one per (cell, piece of the cell's region)
+    creg = cell_regions(dec)
+    nslot = region_count[creg] if ncell else np.zeros(0, np.int64)
+    slot_ptr = np.concatenate(([0], np.cumsum(nslot))).astype(np.int64)
+    slot_piece = region_pieces[_ragged_arange(region_ptr[creg], nslot)] if ncell \
+        else np.zeros(0, np.int64)
+    # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
+    slot_a = slot_ptr[ea] + side_pos[0, ep]
+    slot_b = slot_ptr[eb] + side_pos[1, ep]
+    key = np.column_stack((slot_a, slot_b)).ravel()
+    other = np.column_stack((eb, ea)).ravel()
+    other_slot = np.column_stack((slot_b, slot_a)).ravel()
+    order = np.argsort(key, kind="stable")
+    partner_ptr = np.concatenate(([0], np.cumsum(np.bincount(key, minlength=len(slot_piece)))))
+    return ConnectivityGraph(dec, ea, eb, ep, region_ptr.astype(np.int64), region_pieces,
+                             slot_ptr, slot_piece, partner_ptr.astype(np.int64),
+                             other[order], other_slot[order])

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from tether.decomposition import FREE, Cell, Decomposition, Piece, Region, cell_name
+from tether.decomposition import FREE, Cell, Decomposition, Piece, Region
 from tether.environment import Environment
 
 
@@ -21,29 +21,31 @@ def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) ->
     code_map = env.code_map
     k2 = frame.scale * frame.scale
 
-    renamed: dict[str, str] = {}  # cells repeat their features' names: rename each once
+    # every cell renamed at once (cells are listed region by region, in the regions' order)
+    ids = [f"(R{c.region},{names[c.start_feature]},{names[c.end_feature]})"
+           for c in inner.cells]
+    first = np.concatenate(([0], np.cumsum([len(r.cells) for r in inner.regions]))).tolist()
 
-    def rename_cell(cid: str) -> str:
-        got = renamed.get(cid)
-        if got is None:
-            r, s, e = cid.strip("()").split(",")
-            got = renamed[cid] = cell_name(int(r[1:]), names[s], names[e])
-        return got
+    structures: dict = {}  # many regions share a structure: remap each once
 
     def structure(st):
         if isinstance(st, str):
             return st
-        return frozenset((int(code_map[a]), int(code_map[b])) for a, b in st)
+        got = structures.get(st)
+        if got is None:
+            got = structures[st] = frozenset((int(code_map[a]), int(code_map[b]))
+                                             for a, b in st)
+        return got
 
     # all geometries transformed at once (one vectorized call, not one per region)
     polys = frame.geometry_to_user(np.array([r.polygon for r in inner.regions], dtype=object))
     shapely.prepare(polys)
     pts = frame.to_user(np.array([r.point for r in inner.regions]).reshape(-1, 2)).tolist()
     regions = [Region(r.id, poly, r.area / k2, (pt[0], pt[1]), structure(r.structure),
-                      tuple(rename_cell(c) for c in r.cells))
-               for r, poly, pt in zip(inner.regions, polys, pts, strict=True)]
-    cells = tuple(Cell(rename_cell(c.id), c.region, names[c.start_feature],
-                       names[c.end_feature]) for c in inner.cells)
+                      tuple(ids[first[i]:first[i + 1]]))
+               for i, (r, poly, pt) in enumerate(zip(inner.regions, polys, pts, strict=True))]
+    cells = tuple(Cell(cid, c.region, names[c.start_feature], names[c.end_feature])
+                  for cid, c in zip(ids, inner.cells, strict=True))
     lines = frame.geometry_to_user(np.array([p.geometry for p in inner.pieces], dtype=object))
     qs = frame.to_user(np.array([p.sample for p in inner.pieces]).reshape(-1, 2)).tolist()
     pieces = [Piece(p.id, p.regions, p.curves, p.kind,

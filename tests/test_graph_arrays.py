@@ -1,0 +1,208 @@
+"""G and the elimination on integer arrays against the string-keyed reference they replaced.
+
+The reference below is the dict-of-strings implementation kept verbatim in spirit: partners
+built by a Python loop over the edges, the worklist fixed point on string cell ids. Verdicts,
+surviving sets, elimination orders (cell, piece, round, because), the string views of G and
+the witness region must be exactly equal on the example maps, the floor plans and random maps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, random_maps
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tether import load_map
+from tether.cli import example_path
+from tether.decomposition import crossing_points, decompose
+from tether.escape import analyze, fixed_point
+from tether.floorplan import floor_plan
+from tether.graph import _arc_rows, _cell_index, _overlap, build_graph
+from tether.tolerances import ANGLE_TOL
+
+
+def ref_partners(dec, edge_list):
+    """The partners and pieces_of dicts as the Python loop built them."""
+    partners: dict = {}
+    pieces_of: dict = {r.id: [] for r in dec.regions}
+    for k, piece in enumerate(dec.pieces):
+        for r in piece.regions:
+            pieces_of[r].append(k)
+            for c in dec.regions[r].cells:
+                partners[(c, k)] = []
+    for ka, kb, p in edge_list:
+        partners[(ka, p)].append(kb)
+        partners[(kb, p)].append(ka)
+    return ({key: tuple(v) for key, v in partners.items()},
+            {r: tuple(v) for r, v in pieces_of.items()})
+
+
+def ref_cell_key(cid):
+    parts = cid.strip("()").split(",")
+    if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
+        return (0, int(parts[0][1:]), parts[1], parts[2])
+    return (1, cid, "", "")
+
+
+def ref_fixed_point(region_of, pieces_of, partners):
+    """The worklist on dicts of strings, in rounds (the implementation before arrays)."""
+    alive = set(region_of)
+    rank = {c: i for i, c in enumerate(sorted(region_of, key=ref_cell_key))}
+    count = {key: len(ps) for key, ps in partners.items()}
+    level = []
+    for c in sorted(alive, key=rank.__getitem__):
+        for piece in pieces_of[region_of[c]]:
+            if count.get((c, piece), 0) == 0:
+                level.append((c, piece, None))
+                break
+    queued = {c for c, _, _ in level}
+    removed = []
+    rnd = 0
+    while level:
+        rnd += 1
+        for c, piece, because in level:
+            alive.discard(c)
+            removed.append((c, piece, rnd, because))
+        nxt = []
+        for c, _, _ in level:
+            for piece in pieces_of[region_of[c]]:
+                for partner in partners.get((c, piece), ()):
+                    key = (partner, piece)
+                    count[key] -= 1
+                    if count[key] == 0 and partner in alive and partner not in queued:
+                        queued.add(partner)
+                        nxt.append((partner, piece, c))
+        level = sorted(nxt, key=lambda t: rank[t[0]])
+    return frozenset(alive), removed
+
+
+def ref_witness(dec, removed, alive):
+    if alive:
+        return None
+    empty = [r.id for r in dec.regions if not r.cells]
+    if empty:
+        return empty[0]
+    left = {r.id: len(r.cells) for r in dec.regions}
+    for c, _, _, _ in removed:
+        r = dec.cell(c).region
+        left[r] -= 1
+        if left[r] == 0:
+            return r
+    return None
+
+
+def brute_edges(dec):
+    """Every arc pair of the two sides of every piece tested for overlap (all pairs, no
+    search: the implementation before the candidate search)."""
+    m = len(dec.pieces)
+    if m == 0:
+        return []
+    rows = _arc_rows(dec, crossing_points(*dec.piece_crossings()))
+    counts = np.bincount(rows["point"], minlength=2 * m)
+    first = np.cumsum(counts) - counts
+    a_rows = np.flatnonzero(rows["point"] < m)
+    nb = counts[m + rows["point"][a_rows]]
+    pair_a = np.repeat(a_rows, nb)
+    within = np.arange(len(pair_a)) - np.repeat(np.cumsum(nb) - nb, nb)
+    pair_b = np.repeat(first[m + rows["point"][a_rows]], nb) + within
+    ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
+                  rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
+    keep = np.flatnonzero(ov > ANGLE_TOL)
+    k = rows["point"][pair_a[keep]]
+    regs = np.array([p.regions for p in dec.pieces]).reshape(-1, 2)
+    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
+                     rows["end_code"][pair_a[keep]])
+    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
+                     rows["end_code"][pair_b[keep]])
+    ok = (ca >= 0) & (cb >= 0)
+    return list(zip(ca[ok].tolist(), cb[ok].tolist(), k[ok].tolist(), strict=True))
+
+
+def assert_same_as_reference(dec):
+    g = build_graph(dec)
+    got = list(zip(g.edge_a.tolist(), g.edge_b.tolist(), g.edge_piece.tolist(), strict=True))
+    assert got == brute_edges(dec)
+    partners, pieces_of = ref_partners(dec, g.edge_list)
+    assert list(g.partners.items()) == list(partners.items())
+    assert list(g.pieces_of.items()) == list(pieces_of.items())
+    assert len(g.edge_list) == g.n_edges
+    v = analyze(dec, g, self_check=False)
+    region_of = {c.id: c.region for c in dec.cells}
+    alive, removed = ref_fixed_point(region_of, pieces_of, partners)
+    assert v.surviving == alive
+    got = [(e.cell, int(e.piece[1:]), e.round, e.because) for e in v.eliminated]
+    assert got == removed
+    for e in v.eliminated:
+        a, b = dec.pieces[int(e.piece[1:])].regions
+        assert e.escapes_to == f"R{b if a == dec.cell(e.cell).region else a}"
+    assert v.rounds == max((r for _, _, r, _ in removed), default=0)
+    assert v.witness_region == ref_witness(dec, removed, alive)
+    assert v.eliminated[0] == list(v.eliminated)[0] if removed else len(v.eliminated) == 0
+    return v
+
+
+EXAMPLES = [(name, f) for name in ("rectangle", "gallery", "convex_corner", "nonconvex_corner")
+            for f in (0.05, 0.2, 0.35)]
+
+
+@pytest.mark.parametrize(("name", "frac"), EXAMPLES)
+def test_examples_equal_reference(name, frac):
+    env = load_map(example_path(name))
+    x0, y0, x1, y1 = env.bounds
+    assert_same_as_reference(decompose(env, frac * max(x1 - x0, y1 - y0)))
+
+
+@pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5)],
+                         ids=["square_hole", "generic", "star_hole"])
+def test_test_maps_equal_reference(env, lss):
+    assert_same_as_reference(decompose(env, lss))
+
+
+@pytest.mark.parametrize("n", [100, pytest.param(200, marks=pytest.mark.slow),
+                               pytest.param(400, marks=pytest.mark.slow)])
+def test_floor_plans_equal_reference(n):
+    env = floor_plan(n, seed=0)
+    assert_same_as_reference(decompose(env, (env.bounds[2] - env.bounds[0]) / 15))
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(env=random_maps(), lss=st.floats(0.5, 6.0))
+def test_random_maps_equal_reference(env, lss):
+    assert_same_as_reference(decompose(env, lss))
+
+
+def random_graph(rng):
+    """Random regions, cells (names whose string order differs from their numbers') and
+    pieces; each cell pair across a piece is adjacent with probability one half."""
+    nreg = int(rng.integers(2, 12))
+    region_of = {}
+    for r in range(nreg):
+        for k in rng.choice(12, int(rng.integers(0, 4)), replace=False).tolist():
+            region_of[f"(R{r},E{k},V{11 - k})"] = r
+    pieces = [(int(a), int(b)) for a, b in rng.integers(0, nreg, (int(rng.integers(1, 20)), 2))
+              if a != b]
+    pieces_of = {r: tuple(k for k, pr in enumerate(pieces) if r in pr) for r in range(nreg)}
+    partners = {}
+    for k, (a, b) in enumerate(pieces):
+        ca = [c for c, r in region_of.items() if r == a]
+        cb = [c for c, r in region_of.items() if r == b]
+        for c in ca + cb:
+            partners.setdefault((c, k), [])
+        for x in ca:
+            for y in cb:
+                if rng.random() < 0.5:
+                    partners[(x, k)].append(y)
+                    partners[(y, k)].append(x)
+    return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}
+
+
+def test_abstract_fixed_point_equals_reference_on_random_graphs():
+    rng = np.random.default_rng(1)
+    for _ in range(1500):
+        region_of, pieces_of, partners = random_graph(rng)
+        alive, removed = fixed_point(region_of, pieces_of, partners)
+        alive2, removed2 = ref_fixed_point(region_of, pieces_of, partners)
+        assert alive == alive2
+        assert removed == removed2
