@@ -244,3 +244,53 @@ def test_sweep_row_equals_the_vectorized_sweeps(ks, ke, a, goals, pad, snap):
     if c1:
         assert d1 == pytest.approx(float(delta[0]), abs=1e-12)
         assert s1 == int(sense[0])
+
+
+def _conflicts_reference(points, vt, vo, lss, a, arc):
+    """Prop. 3 pairs the plain way: every pair, every test, no caching."""
+    from tether.assess import _common_sweep
+
+    out = []
+    for i, ei in enumerate(points):
+        for j in range(i + 1, len(points)):
+            ej = points[j]
+            if ei.sense == ej.sense:
+                continue
+            di = ei.distance - (ei.distance - ei.L_g - ei.margin)
+            dj = ej.distance - (ej.distance - ej.L_g - ej.margin)
+            i_first = dj >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
+            j_first = di >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
+            common = bool(ei.goal and ej.goal) and min(di, dj) >= float(
+                l_safe(_common_sweep(a, ei.goal, ej.goal, arc), vt, vo, lss))
+            if not (i_first or j_first or common):
+                out.append((i, j))
+    return out
+
+
+@pytest.mark.parametrize("name, lss, ratio", [("gallery", 2.0, 0.3),
+                                              ("nonconvex_corner", 2.0, 0.6)])
+def test_prop3_conflicts_equal_the_plain_pairwise_check(name, lss, ratio):
+    """The cached Prop. 3 check gives the pairs of the plain all-pairs computation, on starts
+    with many escape points in reach."""
+    from tether.assess import _arc_at, _conflicts
+
+    env = load_map(example_path(name))
+    ver = analyze(decompose(env, lss))
+    rng = np.random.default_rng(5)
+    x0, y0, x1, y1 = env.bounds
+    seen = 0
+    for _ in range(60):
+        x, y = rng.uniform((x0, y0), (x1, y1))
+        a = float(rng.uniform(0, 2 * math.pi))
+        if not env.contains(x, y):
+            continue
+        res = assess(ver, ratio, 1.0, x, y, a)
+        if not res.rod_free or len(res.escape_points) < 2:
+            continue
+        arc = _arc_at(env, np.array([x, y]), a, lss)
+        pts = list(res.escape_points)
+        ref = _conflicts_reference(pts, ratio, 1.0, lss, a, arc)
+        assert _conflicts(pts, ratio, 1.0, lss, a, arc) == ref
+        assert list(res.conflicts) == ref
+        seen += len(ref) > 0
+    assert seen > 0  # the check met real conflicts

@@ -665,24 +665,36 @@ def _in_arcs(arcs: tuple[tuple[float, float], ...], ang: np.ndarray) -> np.ndarr
     return out
 
 
-def _common_sweep(a: float, gi: tuple, gj: tuple, arc: tuple[float, float] | None) -> float:
-    """Smallest sweep (rad, either sense, inside the free ``arc`` when it allows) from ``a``
-    into an orientation both goals hold; ``inf`` when there is none. Rounded up by one grid
-    step."""
-    both = _in_arcs(gi, _GRID) & _in_arcs(gj, _GRID)
-    if not both.any():
-        return math.inf
+def _grid_sweeps(a: float, arc: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Sweeps (rad) from ``a`` to every ``_GRID`` direction: inside the free ``arc`` (``inf``
+    where the arc stops it; either sense when ``arc`` is ``None``) and unconstrained."""
     ccw = np.mod(_GRID - a, TWO_PI)
     cw = np.mod(a - _GRID, TWO_PI)
-    free = np.minimum(ccw, cw)
-    if arc is not None:
-        free = np.minimum(np.where(ccw <= np.mod(arc[1] - a, TWO_PI), ccw, np.inf),
-                          np.where(cw <= np.mod(a - arc[0], TWO_PI), cw, np.inf))
-    best = float(free[both].min())
+    anyway = np.minimum(ccw, cw)
+    if arc is None:
+        return anyway, anyway
+    inside = np.minimum(np.where(ccw <= np.mod(arc[1] - a, TWO_PI), ccw, np.inf),
+                        np.where(cw <= np.mod(a - arc[0], TWO_PI), cw, np.inf))
+    return inside, anyway
+
+
+def _common_sweep(a: float, gi: tuple, gj: tuple, arc: tuple[float, float] | None,
+                  masks: tuple[np.ndarray, np.ndarray] | None = None,
+                  grid_sweeps: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """Smallest sweep (rad, either sense, inside the free ``arc`` when it allows) from ``a``
+    into an orientation both goals hold; ``inf`` when there is none. Rounded up by one grid
+    step. ``masks`` (the goals' :func:`_in_arcs` over ``_GRID``) and ``grid_sweeps``
+    (:func:`_grid_sweeps`): when already at hand."""
+    mi, mj = masks if masks is not None else (_in_arcs(gi, _GRID), _in_arcs(gj, _GRID))
+    both = mi & mj
+    if not both.any():
+        return math.inf
+    inside, anyway = grid_sweeps if grid_sweeps is not None else _grid_sweeps(a, arc)
+    best = float(inside[both].min())
     if not math.isfinite(best):
         # none reachable inside the arc now: the arc opens as the target moves (as in
         # :func:`sweeps`), so count the unconstrained sweep
-        best = float(np.minimum(ccw, cw)[both].min())
+        best = float(anyway[both].min())
     return best + TWO_PI / len(_GRID)
 
 
@@ -697,6 +709,18 @@ def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float,
     extra distance (the no-pivot radius at a vertex)."""
     out = []
     room = [e.distance - e.L_g - e.margin for e in points]  # the row's offset
+
+    def lg(delta: float) -> float:  # :func:`l_safe` in scalar arithmetic
+        return vt * lss * abs(delta) / (vo - vt)
+
+    masks: dict[int, np.ndarray] = {}  # goal masks over _GRID, made once per point
+    grid = None  # sweeps from ``a`` over _GRID, made once
+
+    def mask(k: int) -> np.ndarray:
+        if k not in masks:
+            masks[k] = _in_arcs(points[k].goal, _GRID)
+        return masks[k]
+
     for i, ei in enumerate(points):
         for j in range(i + 1, len(points)):
             ej = points[j]
@@ -704,14 +728,15 @@ def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float,
                 continue
             di, dj = ei.distance - room[i], ej.distance - room[j]
             # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
-            i_first = dj >= float(l_safe(2 * ei.sweep + ej.sweep, vt, vo, lss))
-            j_first = di >= float(l_safe(2 * ej.sweep + ei.sweep, vt, vo, lss))
-            common = False
+            if dj >= lg(2 * ei.sweep + ej.sweep) or di >= lg(2 * ej.sweep + ei.sweep):
+                continue
             if a is not None and ei.goal and ej.goal:
-                both = _common_sweep(a, ei.goal, ej.goal, arc)
-                common = min(di, dj) >= float(l_safe(both, vt, vo, lss))
-            if not (i_first or j_first or common):
-                out.append((i, j))
+                if grid is None:
+                    grid = _grid_sweeps(a, arc)
+                both = _common_sweep(a, ei.goal, ej.goal, arc, (mask(i), mask(j)), grid)
+                if min(di, dj) >= lg(both):
+                    continue
+            out.append((i, j))
     return out
 
 
