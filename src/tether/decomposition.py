@@ -381,7 +381,8 @@ class _Arrangement:
         nsrc = ptr[parts + 1] - ptr[parts]
         rows = _ragged(ptr[parts], nsrc)
         base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
-        key = np.unique(np.repeat(chain, nsrc) * base + src[rows] + 1)
+        key = np.sort(np.repeat(chain, nsrc) * base + src[rows] + 1)  # np.unique hashes: slow
+        key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
         c, s = np.divmod(key, base)
         s = s - 1
         c, s = c[s >= 0], s[s >= 0]

@@ -296,7 +296,8 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, n
     got_a.append(a)
     got_b.append(j)
     ga, gb = np.concatenate(got_a), np.concatenate(got_b)
-    pair = np.unique(ga * len(point) + gb)
+    pair = np.sort(ga * len(point) + gb)  # sorted by (a, b); a few pairs appear twice
+    pair = pair[np.r_[True, pair[1:] != pair[:-1]]] if len(pair) else pair
     return pair // len(point), pair % len(point)
 
 
