@@ -911,12 +911,16 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
     ok = ok[np.lexsort((-clear[ok], chain[ok]))]
-    out: list[list[tuple[np.ndarray, float]]] = [[] for _ in chains]
+    # the best 8 of each chain (rank within the chain's run)
+    ch = chain[ok]
+    head = np.flatnonzero(np.r_[True, ch[1:] != ch[:-1]]) if len(ch) else np.zeros(0, int)
+    rank = np.arange(len(ch)) - np.repeat(head, np.diff(np.r_[head, len(ch)]))
+    ok = ok[rank < 8]
     cap = max(50 * tol, 1e-4 * lss)
-    for i in ok.tolist():
-        lst = out[chain[i]]
-        if len(lst) < 8:
-            lst.append((Q[i], min(0.25 * (clear[i] - tol), cap)))
+    eps = np.minimum(0.25 * (clear[ok] - tol), cap)
+    out: list[list[tuple[np.ndarray, float]]] = [[] for _ in chains]
+    for c, q, e in zip(chain[ok].tolist(), Q[ok], eps.tolist(), strict=True):
+        out[c].append((q, e))
     return out
 
 
