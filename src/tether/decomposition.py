@@ -614,15 +614,18 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     plen = shapely.length(arr.parts)
     # sub-resolution faces join the neighbour they share most boundary with
     _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
-    for _ in range(4):
+    for attempt in range(4):
         flat, size = _groups(uf, keep, face_struct)
-        regions, face_region = _make_regions(env, arr, flat, size, face_struct, pts, clear)
+        numbering = _number_regions(arr, flat, size, pts, clear)
+        face_region, nreg = numbering["face_region"], len(numbering["lists"])
         chains = _chains(arr, face_region)
         cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
         touched = {r for (pair, _), c in zip(chains, cands, strict=True) if c for r in pair}
-        isolated = {r.id for r in regions if r.id not in touched} if len(regions) > 1 else set()
+        isolated = set(range(nreg)) - touched if nreg > 1 else set()
+        if not isolated or attempt == 3:  # these are the regions: build them
+            regions = _make_regions(env, arr, numbering, face_struct)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -732,18 +735,15 @@ def _groups(uf: _UnionFind, keep: np.ndarray, face_struct: dict[int, Structure]
     return fs[order], np.bincount(g, minlength=len(first))
 
 
-def _make_regions(env: Environment, arr: _Arrangement, flat: np.ndarray, size: np.ndarray,
-                  face_struct: dict[int, Structure], pts: np.ndarray, clear: np.ndarray
-                  ) -> tuple[list[Region], np.ndarray]:
+def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: np.ndarray,
+                    clear: np.ndarray) -> dict[str, Any]:
     """Regions from groups of faces (``flat``: the faces group after group, ``size``: each
     group's count), numbered by representative point (x, then y): the point of the group's
-    face farthest from its boundary. A group's polygon (the union of its faces) is cached on
-    ``arr``: the merges repeated after absorbing specks keep most groups. Returns the regions
-    and the region of every face (-1: none)."""
+    face farthest from its boundary. Returns the groups' face lists, best faces, areas and
+    points, the group of each region id (``rank``) and the region of every face (-1: none)."""
     face_area = arr.__dict__.get("_face_area")
     if face_area is None:
         face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
-    unions = arr.__dict__.setdefault("_group_unions", {})
     starts = (np.cumsum(size) - size).tolist()
     flat_list = flat.tolist()
     lists = [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
@@ -759,26 +759,29 @@ def _make_regions(env: Environment, arr: _Arrangement, flat: np.ndarray, size: n
         area[g] = face_area[lists[g]].sum()
     point = np.round(pts[best], 9)
     rank = np.lexsort((point[:, 1], point[:, 0]))  # stable: ties keep the groups' order
-    regions = []
     face_region = np.full(len(arr.faces), -1, dtype=np.int64)
     region_of_group = np.empty(len(lists), np.int64)
     region_of_group[rank] = np.arange(len(lists))
     face_region[flat] = region_of_group[group]
-    for rid, g in enumerate(rank.tolist()):
+    return {"lists": lists, "best": best, "area": area, "point": point, "rank": rank,
+            "face_region": face_region}
+
+
+def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
+                  face_struct: dict[int, Structure]) -> list[Region]:
+    """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
+    union of the faces), area, point, structure and cells."""
+    lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
+    regions = []
+    for rid, g in enumerate(numbering["rank"].tolist()):
         faces = lists[g]
-        if len(faces) > 1:
-            key = tuple(faces)
-            poly = unions.get(key)
-            if poly is None:
-                poly = unions[key] = shapely.union_all(arr.faces[faces])
-        else:
-            poly = arr.faces[faces[0]]
+        poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
         st = face_struct[int(best[g])]
         cells = tuple(cell_name(rid, s, e) for s, e in structure_names(env, st))
         regions.append(Region(rid, poly, float(area[g]),
                               (float(point[g, 0]), float(point[g, 1])), st, cells))
     shapely.prepare([r.polygon for r in regions])
-    return regions, face_region
+    return regions
 
 
 def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, list[int]]]:
