@@ -359,6 +359,17 @@ class _Arrangement:
             self.__dict__["_segments"] = got
         return got
 
+    def end_ids(self) -> tuple[np.ndarray, np.ndarray]:
+        """An id per end point of every part (first, last), equal for equal coordinates,
+        built once."""
+        got = self.__dict__.get("_end_ids")
+        if got is None:
+            ends = np.vstack((shapely.get_coordinates(shapely.get_point(self.parts, 0)),
+                              shapely.get_coordinates(shapely.get_point(self.parts, -1))))
+            ids = _point_ids(ends)
+            got = self.__dict__["_end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
+        return got
+
     def sources(self) -> tuple[np.ndarray, np.ndarray]:
         """``part_sources`` as CSR arrays: part ``k``'s sources are
         ``src[ptr[k]:ptr[k + 1]]`` (increasing), built once."""
@@ -795,9 +806,8 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     if len(parts) == 0:
         return []
     lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
-    ends = np.vstack((shapely.get_coordinates(shapely.get_point(arr.parts[parts], 0)),
-                      shapely.get_coordinates(shapely.get_point(arr.parts[parts], -1))))
-    end_id = _point_ids(ends)
+    first_id, last_id = arr.end_ids()
+    end_id = np.concatenate((first_id[parts], last_id[parts]))
     sptr, sflat = arr.sources()
     nsrc = sptr[parts + 1] - sptr[parts]
     src = sflat[_ragged(sptr[parts], nsrc)]
