@@ -42,6 +42,7 @@ def test_floor_plan(monkeypatch):
     assert_same_intervals(env, (env.bounds[2] - env.bounds[0]) / 15, monkeypatch)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None, suppress_health_check=[
     HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(env=random_maps(), lss=st.floats(0.3, 8.0))
