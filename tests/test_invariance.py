@@ -72,7 +72,10 @@ def counts_only(s: dict) -> dict:
 similarity = st.fixed_dictionaries({
     "log_scale": st.floats(-3.0, 4.0),
     "angle": st.floats(0.0, 2 * math.pi),
-    "rel_offset": st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)),
+    # offsets up to 1e5 map diameters (docs/conventions.md): farther, the input's own rounding
+    # (2.2e-16 × offset) nears the point tolerance (1e-9 × diameter), and the square room's
+    # exactly tangent curves resolve either way (seen at 6e5 diameters)
+    "rel_offset": st.tuples(st.floats(-1e5, 1e5), st.floats(-1e5, 1e5)),
     "mirror": st.booleans(),
 })
 
@@ -80,7 +83,6 @@ similarity = st.fixed_dictionaries({
 def check_similarity(name: str, sim: dict) -> None:
     env, lss = SLOW_CASES[name]
     k = 10.0 ** sim["log_scale"]
-    # offsets up to 1e6 map diameters: 1e7 map units for the 12-unit square
     off = (sim["rel_offset"][0] * env.diameter * k, sim["rel_offset"][1] * env.diameter * k)
     moved = transform(env, k, sim["angle"], off, sim["mirror"])
     want = swapped(base(name)) if sim["mirror"] else base(name)
