@@ -27,6 +27,7 @@ from shapely.errors import GEOSException
 from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
+from tether.arrays import ragged_arange
 from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
@@ -390,7 +391,7 @@ class _Arrangement:
         parts = np.fromiter((k for _, ks in chains for k in ks), np.int64, int(nparts.sum()))
         chain = np.repeat(np.arange(len(chains), dtype=np.int64), nparts)
         nsrc = ptr[parts + 1] - ptr[parts]
-        rows = _ragged(ptr[parts], nsrc)
+        rows = ragged_arange(ptr[parts], nsrc)
         base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
         key = np.sort(np.repeat(chain, nsrc) * base + src[rows] + 1)  # np.unique hashes: slow
         key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
@@ -810,7 +811,7 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     end_id = np.concatenate((first_id[parts], last_id[parts]))
     sptr, sflat = arr.sources()
     nsrc = sptr[parts + 1] - sptr[parts]
-    src = sflat[_ragged(sptr[parts], nsrc)]
+    src = sflat[ragged_arange(sptr[parts], nsrc)]
     local = np.tile(np.repeat(np.arange(len(parts)), nsrc), 2)  # rows: (end, source)
     end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
                                  np.repeat(end_id[len(parts):], nsrc)))
@@ -831,16 +832,6 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     flat = parts_o.tolist()
     return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
             zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
-
-
-def _ragged(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
-    counts = np.asarray(counts, dtype=np.int64)
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    offs = np.cumsum(counts) - counts
-    return np.repeat(np.asarray(starts, np.int64) - offs, counts) + np.arange(total)
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -1052,7 +1043,7 @@ def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> A
         full[dst] = table.full[src]
         lo = np.searchsorted(table.point, src, side="left")
         hi = np.searchsorted(table.point, src, side="right")
-        rows = _ragged(lo, hi - lo)
+        rows = ragged_arange(lo, hi - lo)
         parts.append((np.repeat(dst, hi - lo), table, rows))
     if not parts:
         z, zi = np.zeros(0), np.zeros(0, dtype=np.int64)

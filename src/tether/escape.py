@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from tether.arrays import ragged_arange
 from tether.decomposition import Decomposition, gc_paused
 from tether.graph import ConnectivityGraph, build_graph, cell_regions
 
@@ -235,9 +236,9 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         out_because.append(lvl_because)
         # every partner entry of every slot of the level's cells, in processing order
         nslot = slot_ptr[lvl_cell + 1] - slot_ptr[lvl_cell]
-        slots = _ragged(slot_ptr[lvl_cell], nslot)
+        slots = ragged_arange(slot_ptr[lvl_cell], nslot)
         npart = partner_ptr[slots + 1] - partner_ptr[slots]
-        ent = _ragged(partner_ptr[slots], npart)
+        ent = ragged_arange(partner_ptr[slots], npart)
         src = np.repeat(np.repeat(lvl_cell, nslot), npart)
         tgt = partner_slot[ent]
         np.subtract.at(count, tgt, 1)
@@ -262,15 +263,6 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
                 np.concatenate(out_round), np.concatenate(out_because))
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
-
-
-def _ragged(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    offs = np.cumsum(counts) - counts
-    return np.repeat(starts - offs, counts) + np.arange(total)
 
 
 def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]],

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tether.arcs import TWO_PI, feature_name, free_arcs_many
+from tether.arrays import ragged_arange
 from tether.decomposition import FREE, Decomposition, gc_paused
 from tether.tolerances import ANGLE_TOL
 
@@ -225,16 +226,6 @@ def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     return got
 
 
-def _ragged_arange(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """``concatenate([arange(s, s + c) for s, c in zip(starts, counts)])``, vectorized."""
-    counts = np.asarray(counts, dtype=np.int64)
-    total = int(counts.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    offs = np.cumsum(counts) - counts
-    return np.repeat(np.asarray(starts, np.int64) - offs, counts) + np.arange(total)
-
-
 def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
     arrays: arc pairs of the two sides of each piece whose arcs overlap (all at once)."""
@@ -289,7 +280,7 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, n
         i1 = np.searchsorted(key, base[use] + r1[use], side="right")
         n = np.maximum(i1 - i0, 0)
         got_a.append(np.repeat(a[use], n))
-        got_b.append(_ragged_arange(i0, n))
+        got_b.append(ragged_arange(i0, n))
     # the arc containing a's start: the last starting at or before it, else the point's last
     j = np.searchsorted(key, base + lo, side="right") - 1
     j = np.where(j >= first[pb], j, first[pb] + counts[pb] - 1)
@@ -334,7 +325,7 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     creg = cell_regions(dec)
     nslot = region_count[creg] if ncell else np.zeros(0, np.int64)
     slot_ptr = np.concatenate(([0], np.cumsum(nslot))).astype(np.int64)
-    slot_piece = region_pieces[_ragged_arange(region_ptr[creg], nslot)] if ncell \
+    slot_piece = region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell \
         else np.zeros(0, np.int64)
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
     slot_a = slot_ptr[ea] + side_pos[0, ep]
