@@ -333,8 +333,6 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
               "walls met too steeply; these starts lie in the kernel, so an observer could "
               "hold them. Whether the trigger fires too late there (a bug) or the paper's "
               "conditions miss these plays (a gap) is not settled yet.", "",
-              "The paragraph above the table was written for the paper's maps; the losses "
-              "below are listed with their seeds so that each can be replayed.", "",
               "## Losses from safe starts", "",
               f"The first {LOSSES_SHOWN} of each (map, ratio, target); every run, with its "
               "start, seed, time and reason, is in `docs/strategy_runs.json`.", "",
