@@ -102,7 +102,24 @@ def change_points(env, lss, a, b, n=400):
     return out
 
 
-def test_every_structure_change_lies_on_a_critical_curve(dec):
+#: The larger maps' completeness runs take 1.5-2.5 s each: slow tier.
+_SLOW_MAPS = {"generic", "plan-50-3"}
+
+
+@pytest.mark.parametrize("key", [k for k in DECS if k[0] not in _SLOW_MAPS],
+                         ids=lambda k: f"{k[0]}-{k[1]}")
+def test_every_structure_change_lies_on_a_critical_curve(key):
+    _structure_changes_on_curves(DECS[key])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", [k for k in DECS if k[0] in _SLOW_MAPS],
+                         ids=lambda k: f"{k[0]}-{k[1]}")
+def test_every_structure_change_lies_on_a_critical_curve_larger_maps(key):
+    _structure_changes_on_curves(DECS[key])
+
+
+def _structure_changes_on_curves(dec):
     """Completeness: along random segments, every change of the exact structure happens on
     the curves' linework, and on a region boundary."""
     env = dec.env

@@ -106,6 +106,7 @@ def test_executors_give_the_serial_result():
         _same(serial, sweep(RECT, [0.5, 1.0], executor=ex, tol=0.1))
 
 
+@pytest.mark.slow
 def test_dask_executor():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
@@ -184,6 +185,7 @@ def test_sweep_cli(tmp_path, capsys):
     assert capsys.readouterr().err.count("error:") == 5
 
 
+@pytest.mark.slow
 def test_sweep_cli_unreachable_dask(capsys):
     assert main(["sweep", str(example_path("rectangle")), "--lss", "1",
                  "--dask", "tcp://127.0.0.1:9", "--dask-timeout", "1"]) == 2
