@@ -95,3 +95,30 @@ def dump_failure(env: Environment, lss: float) -> None:
     if os.environ.get("TETHER_DUMP"):
         with open(os.environ["TETHER_DUMP"], "a") as f:
             f.write(json.dumps({"map": env.to_dict(), "lss": lss}) + "\n")
+
+
+def random_cell_graph(rng, max_regions: int, max_pieces: int, cell_names) -> tuple:
+    """A random abstract G for the elimination: 2..``max_regions``-1 regions, each with the
+    cells ``cell_names(rng, r)``; up to ``max_pieces``-1 pieces between two regions; each cell
+    pair across a piece adjacent with probability one half. Returns ``(region_of, pieces_of,
+    partners)`` as :func:`tether.escape.fixed_point` takes them."""
+    nreg = int(rng.integers(2, max_regions))
+    region_of = {}
+    for r in range(nreg):
+        for name in cell_names(rng, r):
+            region_of[name] = r
+    ends = rng.integers(0, nreg, (int(rng.integers(1, max_pieces)), 2))
+    pieces = [(int(a), int(b)) for a, b in ends if a != b]
+    pieces_of = {r: tuple(k for k, pr in enumerate(pieces) if r in pr) for r in range(nreg)}
+    partners = {}
+    for k, (a, b) in enumerate(pieces):
+        ca = [c for c, r in region_of.items() if r == a]
+        cb = [c for c, r in region_of.items() if r == b]
+        for c in ca + cb:
+            partners.setdefault((c, k), [])
+        for x in ca:
+            for y in cb:
+                if rng.random() < 0.5:
+                    partners[(x, k)].append(y)
+                    partners[(y, k)].append(x)
+    return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}

@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
-from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, dump_failure, random_maps
+from conftest import (
+    GENERIC,
+    SQUARE_HOLE,
+    STAR_HOLE,
+    dump_failure,
+    random_cell_graph,
+    random_maps,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -85,26 +92,8 @@ def naive(region_of, pieces_of, partners):
 
 
 def random_graph(rng):
-    nreg = int(rng.integers(2, 9))
-    region_of = {}
-    for r in range(nreg):
-        for k in range(int(rng.integers(0, 4))):
-            region_of[f"(R{r},E{k},E{k})"] = r
-    pieces = [(int(a), int(b)) for a, b in rng.integers(0, nreg, (int(rng.integers(1, 14)), 2))
-              if a != b]
-    pieces_of = {r: tuple(k for k, pr in enumerate(pieces) if r in pr) for r in range(nreg)}
-    partners = {}
-    for k, (a, b) in enumerate(pieces):
-        ca = [c for c, r in region_of.items() if r == a]
-        cb = [c for c, r in region_of.items() if r == b]
-        for c in ca + cb:
-            partners.setdefault((c, k), [])
-        for x in ca:
-            for y in cb:
-                if rng.random() < 0.5:
-                    partners[(x, k)].append(y)
-                    partners[(y, k)].append(x)
-    return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}
+    return random_cell_graph(rng, 9, 14, lambda rng, r: [
+        f"(R{r},E{k},E{k})" for k in range(int(rng.integers(0, 4)))])
 
 
 def test_elimination_equals_naive_iteration_on_random_graphs():

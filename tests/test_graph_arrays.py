@@ -10,7 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, random_maps
+from conftest import (
+    GENERIC,
+    SQUARE_HOLE,
+    STAR_HOLE,
+    random_cell_graph,
+    random_maps,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -178,26 +184,9 @@ def test_random_maps_equal_reference(env, lss):
 def random_graph(rng):
     """Random regions, cells (names whose string order differs from their numbers') and
     pieces; each cell pair across a piece is adjacent with probability one half."""
-    nreg = int(rng.integers(2, 12))
-    region_of = {}
-    for r in range(nreg):
-        for k in rng.choice(12, int(rng.integers(0, 4)), replace=False).tolist():
-            region_of[f"(R{r},E{k},V{11 - k})"] = r
-    pieces = [(int(a), int(b)) for a, b in rng.integers(0, nreg, (int(rng.integers(1, 20)), 2))
-              if a != b]
-    pieces_of = {r: tuple(k for k, pr in enumerate(pieces) if r in pr) for r in range(nreg)}
-    partners = {}
-    for k, (a, b) in enumerate(pieces):
-        ca = [c for c, r in region_of.items() if r == a]
-        cb = [c for c, r in region_of.items() if r == b]
-        for c in ca + cb:
-            partners.setdefault((c, k), [])
-        for x in ca:
-            for y in cb:
-                if rng.random() < 0.5:
-                    partners[(x, k)].append(y)
-                    partners[(y, k)].append(x)
-    return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}
+    return random_cell_graph(rng, 12, 20, lambda rng, r: [
+        f"(R{r},E{k},V{11 - k})"
+        for k in rng.choice(12, int(rng.integers(0, 4)), replace=False).tolist()])
 
 
 def test_abstract_fixed_point_equals_reference_on_random_graphs():
