@@ -167,3 +167,18 @@ def test_held_from_safe_starts_on_the_room_corner(kind):
         r = simulate(w, PaperController(w), make_target(kind, w), start, duration=20.0,
                      dt=0.02, seed=k)
         assert r.outcome == "held", (start, r.reason)
+
+
+def test_pinned_rotation_hands_over_to_the_closer_escape_point():
+    """Floor plan (40 vertices), lss 0.6, vt/vo 0.3, the `wall` target hugging a pillar: the
+    trigger commits to the pillar's far corner V39, the rotation is pinned against the pillar,
+    and the near corner V37 (the other sense) comes within reach. Lost at 3.16 s by a pivot
+    about V37 when the commitment was kept; held once a pinned commitment is handed over."""
+    from tether.floorplan import floor_plan
+
+    env = floor_plan(40, seed=0)
+    dec = decompose(env, 0.6)
+    w = World(env, 0.6, 0.3, 1.0, dec, analyze(dec))
+    r = simulate(w, PaperController(w), make_target("wall", w), (4.515, 2.055, 1.505),
+                 duration=20.0, dt=0.02, seed=12)
+    assert r.outcome == "held", r.reason

@@ -206,6 +206,7 @@ class PaperController(_Compliant):
         self.since = 0
         self.goal_row: int | None = None
         self.sense = 0
+        self._pinned = 0  # steps the committed rotation has been held back by an arc end
 
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
         super().reset(world, p, a)
@@ -242,6 +243,8 @@ class PaperController(_Compliant):
                 concerned, sense = self._still_concerned(p, a)
                 if concerned and sense:
                     self.sense = sense
+                if self._pinned >= self.refresh:
+                    self._hand_over(p, a)
                 return self.goal_row, self.sense
         if self.bound <= 2.0 * pad or self.since >= self.refresh:
             row, margin, sense = self._scan(p, a)
@@ -251,6 +254,17 @@ class PaperController(_Compliant):
         else:
             self.since += 1
         return self.goal_row, self.sense
+
+    def _hand_over(self, p: np.ndarray, a: float) -> None:
+        """A committed rotation pinned against an arc end for ``refresh`` steps (its goal
+        unreachable that way for now): re-scan every row and commit to the escape point with
+        the smallest margin if it belongs to another piece, vertex or wall. Without it the
+        commitment was kept while a second escape point, needing the other sense, came within
+        reach unseen (the floor plans' pivot losses in ``docs/strategy.md``)."""
+        self._pinned = 0
+        row, _, sense = self._scan(p, a)
+        if row is not None and self.table.piece[row] != self.table.piece[self.goal_row]:
+            self.goal_row, self.sense = row, sense
 
     def _still_concerned(self, p: np.ndarray, a: float) -> tuple[bool, int]:
         """Whether the committed row still concerns orientation ``a`` (one row only), and the
@@ -276,6 +290,13 @@ class PaperController(_Compliant):
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
         cmd = super().step(p, v, a, dt)
+        # a committed rotation held back by an arc end (compliant, turning less than half as
+        # fast as asked, or the wrong way)
+        if self.goal_row is not None and cmd.feasible and cmd.mode == "compliant" and \
+                self.sense * cmd.rate < 0.5 * self.vo / self.lss:
+            self._pinned += 1
+        else:
+            self._pinned = 0
         if cmd.feasible:
             self.bound -= self.vt * dt + self.gain * abs(cmd.rate) * dt
         return cmd
