@@ -48,3 +48,35 @@ def test_floor_plan(monkeypatch):
 @given(env=random_maps(), lss=st.floats(0.3, 8.0))
 def test_random_maps(env, lss, monkeypatch):
     assert_same_intervals(env, lss, monkeypatch)
+
+
+def assert_same_as_dense(env, lss):
+    """Sampling at the exact breakpoints finds the critical intervals the former dense uniform
+    sampling (96 samples per rod length of curve) finds: as many, with equal ends (the ends
+    are pinned by bisection from different brackets: equal to 1e-8 in the internal frame)."""
+    inner = env.internal
+    for fam in candidate_families(inner, lss * env.frame.scale):
+        sparse = _critical_intervals(inner, fam)
+        dense = _critical_intervals(inner, fam, per_lss=96)
+        for c, (a, b) in enumerate(zip(sparse, dense, strict=True)):
+            assert len(a) == len(b), (fam.kind, fam.features[c], a, b)
+            if a:
+                assert np.allclose(a, b, rtol=0, atol=1e-8), (fam.kind, fam.features[c], a, b)
+
+
+@pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5),
+                                          (GENERIC, 6.0), (STAR_HOLE, 0.4)])
+def test_breakpoint_sampling_test_maps(env, lss):
+    assert_same_as_dense(env, lss)
+
+
+def test_breakpoint_sampling_floor_plan():
+    env = floor_plan(60, seed=0)
+    assert_same_as_dense(env, (env.bounds[2] - env.bounds[0]) / 15)
+
+
+@pytest.mark.slow
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(env=random_maps(), lss=st.floats(0.3, 8.0))
+def test_breakpoint_sampling_random_maps(env, lss):
+    assert_same_as_dense(env, lss)

@@ -47,7 +47,16 @@ KIND_NAMES = {
     "D": "two reflex vertices",
     "E": "conchoid",
 }
-_SAMPLES_PER_LSS = 96  # semi-free test samples per rod length of curve (at least 24 a curve)
+#: Uniform semi-free test samples per curve (the domain's ends and middle) besides the samples
+#: at the exact breakpoints; the breakpoints are where freeness can change, so these only
+#: catch a curve without breakpoints. (Before, 96 uniform samples per rod length of curve were
+#: taken, ~740,000 at 400 map vertices; :func:`_critical_intervals` still takes them with
+#: ``per_lss``, which the tests use as an independent check.)
+_BASE_SAMPLES = 2
+#: Where between two consecutive samples the extra one goes (not the middle: on maps with
+#: symmetric features the middle of two breakpoints is often a degenerate parameter, e.g. a rod
+#: lying along a wall, semi-free at that one parameter only).
+_SPLIT = 0.3819660112501051
 _BISECTIONS = 30
 
 
@@ -375,15 +384,25 @@ def _mark_apexes(fa: Family, fe: Family) -> None:
 
 
 # ---------------------------------------------------------------------- critical parts
-def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float, float]]]:
-    """Parameter intervals of each curve where its event rod is semi-free."""
+def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
+                        ) -> list[list[tuple[float, float]]]:
+    """Parameter intervals of each curve where its event rod is semi-free.
+
+    Freeness is constant between consecutive exact breakpoints (:func:`_breakpoints`): each
+    curve is tested just either side of every breakpoint, inside every longer stretch between
+    two consecutive samples, and at its domain's ends (``_BASE_SAMPLES``; at least
+    24 and ``per_lss`` per rod length of curve when ``per_lss`` > 0: the former dense
+    sampling, kept as an independent check)."""
     m = len(fam)
     out: list[list[tuple[float, float]]] = [[] for _ in range(m)]
     if m == 0:
         return out
     L = fam.lss
     cidx = np.arange(m)
-    counts = np.maximum(24, np.ceil(fam.length_scale(cidx) / L * _SAMPLES_PER_LSS)).astype(int)
+    if per_lss > 0:
+        counts = np.maximum(24, np.ceil(fam.length_scale(cidx) / L * per_lss)).astype(int)
+    else:
+        counts = np.full(m, _BASE_SAMPLES)
     c = np.repeat(cidx, counts)
     k = np.arange(len(c)) - np.repeat(np.cumsum(counts) - counts, counts)
     frac = k / np.repeat(counts - 1, counts)
@@ -397,6 +416,14 @@ def _critical_intervals(env: Environment, fam: Family) -> list[list[tuple[float,
     inside = (extra_t > fam.lo[extra_c]) & (extra_t < fam.hi[extra_c])
     c = np.concatenate((c, extra_c[inside]))
     t = np.concatenate((t, extra_t[inside]))
+    order = np.lexsort((t, c))
+    c, t = c[order], t[order]
+    # and one inside every stretch between two consecutive samples of a curve (not between
+    # the close samples around one breakpoint: their transition is pinned as is)
+    gap = 1e-4 * (fam.hi - fam.lo)[c[:-1]]
+    mid = np.flatnonzero((c[1:] == c[:-1]) & (t[1:] - t[:-1] > gap))
+    c = np.concatenate((c, c[mid]))
+    t = np.concatenate((t, t[mid] + _SPLIT * (t[mid + 1] - t[mid])))
     order = np.lexsort((t, c))
     c, t = c[order], t[order]
     counts = np.bincount(c, minlength=m)
