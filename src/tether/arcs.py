@@ -164,51 +164,70 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     Tangencies (intervals narrower than ``ANGLE_TOL`` whose edge part inside the disc is
     shorter than ``env.length_tol``) are dropped.
     """
-    A, B, tag_a, tag_b = env.oriented_edges
+    ax, ay, dx, dy, dd, sdd, tag_a, tag_b = _edge_columns(env)
     pidx, eidx = env.edge_index(lss).query(pts)
-    p = pts[pidx]
-    a, d = A[eidx], B[eidx] - A[eidx]
-    w = a - p
-    dd = np.einsum("ij,ij->i", d, d)
-    side = d[:, 0] * (-w[:, 1]) - d[:, 1] * (-w[:, 0])  # cross(d, p - a): > 0 on the free side
-    b = np.einsum("ij,ij->i", d, w)
-    c = np.einsum("ij,ij->i", w, w) - lss * lss
-    disc = b * b - dd * c
-    ok = (side > env.length_tol * np.sqrt(dd)) & (disc > 0)
-    sq = np.sqrt(np.where(ok, disc, 0.0))
-    r1 = (-b - sq) / dd
-    r2 = (-b + sq) / dd
+    # w = A - p, columns apart (no (k, 2) temporaries); rows are filtered as early as possible
+    wx = ax[eidx] - pts[:, 0][pidx]
+    wy = ay[eidx] - pts[:, 1][pidx]
+    ex, ey = dx[eidx], dy[eidx]
+    side = ex * (-wy) - ey * (-wx)  # cross(d, p - a): > 0 on the free side
+    k = np.flatnonzero(side > env.length_tol * sdd[eidx])
+    pidx, eidx, wx, wy, ex, ey = pidx[k], eidx[k], wx[k], wy[k], ex[k], ey[k]
+    de = dd[eidx]
+    b = ex * wx + ey * wy
+    c = (wx * wx + wy * wy) - lss * lss
+    disc = b * b - de * c
+    k = np.flatnonzero(disc > 0)
+    pidx, eidx, wx, wy, ex, ey, de, b = (x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, b))
+    sq = np.sqrt(disc[k])
+    r1 = (-b - sq) / de
+    r2 = (-b + sq) / de
     t1 = np.maximum(r1, 0.0)
     t2 = np.minimum(r2, 1.0)
-    ok &= t1 < t2
-    k = np.flatnonzero(ok)
-    p1 = w[k] + t1[k, None] * d[k]
-    p2 = w[k] + t2[k, None] * d[k]
-    start = np.mod(np.arctan2(p1[:, 1], p1[:, 0]), TWO_PI)
-    length = np.arctan2(p1[:, 0] * p2[:, 1] - p1[:, 1] * p2[:, 0], np.einsum("ij,ij->i", p1, p2))
+    k = np.flatnonzero(t1 < t2)
+    pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2 = (
+        x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2))
+    p1x, p1y = wx + t1 * ex, wy + t1 * ey
+    p2x, p2y = wx + t2 * ex, wy + t2 * ey
+    start = np.mod(np.arctan2(p1y, p1x), TWO_PI)
+    length = np.arctan2(p1x * p2y - p1y * p2x, p1x * p2x + p1y * p2y)
     # a tangency (the circle grazes the edge, or the point sits at distance lss of a vertex up
     # to rounding) blocks nothing. It is told by the length of the edge's part inside the disc
     # (the chord), not by the angle alone: seen from a point near the line of an edge, a long
     # chord subtends an angle ~ h * chord / lss^2 (h: distance to the line) that falls below
     # ANGLE_TOL far from any tangency. Dropping those intervals would move the structure's
     # boundary off the critical curves C(Vj, Ei) and B(Vj) near their common end (issue #9).
-    chord = (t2[k] - t1[k]) * np.sqrt(dd[k])
+    chord = (t2 - t1) * np.sqrt(de)
     wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
-    k, start, length = k[wide], start[wide], length[wide]
-    e = eidx[k]
+    e = eidx[wide]
     return {
-        "point": pidx[k],
+        "point": pidx[wide],
         "edge": e,
-        "start": start,
-        "length": length,
-        "cw_code": np.where(r1[k] <= 0, env.n + tag_a[e], e),
-        "ccw_code": np.where(r2[k] >= 1, env.n + tag_b[e], e),
+        "start": start[wide],
+        "length": length[wide],
+        "cw_code": np.where(r1[wide] <= 0, env.n + tag_a[e], e),
+        "ccw_code": np.where(r2[wide] >= 1, env.n + tag_b[e], e),
     }
+
+
+def _edge_columns(env: Environment) -> tuple[np.ndarray, ...]:
+    """Per oriented edge, computed once per map: start ``A`` (x, y), direction ``d = B - A``
+    (x, y), ``d·d``, ``sqrt(d·d)`` and the vertex indices at ``A`` and ``B``."""
+    got = env.__dict__.get("_edge_columns")
+    if got is None:
+        A, B, tag_a, tag_b = env.oriented_edges
+        d = B - A
+        dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+        got = env.__dict__["_edge_columns"] = (
+            np.ascontiguousarray(A[:, 0]), np.ascontiguousarray(A[:, 1]),
+            np.ascontiguousarray(d[:, 0]), np.ascontiguousarray(d[:, 1]), dd, np.sqrt(dd),
+            tag_a, tag_b)
+    return got
 
 
 def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     """Free arcs = gaps of the union of the blocked intervals on each point's circle."""
-    order = np.lexsort((iv["start"], iv["point"]))
+    order = _order_by_point_angle(iv["point"], iv["start"])
     pt = iv["point"][order]
     S = iv["start"][order]
     E = S + iv["length"][order]
@@ -245,8 +264,21 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     k = np.flatnonzero(g_end - g_start > ANGLE_TOL)  # rows inside a component leave no gap
     start = np.mod(g_start[k], TWO_PI)
     end = np.mod(g_end[k], TWO_PI)
-    o = np.lexsort((start, pt[k]))
+    o = _order_by_point_angle(pt[k], start)
     return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+
+
+def _order_by_point_angle(point: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``np.lexsort((angle, point))`` for integer points >= 0 and angles in [0, 2pi), about
+    ten times faster: one stable sort on ``8 point + angle``, verified (angles of one point
+    that round to one key may come out of order: then the lexsort)."""
+    if len(point) == 0:
+        return np.zeros(0, np.int64)
+    order = np.argsort(point * 8.0 + angle, kind="stable")
+    p, a = point[order], angle[order]
+    if np.all((p[1:] > p[:-1]) | ((p[1:] == p[:-1]) & (a[1:] >= a[:-1]))):
+        return order
+    return np.lexsort((angle, point))
 
 
 def _as_points(points: Any) -> np.ndarray:

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 import shapely
 from shapely.errors import GEOSException
-from shapely.geometry import LineString, MultiLineString
 
 from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
 from tether.arrays import ragged_arange
@@ -61,7 +60,8 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
         return ids, keys
     base = 2 * env.n + 1
     pair = table.start_code.astype(np.int64) * base + table.end_code
-    order = np.lexsort((pair, table.point))
+    # np.lexsort((pair, point)) on one exact integer key (pair < base**2), several times faster
+    order = np.argsort(table.point.astype(np.int64) * (base * base) + pair, kind="stable")
     point, pair = table.point[order], pair[order]
     counts = np.bincount(point, minlength=npts)
     width = int(counts.max())
@@ -71,11 +71,15 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     slot = np.arange(len(point)) - first[point]
     row_of = np.searchsorted(rows, point)
     grid[row_of, slot] = pair
-    void = np.ascontiguousarray(grid).view(np.dtype((np.void, 8 * width))).ravel()
-    _, first_row, inv = np.unique(void, return_index=True, return_inverse=True)
-    ids[rows] = inv.ravel() + 2
-    for u in grid[first_row].tolist():
-        keys.append(frozenset(divmod(x, base) for x in u if x >= 0))
+    inv, first_row = _row_ids(grid)
+    ids[rows] = inv + 2
+    sub = grid[first_row]
+    valid = sub >= 0  # each row's pairs come first, then -1 padding
+    a, b = np.divmod(sub[valid], base)
+    pairs = list(zip(a.tolist(), b.tolist(), strict=True))
+    stops = np.cumsum(valid.sum(axis=1)).tolist()
+    starts = [0] + stops[:-1]
+    keys.extend(frozenset(pairs[i:j]) for i, j in zip(starts, stops, strict=True))
     return ids, keys
 
 
@@ -327,10 +331,25 @@ def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
     lo = np.where(swap[:, None], b, a)
     hi = np.where(swap[:, None], a, b)
-    key = np.ascontiguousarray(np.column_stack((lo, hi)))
-    _, inv = np.unique(key.view(np.dtype((np.void, key.dtype.itemsize * 4))).ravel(),
-                       return_inverse=True)
-    return inv.ravel()
+    return _row_ids(np.column_stack((lo, hi)))[0]
+
+
+def _row_ids(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An integer id per row of ``key`` (shape (n, k)), equal for equal rows (compared as
+    numbers), numbered in the rows' lexicographic order, and the first row of each id. A
+    lexsort on the columns: ``np.unique`` on rows viewed as bytes compares them as strings,
+    several times slower."""
+    n = len(key)
+    if n == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    order = np.lexsort(key.T[::-1])
+    sk = key[order]
+    new = np.empty(n, bool)
+    new[0] = True
+    new[1:] = np.any(sk[1:] != sk[:-1], axis=1)
+    ids = np.empty(n, np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, order[new]
 
 
 def _ring_segments(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -403,14 +422,31 @@ class _Arrangement:
         return [flat[bounds[i]:bounds[i + 1]] for i in range(len(chains))]
 
 
-def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
-    lines = [LineString(np.vstack((r, r[:1]))) for r in env.rings]
-    source = [-1] * len(lines)
+def _input_lines(env: Environment, curves: list[Curve]) -> tuple[np.ndarray, np.ndarray]:
+    """The arrangement's input: the map's rings (closed) and every curve polyline of at least
+    two distinct points, as linestrings (built in one call), and each line's source curve id
+    (-1: a ring)."""
+    polys = [np.vstack((r, r[:1])) for r in env.rings]
+    src = [-1] * len(polys)
     for c in curves:
-        for p in c.polylines:
-            if len(p) >= 2 and np.ptp(p, axis=0).max() > 0:
-                lines.append(LineString(p))
-                source.append(c.id)
+        polys.extend(c.polylines)
+        src.extend([c.id] * len(c.polylines))
+    size = np.fromiter((len(p) for p in polys), np.int64, len(polys))
+    coords = np.vstack(polys)
+    line = np.repeat(np.arange(len(polys)), size)
+    # a polyline is kept if some coordinate differs from its first point
+    first = np.repeat(np.cumsum(size) - size, size)
+    moves = np.bincount(line, weights=np.any(coords != coords[first], axis=1),
+                        minlength=len(polys))
+    ok = (size >= 2) & (moves > 0)
+    rows = ok[line]
+    new_index = np.cumsum(ok) - 1
+    lines = shapely.linestrings(coords[rows], indices=new_index[line[rows]])
+    return np.asarray(lines, dtype=object), np.asarray(src)[ok]
+
+
+def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
+    lines, source = _input_lines(env, curves)
     noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
     parts = parts[shapely.length(parts) > 0]
@@ -437,7 +473,7 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
         part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment tree: distances to whole long polylines would dominate the time)
-    la, lb, lowner = _ring_segments(np.asarray(lines, dtype=object))
+    la, lb, lowner = _ring_segments(lines)
     mid = 0.5 * (pa[longest] + pb[longest])
     qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12),
                                _segment_tree(la, lb))
@@ -483,7 +519,7 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
 SNAP_GRIDS = (0.25, 1.0, 4.0)
 
 
-def _node(lines: list[LineString], tol: float) -> tuple[Any, float]:
+def _node(lines: np.ndarray, tol: float) -> tuple[Any, float]:
     """Node the lines: GEOS's floating-point noder first; if it fails to converge (nearly
     coincident or tangent curves), snap rounding on a grid of ``SNAP_GRIDS * tol`` map units
     (GEOS's fixed-precision overlay, robust by construction: every vertex moves by at most
@@ -496,14 +532,14 @@ def _node(lines: list[LineString], tol: float) -> tuple[Any, float]:
         If even the coarsest grid fails (the map is beyond tether's resolution).
     """
     try:
-        return shapely.node(MultiLineString(lines)), 0.0
+        return shapely.node(shapely.multilinestrings(lines)), 0.0
     except GEOSException:
         pass
     err = None
     for frac in SNAP_GRIDS:
         grid = frac * tol
         try:
-            snapped = shapely.set_precision(np.asarray(lines, dtype=object), grid)
+            snapped = shapely.set_precision(lines, grid)
             return shapely.union_all(snapped, grid_size=grid), grid
         except GEOSException as exc:
             err = exc
@@ -852,10 +888,7 @@ def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def _point_ids(pts: np.ndarray) -> np.ndarray:
     """An integer id per point, equal for equal coordinates."""
-    key = np.ascontiguousarray(pts)
-    _, inv = np.unique(key.view(np.dtype((np.void, key.dtype.itemsize * 2))).ravel(),
-                       return_inverse=True)
-    return inv.ravel()
+    return _row_ids(pts)[0]
 
 
 def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
