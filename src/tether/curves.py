@@ -642,6 +642,82 @@ def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
     return lo - dt, hi + dt
 
 
+def _overshoot_family(fam: Family, intervals: list[list[tuple[float, float]]], margin: float
+                      ) -> list[tuple[Family, int, list[tuple[float, float]]]]:
+    """:func:`_overshoot` of every interval of every curve of a family, as ``(family, curve,
+    intervals)`` for the curves with a critical part; vectorized except for conchoids (the
+    same numbers as interval by interval)."""
+    cs = [c for c, ivs in enumerate(intervals) if ivs]
+    if fam.kind == "E" or not cs:
+        return [(fam, c, [_overshoot(fam, c, iv, margin) for iv in intervals[c]]) for c in cs]
+    count = [len(intervals[c]) for c in cs]
+    c = np.repeat(np.array(cs, dtype=np.int64), count)
+    lo, hi = np.array([iv for k in cs for iv in intervals[k]], dtype=float).reshape(-1, 2).T
+    if fam.kind == "B":
+        full = hi - lo >= 2 * math.pi - 1e-12
+        dt = margin / fam.lss
+        lo2, hi2 = np.where(full, lo, lo - dt), np.where(full, hi, hi + dt)
+    else:
+        speed = fam.length_scale(c) / np.maximum(fam.hi[c] - fam.lo[c], 1e-300)
+        dt = margin / np.maximum(speed, 1e-300)
+        lo2 = np.maximum(lo - dt, 0.0) if fam.kind in "CD" else lo - dt
+        hi2 = hi + dt
+    pairs = list(zip(lo2.tolist(), hi2.tolist(), strict=True))
+    stops = np.cumsum(count).tolist()
+    return [(fam, k, pairs[b - n:b]) for k, n, b in zip(cs, count, stops, strict=True)]
+
+
+def _draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: float
+              ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """:func:`_polyline` of every interval of ``found``: straight curves and circles in one
+    vectorized pass per family (then their marks inserted curve by curve), conchoids one by
+    one (adaptive)."""
+    out: list[list[tuple[np.ndarray, np.ndarray]]] = []
+    k = 0
+    while k < len(found):
+        fam = found[k][0]
+        j = k
+        while j < len(found) and found[j][0] is fam:
+            j += 1
+        group = found[k:j]
+        if fam.kind == "E":
+            out += [[_polyline(fam, c, lo, hi, tol) for lo, hi in ivs] for _, c, ivs in group]
+        else:
+            out += _draw_simple(fam, group, tol)
+        k = j
+    return out
+
+
+def _draw_simple(fam: Family, group: list[tuple[Family, int, list[tuple[float, float]]]],
+                 tol: float) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """:func:`_polyline` for the lines (A, C, D) and circles (B) of one family, vectorized:
+    the same parameters (``np.linspace``'s arithmetic) and points."""
+    count = [len(ivs) for _, _, ivs in group]
+    c = np.repeat(np.array([g[1] for g in group], dtype=np.int64), count)
+    lo, hi = np.array([iv for g in group for iv in g[2]], dtype=float).reshape(-1, 2).T
+    if fam.kind == "B":
+        step = math.sqrt(8.0 * tol / fam.lss)
+        n = np.maximum(2, np.ceil((hi - lo) / step).astype(np.int64) + 1)
+    else:
+        n = np.full(len(lo), 2, dtype=np.int64)
+    iv = np.repeat(np.arange(len(lo)), n)
+    first = np.cumsum(n) - n
+    kk = (np.arange(len(iv)) - np.repeat(first, n)).astype(float)
+    delta = hi - lo
+    stepv = delta / (n - 1)
+    zero = stepv == 0
+    ts = np.where(zero[iv], kk / (n - 1)[iv] * delta[iv], kk * stepv[iv]) + lo[iv]
+    last = first + n - 1
+    ts[last] = hi
+    pts = fam.points(c[iv], ts)
+    stops = (first + n).tolist()
+    firsts = first.tolist()
+    drawn = [_with_marks(fam, int(ci), ts[a:b], pts[a:b])
+             for ci, a, b in zip(c.tolist(), firsts, stops, strict=True)]
+    ends = np.cumsum(count).tolist()
+    return [drawn[e - m:e] for m, e in zip(count, ends, strict=True)]
+
+
 #: At most this many doublings of a conchoid's overshoot step (a factor ~1e6 on its mean speed).
 _REACH_DOUBLINGS = 20
 
@@ -756,12 +832,10 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     curves: list[Curve] = []
     found = []
     for fam in candidate_families(env, lss):
-        for c, ivs in enumerate(_critical_intervals(env, fam)):
-            if ivs:
-                found.append((fam, c, [_overshoot(fam, c, iv, margin) for iv in ivs]))
+        found += _overshoot_family(fam, _critical_intervals(env, fam), margin)
     check_vertex_budget(sum(_vertex_estimate(fam, c, ivs, tol) for fam, c, ivs in found), lss)
-    for fam, c, ivs in found:
-        drawn = [_polyline(fam, c, lo, hi, tol) for lo, hi in ivs]
+    drawn_all = _draw_all(found, tol)
+    for (fam, c, ivs), drawn in zip(found, drawn_all, strict=True):
         curves.append(Curve(len(curves), fam.kind, fam.features[c],
                             (float(fam.lo[c]), float(fam.hi[c])),
                             tuple((float(a), float(b)) for a, b in ivs),
