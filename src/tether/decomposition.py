@@ -670,7 +670,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
-        touched = {r for (pair, _), c in zip(chains, cands, strict=True) if c for r in pair}
+        has = np.flatnonzero(cands.count > 0).tolist()
+        touched = {r for i in has for r in chains[i][0]}
         isolated = set(range(nreg)) - touched if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
             regions = _make_regions(env, arr, numbering, face_struct)
@@ -936,14 +937,30 @@ def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
     return out
 
 
+@dataclass
+class _Candidates:
+    """Candidate crossing points of every chain (CSR): chain ``i``'s candidates, best first,
+    are rows ``ptr[i]:ptr[i + 1]`` of ``q`` (points, map units) and ``eps`` (offsets)."""
+
+    ptr: np.ndarray
+    q: np.ndarray
+    eps: np.ndarray
+
+    @property
+    def count(self) -> np.ndarray:
+        """Number of candidates of each chain."""
+        return np.diff(self.ptr)
+
+
 def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float, lss: float
-                         ) -> list[list[tuple[np.ndarray, float]]]:
+                         ) -> _Candidates:
     """For every chain, candidate crossing points (midpoints of the 6 longest segments of
     each of its parts) with their offsets ``eps``, best clearance first (up to 8); only points
     clear of every other part by ``4 tol``. All chains are handled in one vectorized pass."""
     part_chain = np.full(len(arr.parts), -1)
-    for c, ks in enumerate(chains):
-        part_chain[ks] = c
+    size = np.fromiter((len(ks) for ks in chains), np.int64, len(chains))
+    flat = np.fromiter((k for ks in chains for k in ks), np.int64, int(size.sum()))
+    part_chain[flat] = np.repeat(np.arange(len(chains)), size)
     Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
@@ -955,10 +972,8 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
     ok = ok[rank < 8]
     cap = max(50 * tol, 1e-4 * lss)
     eps = np.minimum(0.25 * (clear[ok] - tol), cap)
-    out: list[list[tuple[np.ndarray, float]]] = [[] for _ in chains]
-    for c, q, e in zip(chain[ok].tolist(), Q[ok], eps.tolist(), strict=True):
-        out[c].append((q, e))
-    return out
+    ptr = np.searchsorted(chain[ok], np.arange(len(chains) + 1))
+    return _Candidates(ptr, Q[ok].reshape(-1, 2), eps)
 
 
 #: Candidate points handled per batch when measuring their clearance: each brings one row per
@@ -1007,46 +1022,68 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
     return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
 
 
-def _pick_crossings(env: Environment, chains: list, cands: list, regions: list[Region],
-                    curves: list[Curve], chain_srcs: list[list[int]], lss: float) -> list:
+def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions: list[Region],
+                    curves: list[Curve], chain_srcs: list[list[int]], lss: float
+                    ) -> tuple[list, list[ArcTable]]:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
-    are tried in rounds, all chains at once. A chain with no clean candidate keeps its best one
-    (``check`` reports it); a chain with no candidate at all gets ``None``. Each answer is
-    ``(q, n, eps, verified)``."""
-    out: list = [None] * len(chains)
-    pending = [i for i in range(len(chains)) if cands[i]]
-    first: dict[int, tuple] = {}
+    are tried in rounds, all chains at once (vectorized: structures compared as integer ids).
+    A chain with no clean candidate keeps its first one (``check`` reports it); a chain with
+    no candidate at all gets ``None``. Each answer is ``(q, n, eps, verified, at)``, ``at``
+    saying where the arcs of its two sides are in the returned tables: ``(round, row of the
+    +n side, row of the other)``."""
+    m = len(chains)
+    count = cands.count
+    sid: dict = {}  # structure -> integer id (regions' first)
+    reg_sid = np.fromiter((sid.setdefault(r.structure, len(sid)) for r in regions), np.int64,
+                          len(regions))
+    pair = np.array([p for p, _ in chains], dtype=np.int64).reshape(-1, 2)
+    sa, sb = reg_sid[pair[:, 0]], reg_sid[pair[:, 1]]
+    out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
+    out_eps = np.zeros(m)
+    out_ok = np.zeros(m, bool)
+    out_at = np.full((m, 3), -1, dtype=np.int64)
     tables: list[ArcTable] = []
+    pending = np.flatnonzero(count > 0)
+    first = None
     rnd = 0
-    while pending:
-        q0 = np.array([cands[i][rnd][0] for i in pending]).reshape(-1, 2)
-        eps = [cands[i][rnd][1] for i in pending]
-        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending], q0)
-        trial = list(zip(pending, q, n, eps, strict=True))
-        for j, (i, qi, ni, ei) in enumerate(trial):
-            first.setdefault(i, (qi, ni, ei, (rnd, j, j + len(trial))))
-        table, plus, minus = _arcs_across(env, lss, np.array([t[1] for t in trial]),
-                                          np.array([t[2] for t in trial]),
-                                          np.array([t[3] for t in trial]))
+    while len(pending):
+        row = cands.ptr[pending] + rnd
+        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending.tolist()],
+                                   cands.q[row])
+        eps = cands.eps[row]
+        k = len(pending)
+        j = np.arange(k)
+        if first is None:  # every chain with a candidate is tried in round 0
+            first = (q, n, eps, np.column_stack((np.zeros(k, np.int64), j, j + k)))
+        table, plus, minus = _arcs_across(env, lss, q, n, eps)
         tables.append(table)
-        still = []
-        for j, (i, q, n, e) in enumerate(trial):
-            ra, rb = (regions[r] for r in chains[i][0])
-            sp, sm = plus[j], minus[j]
-            # the last item: where the arcs of the two sides are in this round's table
-            if sp == ra.structure and sm == rb.structure:
-                out[i] = (q, n, e, True, (rnd, j, j + len(trial)))
-            elif sp == rb.structure and sm == ra.structure:
-                out[i] = (q, -n, e, True, (rnd, j + len(trial), j))
-            elif rnd + 1 < len(cands[i]):
-                still.append(i)
-            else:
-                qi, ni, ei, at = first[i]
-                out[i] = (qi, ni, ei, False, at)
-        pending = still
+        sp = np.fromiter((sid.setdefault(x, len(sid)) for x in plus), np.int64, k)
+        sm = np.fromiter((sid.setdefault(x, len(sid)) for x in minus), np.int64, k)
+        fwd = (sp == sa[pending]) & (sm == sb[pending])
+        back = ~fwd & (sp == sb[pending]) & (sm == sa[pending])
+        done = fwd | back
+        for sel, sign, at in ((fwd, 1.0, np.column_stack((j, j + k))),
+                              (back, -1.0, np.column_stack((j + k, j)))):
+            i = pending[sel]
+            out_q[i], out_n[i], out_eps[i] = q[sel], sign * n[sel], eps[sel]
+            out_ok[i] = True
+            out_at[i, 0] = rnd
+            out_at[i, 1:] = at[sel]
+        last = ~done & (rnd + 1 >= count[pending])  # out of candidates: keep the first
+        if last.any():
+            i = pending[last]
+            f = np.searchsorted(np.flatnonzero(count > 0), i)
+            out_q[i], out_n[i], out_eps[i] = first[0][f], first[1][f], first[2][f]
+            out_at[i] = first[3][f]
+        pending = pending[~done & ~last]
         rnd += 1
-    return out, tables
+    has = (count > 0).tolist()
+    q_l, n_l, e_l, ok_l = (out_q.tolist(), out_n.tolist(), out_eps.tolist(), out_ok.tolist())
+    at_l = [tuple(a) for a in out_at.tolist()]
+    samples = [(q_l[i], n_l[i], e_l[i], ok_l[i], at_l[i]) if has[i] else None
+               for i in range(m)]
+    return samples, tables
 
 
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
