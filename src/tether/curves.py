@@ -648,12 +648,14 @@ def _overshoot_family(fam: Family, intervals: list[list[tuple[float, float]]], m
     intervals)`` for the curves with a critical part; vectorized except for conchoids (the
     same numbers as interval by interval)."""
     cs = [c for c, ivs in enumerate(intervals) if ivs]
-    if fam.kind == "E" or not cs:
-        return [(fam, c, [_overshoot(fam, c, iv, margin) for iv in intervals[c]]) for c in cs]
+    if not cs:
+        return []
     count = [len(intervals[c]) for c in cs]
     c = np.repeat(np.array(cs, dtype=np.int64), count)
     lo, hi = np.array([iv for k in cs for iv in intervals[k]], dtype=float).reshape(-1, 2).T
-    if fam.kind == "B":
+    if fam.kind == "E":
+        lo2, hi2 = _overshoot_conchoids(fam, c, lo, hi, margin)
+    elif fam.kind == "B":
         full = hi - lo >= 2 * math.pi - 1e-12
         dt = margin / fam.lss
         lo2, hi2 = np.where(full, lo, lo - dt), np.where(full, hi, hi + dt)
@@ -665,6 +667,67 @@ def _overshoot_family(fam: Family, intervals: list[list[tuple[float, float]]], m
     pairs = list(zip(lo2.tolist(), hi2.tolist(), strict=True))
     stops = np.cumsum(count).tolist()
     return [(fam, k, pairs[b - n:b]) for k, n, b in zip(cs, count, stops, strict=True)]
+
+
+def _overshoot_conchoids(fam: Family, c: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                         margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_overshoot` of conchoid intervals ``(lo, hi)`` of curves ``c``, vectorized (the
+    same numbers; the few one-vector norms stay numpy's scalar ones, whose rounding differs
+    from the row-wise norm's)."""
+    dlo, dhi = fam.lo[c], fam.hi[c]
+    width = np.maximum(dhi - dlo, 1e-300)
+    speed = fam.length_scale(c) / width
+    q = fam.points(np.concatenate((c, c)), np.concatenate((dlo, dhi)))
+    chord = np.array([np.linalg.norm(v) for v in q[len(c):] - q[: len(c)]]).reshape(-1)
+    speed = np.maximum(speed, chord / width)
+    dt = margin / np.maximum(speed, 1e-300)
+    keep_lo = (lo <= dlo) & _pole_ends(fam, c, dlo)
+    keep_hi = (hi >= dhi) & _pole_ends(fam, c, dhi)
+    out_lo, out_hi = lo.copy(), hi.copy()
+    k = np.flatnonzero(~keep_lo)
+    out_lo[k] = lo[k] - _reach_many(fam, c[k], lo[k], -dt[k], margin)
+    k = np.flatnonzero(~keep_hi)
+    out_hi[k] = hi[k] + _reach_many(fam, c[k], hi[k], dt[k], margin)
+    return out_lo, out_hi
+
+
+def _pole_ends(fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """:func:`_pole_end` for many (curve, parameter) pairs."""
+    Q = fam.w[c] + t[:, None] * fam.d[c]
+    r = fam.p[c] - Q
+    dist = np.array([np.linalg.norm(v) for v in r]).reshape(-1)
+    return np.abs(dist - fam.lss) <= 1e-9 * fam.lss
+
+
+def _reach_many(fam: Family, c: np.ndarray, t: np.ndarray, dt: np.ndarray, margin: float
+                ) -> np.ndarray:
+    """:func:`_reach` for many (curve, parameter, step) rows at once (the same numbers)."""
+    m = len(c)
+    if m == 0:
+        return np.zeros(0)
+    q0 = fam.points(c, t)
+    span = np.maximum(fam.hi[c] - fam.lo[c], np.abs(dt))
+    steps = dt[:, None] * 2.0 ** np.arange(_REACH_DOUBLINGS + 1)[None, :]
+    nvalid = np.sum(np.abs(steps) < span[:, None], axis=1)  # a prefix: |steps| doubles
+    steps = np.column_stack((steps, np.zeros(m)))
+    col = np.arange(_REACH_DOUBLINGS + 2)[None, :]
+    steps[np.arange(m), nvalid] = np.copysign(span, dt)
+    present = col <= nvalid[:, None]
+    steps = np.where(present, steps, 0.0)
+    rows = np.repeat(np.arange(m), _REACH_DOUBLINGS + 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pts = fam.points(c[rows], t[rows] + steps.ravel())
+        moved = np.hypot(*(pts - q0[rows]).T).reshape(m, -1)
+    ok = np.cumprod(np.isfinite(moved) & present, axis=1).astype(bool)
+    hit = ok & (moved >= margin)
+    any_hit = hit.any(axis=1)
+    first_hit = np.argmax(hit, axis=1)
+    last_ok = np.sum(ok, axis=1) - 1
+    out = np.abs(dt).astype(float)
+    r = np.arange(m)
+    out = np.where(any_hit, np.abs(steps[r, first_hit]),
+                   np.where(last_ok >= 0, np.abs(steps[r, np.maximum(last_ok, 0)]), out))
+    return out
 
 
 def _draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: float

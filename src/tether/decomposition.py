@@ -335,18 +335,33 @@ def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _row_ids(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """An integer id per row of ``key`` (shape (n, k)), equal for equal rows (compared as
-    numbers), numbered in the rows' lexicographic order, and the first row of each id. A
-    lexsort on the columns: ``np.unique`` on rows viewed as bytes compares them as strings,
-    several times slower."""
+    """An integer id per row of ``key`` (shape (n, k), floats or integers), equal for equal
+    rows (compared as numbers), and the first row of each id (ids are numbered in no
+    particular order). One stable sort on a 64-bit hash of the rows, verified (rows of equal
+    hash must be equal, else a lexsort): ``np.unique`` on rows viewed as bytes compares them
+    as strings, several times slower, and a lexsort sorts once per column."""
     n = len(key)
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    order = np.lexsort(key.T[::-1])
+    if key.dtype.kind == "f":
+        bits = np.ascontiguousarray(key + 0.0).view(np.uint64)  # + 0.0: -0.0 becomes 0.0
+    else:
+        bits = np.ascontiguousarray(key).astype(np.int64).view(np.uint64)
+    h = np.zeros(n, np.uint64)
+    with np.errstate(over="ignore"):
+        for j in range(key.shape[1]):
+            h = (h ^ bits[:, j]) * np.uint64(0x9E3779B97F4A7C15)
+            h ^= h >> np.uint64(29)
+    order = np.argsort(h, kind="stable")
+    sh = h[order]
     sk = key[order]
     new = np.empty(n, bool)
     new[0] = True
-    new[1:] = np.any(sk[1:] != sk[:-1], axis=1)
+    new[1:] = sh[1:] != sh[:-1]
+    if np.any(~new[1:] & np.any(sk[1:] != sk[:-1], axis=1)):  # a collision: sort the rows
+        order = np.lexsort(key.T[::-1])
+        sk = key[order]
+        new[1:] = np.any(sk[1:] != sk[:-1], axis=1)
     ids = np.empty(n, np.int64)
     ids[order] = np.cumsum(new) - 1
     return ids, order[new]
