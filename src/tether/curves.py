@@ -744,11 +744,77 @@ def _draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: f
             j += 1
         group = found[k:j]
         if fam.kind == "E":
-            out += [[_polyline(fam, c, lo, hi, tol) for lo, hi in ivs] for _, c, ivs in group]
+            out += _draw_conchoids(fam, group, tol)
         else:
             out += _draw_simple(fam, group, tol)
         k = j
     return out
+
+
+def _draw_conchoids(fam: Family, group: list[tuple[Family, int, list[tuple[float, float]]]],
+                    tol: float) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """:func:`_polyline` for conchoids, all intervals at once: 17 parameters each, chords
+    split at their middle while the middle deviates more than ``tol`` (at most 24 rounds, each
+    interval evolving as it would alone), then the marks and the pole ends."""
+    count = [len(ivs) for _, _, ivs in group]
+    c = np.repeat(np.array([g[1] for g in group], dtype=np.int64), count)
+    lo, hi = np.array([iv for g in group for iv in g[2]], dtype=float).reshape(-1, 2).T
+    m = len(lo)
+    iv, ts = _linspace_many(lo, hi, np.full(m, 17, dtype=np.int64))
+    active = np.ones(m, bool)
+    for _ in range(24):
+        rows = np.flatnonzero(active[iv])
+        if len(rows) == 0:
+            break
+        v, t = iv[rows], ts[rows]
+        pts = fam.points(c[v], t)
+        pair = np.flatnonzero(v[1:] == v[:-1])  # consecutive parameters of one interval
+        mid_t = 0.5 * (t[pair + 1] + t[pair])
+        mid = fam.points(c[v[pair]], mid_t)
+        a, b = pts[pair], pts[pair + 1]
+        ab = b - a
+        lab = np.maximum(np.linalg.norm(ab, axis=1), 1e-300)
+        dev = np.abs(ab[:, 0] * (mid[:, 1] - a[:, 1]) - ab[:, 1] * (mid[:, 0] - a[:, 0])) / lab
+        split = dev > tol
+        active[:] = False
+        active[v[pair[split]]] = True
+        if not split.any():
+            break
+        iv = np.concatenate((iv, v[pair[split]]))
+        ts = np.concatenate((ts, mid_t[split]))
+        order = np.lexsort((ts, iv))
+        iv, ts = iv[order], ts[order]
+    pts = fam.points(c[iv], ts)
+    n = np.bincount(iv, minlength=m)
+    stops = np.cumsum(n).tolist()
+    starts = [0] + stops[:-1]
+    at_lo = (lo == fam.lo[c]) & _pole_ends(fam, c, lo)
+    at_hi = (hi == fam.hi[c]) & _pole_ends(fam, c, hi)
+    drawn = []
+    for k, (ci, a0, b0) in enumerate(zip(c.tolist(), starts, stops, strict=True)):
+        t_k, p_k = _with_marks(fam, ci, ts[a0:b0].copy(), pts[a0:b0].copy())
+        if at_hi[k]:
+            p_k[-1] = fam.p[ci]
+        if at_lo[k]:
+            p_k[0] = fam.p[ci]
+        drawn.append((t_k, p_k))
+    ends = np.cumsum(count).tolist()
+    return [drawn[e - q:e] for q, e in zip(count, ends, strict=True)]
+
+
+def _linspace_many(lo: np.ndarray, hi: np.ndarray, n: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """``np.linspace(lo[k], hi[k], n[k])`` for every ``k`` at once (its arithmetic: ``i *
+    step + lo``, the last value ``hi`` exactly): (interval index, parameter) rows."""
+    iv = np.repeat(np.arange(len(lo)), n)
+    first = np.cumsum(n) - n
+    kk = (np.arange(len(iv)) - np.repeat(first, n)).astype(float)
+    delta = hi - lo
+    stepv = delta / (n - 1)
+    zero = stepv == 0
+    ts = np.where(zero[iv], kk / (n - 1)[iv] * delta[iv], kk * stepv[iv]) + lo[iv]
+    ts[first + n - 1] = hi
+    return iv, ts
 
 
 def _draw_simple(fam: Family, group: list[tuple[Family, int, list[tuple[float, float]]]],
@@ -763,15 +829,8 @@ def _draw_simple(fam: Family, group: list[tuple[Family, int, list[tuple[float, f
         n = np.maximum(2, np.ceil((hi - lo) / step).astype(np.int64) + 1)
     else:
         n = np.full(len(lo), 2, dtype=np.int64)
-    iv = np.repeat(np.arange(len(lo)), n)
+    iv, ts = _linspace_many(lo, hi, n)
     first = np.cumsum(n) - n
-    kk = (np.arange(len(iv)) - np.repeat(first, n)).astype(float)
-    delta = hi - lo
-    stepv = delta / (n - 1)
-    zero = stepv == 0
-    ts = np.where(zero[iv], kk / (n - 1)[iv] * delta[iv], kk * stepv[iv]) + lo[iv]
-    last = first + n - 1
-    ts[last] = hi
     pts = fam.points(c[iv], ts)
     stops = (first + n).tolist()
     firsts = first.tolist()
