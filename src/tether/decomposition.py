@@ -919,6 +919,7 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     samples, tables = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
     geoms = _chain_geometries(arr, chains, samples)
     pieces, dropped, at = [], 0, []
+    described: dict[tuple[int, ...], tuple[str, tuple[str, ...]]] = {}  # many pieces share
     for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
                                                  strict=True):
         if sample is None:
@@ -926,9 +927,13 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
             continue
         q, n, eps, verified, where = sample
         at.append(where)
-        kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
-        feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
-        pieces.append(Piece(len(pieces), (ra, rb), tuple(srcs), kinds, feats, geom,
+        key = tuple(srcs)
+        got = described.get(key)
+        if got is None:
+            kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
+            feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
+            got = described[key] = (kinds, feats)
+        pieces.append(Piece(len(pieces), (ra, rb), key, got[0], got[1], geom,
                             (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
                             bool(verified)))
     return pieces, dropped, _crossing_table(tables, at)
@@ -1050,8 +1055,7 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
     m = len(chains)
     count = cands.count
     sid: dict = {}  # structure -> integer id (regions' first)
-    reg_sid = np.fromiter((sid.setdefault(r.structure, len(sid)) for r in regions), np.int64,
-                          len(regions))
+    reg_sid = _structure_codes([r.structure for r in regions], sid)
     pair = np.array([p for p, _ in chains], dtype=np.int64).reshape(-1, 2)
     sa, sb = reg_sid[pair[:, 0]], reg_sid[pair[:, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
@@ -1073,8 +1077,8 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
             first = (q, n, eps, np.column_stack((np.zeros(k, np.int64), j, j + k)))
         table, plus, minus = _arcs_across(env, lss, q, n, eps)
         tables.append(table)
-        sp = np.fromiter((sid.setdefault(x, len(sid)) for x in plus), np.int64, k)
-        sm = np.fromiter((sid.setdefault(x, len(sid)) for x in minus), np.int64, k)
+        sp = _structure_codes(plus, sid)
+        sm = _structure_codes(minus, sid)
         fwd = (sp == sa[pending]) & (sm == sb[pending])
         back = ~fwd & (sp == sb[pending]) & (sm == sa[pending])
         done = fwd | back
@@ -1099,6 +1103,19 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
     samples = [(q_l[i], n_l[i], e_l[i], ok_l[i], at_l[i]) if has[i] else None
                for i in range(m)]
     return samples, tables
+
+
+def _structure_codes(structs: list, codes: dict) -> np.ndarray:
+    """An integer per structure, equal for equal structures, from (and added to) ``codes``.
+    Equal structures are mostly one shared object: each distinct object is looked up once
+    (comparing two equal frozensets of different identity costs their size)."""
+    if not structs:
+        return np.zeros(0, np.int64)
+    obj = np.fromiter(map(id, structs), np.int64, len(structs))
+    _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
+    val = np.fromiter((codes.setdefault(structs[i], len(codes)) for i in first.tolist()),
+                      np.int64, len(first))
+    return val[inv.ravel()]
 
 
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
