@@ -53,3 +53,36 @@ def test_floor_plan():
 @given(env=random_maps(), lss=st.floats(0.3, 8.0))
 def test_random_maps(env, lss):
     assert_same_as_scalar(env, lss)
+
+
+def test_pruned_conchoid_projection_equals_the_full_search(monkeypatch):
+    """Projections on conchoids with the block-pruned nearest-segment search equal those with
+    every segment of the curve (points on the polylines, at their vertices, and anywhere)."""
+    import tether.curves as C
+
+    env = floor_plan(100, seed=0)
+    inner = env.internal
+    curves = C.critical_curves(inner, (env.bounds[2] - env.bounds[0]) / 15 * env.frame.scale)
+    conchoids = [c.id for c in curves if c.kind == "E"]
+    rng = np.random.default_rng(0)
+    cid = rng.choice(conchoids, 3000)
+    pts = []
+    for k in cid[:2000]:
+        p = curves[k].polylines[0]
+        i = rng.integers(0, len(p) - 1)
+        w = rng.choice([0.0, 0.5, rng.random()])
+        pts.append(p[i] + w * (p[i + 1] - p[i]))
+    x0, y0, x1, y1 = inner.bounds
+    q = np.vstack((pts, rng.uniform([x0, y0], [x1, y1], (1000, 2))))
+    pruned = C._project_conchoids(curves, cid, q)
+
+    def every_segment(a, b, sc, ncurves, inv, q):
+        count = np.bincount(sc, minlength=ncurves)
+        first = np.cumsum(count) - count
+        return (np.repeat(np.arange(len(inv)), count[inv]),
+                C.ragged_arange(first[inv], count[inv]))
+
+    monkeypatch.setattr(C, "_near_segment_pairs", every_segment)
+    full = C._project_conchoids(curves, cid, q)
+    for x, y in zip(pruned, full, strict=True):
+        assert np.array_equal(x, y)

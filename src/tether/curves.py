@@ -35,6 +35,7 @@ import numpy as np
 import shapely
 
 from tether.arcs import rod_is_free_many
+from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
@@ -1128,12 +1129,7 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
             seg_c.append(np.full(len(p) - 1, k))
     a, b = np.vstack(seg_a), np.vstack(seg_b)
     lo_all, hi_all, sc = map(np.concatenate, (seg_lo, seg_hi, seg_c))
-    count = np.bincount(sc, minlength=len(uc))
-    first = np.cumsum(count) - count
-    nseg = count[inv]
-    row = np.repeat(np.arange(len(cid)), nseg)
-    seg = np.repeat(first[inv], nseg) + (np.arange(len(row))
-                                         - np.repeat(np.cumsum(nseg) - nseg, nseg))
+    row, seg = _near_segment_pairs(a, b, sc, len(uc), inv, q)
     ab = b[seg] - a[seg]
     u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
                 / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
@@ -1160,6 +1156,45 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     tangent = _tangents(fam, c, t, dlo, dhi)
     tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
     return t, fam.points(c, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+
+
+#: Consecutive polyline segments per block in the pruned nearest-segment search.
+_SEG_BLOCK = 16
+
+
+def _near_segment_pairs(a: np.ndarray, b: np.ndarray, sc: np.ndarray, ncurves: int,
+                        inv: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (row, segment) pairs among which each point ``q[row]`` finds its nearest segment
+    of curve ``inv[row]`` (segments ``a[k]-b[k]`` grouped by curve ``sc[k]``), in (row,
+    segment) order: every segment of the blocks of ``_SEG_BLOCK`` consecutive segments whose
+    bounding box is not farther from the point than some block's first vertex (an upper bound
+    of the nearest distance). Every segment at the nearest distance is kept, so the nearest
+    one, and the first among equals, are those of the search over all segments."""
+    count = np.bincount(sc, minlength=ncurves)
+    first = np.cumsum(count) - count
+    nblk = -(-count // _SEG_BLOCK)  # blocks per curve
+    bfirst = np.cumsum(nblk) - nblk
+    bcurve = np.repeat(np.arange(ncurves), nblk)
+    bstart = first[bcurve] + _SEG_BLOCK * (np.arange(len(bcurve)) - bfirst[bcurve])
+    bstop = np.minimum(bstart + _SEG_BLOCK, (first + count)[bcurve])
+    lo = np.minimum(a, b)
+    hi = np.maximum(a, b)
+    bx0, by0 = (np.minimum.reduceat(lo[:, j], bstart) for j in (0, 1))
+    bx1, by1 = (np.maximum.reduceat(hi[:, j], bstart) for j in (0, 1))
+    nb = nblk[inv]
+    rowb = np.repeat(np.arange(len(inv)), nb)
+    blk = ragged_arange(bfirst[inv], nb)
+    qx, qy = q[rowb, 0], q[rowb, 1]
+    gap = np.hypot(np.maximum(np.maximum(bx0[blk] - qx, qx - bx1[blk]), 0.0),
+                   np.maximum(np.maximum(by0[blk] - qy, qy - by1[blk]), 0.0))
+    vertex = a[bstart[blk]]
+    ub = np.full(len(inv), np.inf)
+    np.minimum.at(ub, rowb, np.hypot(vertex[:, 0] - qx, vertex[:, 1] - qy))
+    slack = 1e-9 * ub + 1e-12  # rounding of the bounds against the distances
+    keep = np.flatnonzero(gap <= (ub + slack)[rowb])
+    rowb, blk = rowb[keep], blk[keep]
+    size = bstop[blk] - bstart[blk]
+    return np.repeat(rowb, size), ragged_arange(bstart[blk], size)
 
 
 def _tangents(fam: Family, c: np.ndarray, t: np.ndarray, dlo: np.ndarray, dhi: np.ndarray
