@@ -113,16 +113,19 @@ def save_floor_plans():
 
 def _run(job):
     """One simulation: ``job = (label, ratio, kind, k, start, duration, dt)`` →
-    ``(outcome held?, lost_at, reason)``."""
+    ``(outcome held?, lost_at, reason, cause)``, ``cause`` the loss's
+    :func:`tether.sim.diagnose.explain_loss` as a dict (``None`` when held)."""
     from tether.sim.controller import PaperController
+    from tether.sim.diagnose import explain_loss
     from tether.sim.simulate import simulate
     from tether.sim.targets import make_target
 
     label, ratio, kind, k, st, duration, dt = job
     w = _world(label, ratio)
-    r = simulate(w, PaperController(w), make_target(kind, w), st, duration=duration, dt=dt,
-                 seed=k)
-    return r.held, r.lost_at, r.reason
+    ctrl = PaperController(w, record=True)
+    r = simulate(w, ctrl, make_target(kind, w), st, duration=duration, dt=dt, seed=k)
+    cause = explain_loss(w, r, ctrl.commitments)
+    return r.held, r.lost_at, r.reason, None if cause is None else cause.to_dict()
 
 
 def kernel_check(label, ratio, starts):
@@ -184,7 +187,8 @@ def table(data):
         for kind in KINDS:
             held = lost = lost_in = 0
             reasons = Counter()
-            for k, (ok, lost_at, reason) in enumerate(cell["results"][kind]):
+            causes = Counter()
+            for k, (ok, lost_at, reason, *why) in enumerate(cell["results"][kind]):
                 if ok:
                     held += 1
                     continue
@@ -192,11 +196,13 @@ def table(data):
                 inside = cell["in_kernel"][k]
                 lost_in += inside
                 reasons[short(reason)] += 1
+                cause = why[0] if why else None
+                causes[cause["cause"] if cause else "?"] += 1
                 losses.append((label, lss, ratio, kind, cell["starts"][k], k, lost_at, reason,
-                               inside))
+                               inside, cause))
             rows.append((label, lss, ratio, kind, len(cell["starts"]), held, lost, reasons,
                          cell["exists"], cell["kernel_fraction"], sum(cell["in_kernel"]),
-                         lost_in))
+                         lost_in, causes))
     return rows, losses
 
 
@@ -245,6 +251,57 @@ def gap():
     return out
 
 
+def _cause_cells(cause):
+    """(cause with its escape point, time it was last safe) as table cells."""
+    if not cause:
+        return "—", "—"
+    c = cause["cause"] + (f" ({cause['escape']})" if cause.get("escape") else "")
+    t = "—" if cause.get("t_safe") is None else f"{cause['t_safe']:.2f}"
+    return c, t
+
+
+def why_section(losses):
+    """Lines of the page's *Why each loss happened*: per cause, gap or bug, counts in and out
+    of the kernel, its meaning and the first example with the command that replays it."""
+    from tether.sim.diagnose import CAUSES
+
+    tally, first = Counter(), {}
+    for name, lss, ratio, kind, st, k, _t, _reason, inside, cause in losses:
+        c = cause["cause"] if cause else "?"
+        tally[(c, inside)] += 1
+        first.setdefault(c, (name, lss, ratio, kind, st, k, cause))
+    gaps = sum(n for (c, _), n in tally.items() if CAUSES.get(c, ("?",))[0] == "gap")
+    bugs = sum(n for (c, _), n in tally.items() if CAUSES.get(c, ("?",))[0] == "bug")
+    other = sum(tally.values()) - gaps - bugs
+    out = ["## Why each loss happened", "",
+           "`tether.sim.diagnose.explain_loss` replays each lost run's trace backwards from "
+           "the loss to the last state the paper's conditions call safe (every concerning "
+           "escape point farther than its `L_g`, no Prop. 3 conflict: what `tether assess` "
+           "checks) and names what changed at the next step. A *gap* is a loss where the "
+           "controller did what the paper prescribes (§10, last paragraph: the trigger "
+           "assumes a straight dash to one escape point at a time); a *bug* is one where it "
+           "did not, or where the escape table missed what beat the observer. The trace is "
+           "the evidence: safe at *safe until*, unsafe from the next step to the loss. "
+           "`tether simulate ... --target KIND --seed K` prints the same cause for a lost run "
+           "of the paper's controller.", "",
+           f"In all **{gaps} losses are gaps** of the paper's conditions, **{bugs} are bugs**"
+           + (f", {other} other" if other else "") + ".", "",
+           "| cause | gap or bug | losses (start in kernel / outside) | what happened | first "
+           "example (map, vt/vo, target, seed: safe until → escape point) |",
+           "|---|---|---|---|---|"]
+    order = sorted({c for c, _ in tally}, key=lambda c: -sum(n for (d, _), n in tally.items()
+                                                             if d == c))
+    for c in order:
+        kind, text = CAUSES.get(c, ("?", "no diagnosis"))
+        name, lss, ratio, tkind, st, k, cause = first[c]
+        ex = f"{name}, {ratio:g}, {tkind}, {k}"
+        if cause and cause.get("t_safe") is not None:
+            ex += f": {cause['t_safe']:.2f} s → {cause.get('escape') or '—'}"
+        out.append(f"| {c} | {kind} | {tally[(c, True)]} / {tally[(c, False)]} | {text} | "
+                   f"{ex} |")
+    return out
+
+
 def write(rows, losses, scen, runs, duration, dt, secs, g=None):
     lines = ["# The strategy, live", "",
              "Generated by `python docs/strategy_table.py "
@@ -282,10 +339,7 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
                   "no-pivot radius lss·vt/(vo+vt)) to the escape table, and `assess` applies "
                   "Prop. 3 to every pair of escape points of any kind.", "",
                   "The losses below (from starts that `assess` calls safe, with every row "
-                  "kind) are not proven to be gaps: the trigger assumes a straight dash to one "
-                  "escape point, and targets that round reflex corners at a hair's breadth or "
-                  "change goal mid-rotation (Becerra 2010) beat it; the exact answer is the "
-                  "kernel's (§11).", ""]
+                  "kind) are each traced to a cause in *Why each loss happened*.", ""]
     total = sum(r[4] for r in rows)
     lines += ["## Held / lost from starts that `assess` calls safe", "",
               f"Paper controller (every escape-row kind), vo = 1, dt = {dt:g} s, "
@@ -301,16 +355,24 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
               "a loss from there is a gap in the paper's sufficient conditions (Props. 2–3 "
               "call the start safe), not a controller bug; *lost in kernel* counts the losses "
               "the kernel says an observer could have avoided.", "",
+              "*Causes*: what :func:`tether.sim.diagnose.explain_loss` finds on each lost "
+              "trace (below, *Why each loss happened*).", "",
               "| map | lss | vt/vo | target | runs | held | lost | kernel % | starts in kernel "
-              "| lost in kernel | loss reasons |",
-              "|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| lost in kernel | causes | loss reasons |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for (name, lss, ratio, kind, n, held, lost, reasons, exists, frac, n_in,
-         lost_in) in rows:
+         lost_in, causes) in rows:
+        if not n:
+            continue
         rs = "; ".join(f"{c}× {r}" for r, c in reasons.most_common()) or "—"
+        cs = ", ".join(f"{c} {k}" for k, c in causes.most_common()) or "—"
         label = name if exists else f"{name} (no strategy)"
         kf = "—" if frac is None else f"{100 * frac:.1f}"
         lines.append(f"| {label} | {lss:g} | {ratio:g} | {kind} | {n} | {held} | {lost} | "
-                     f"{kf} | {n_in if n else '—'} | {lost_in if n else '—'} | {rs} |")
+                     f"{kf} | {n_in} | {lost_in} | {cs} | {rs} |")
+    empty = sorted({(r[0], r[2]) for r in rows if not r[4]})
+    lines += ["", "No start that `assess` calls safe (so no row above): "
+              + ", ".join(f"{m} at {q:g}" for m, q in empty) + "."]
     held = sum(r[5] for r in rows)
     lost_in = sum(r[11] for r in rows)
     lost = total - held
@@ -327,25 +389,23 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
               "safe. The room at 0.6 is the counterexample: its kernel is empty as well, yet "
               "`assess` calls starts safe there — a gap in Props. 2–3 (as on the room at 0.9 "
               "with lss 1, `docs/kernel.md`); our targets rarely find the winning play.", "",
-              "The paper's controller loses most on the floor plans, mostly by a pivot about "
-              "a reflex vertex (a target hugging a pillar rounds its corner at ~0.013 m, far "
-              "inside the no-pivot radius, while the rod still grazes the corner) and by "
-              "walls met too steeply; these starts lie in the kernel, so an observer could "
-              "hold them. Whether the trigger fires too late there (a bug) or the paper's "
-              "conditions miss these plays (a gap) is not settled yet.", "",
+              *why_section(losses), "",
               "## Losses from safe starts", "",
               f"The first {LOSSES_SHOWN} of each (map, ratio, target); every run, with its "
-              "start, seed, time and reason, is in `docs/strategy_runs.json`.", "",
-              "| map | lss | vt/vo | target | start (x, y, a) | seed | t | in kernel | reason |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "start, seed, time, reason and cause, is in `docs/strategy_runs.json`. *Safe "
+              "until*: the last time the paper's conditions held on the trace.", "",
+              "| map | lss | vt/vo | target | start (x, y, a) | seed | t | in kernel | cause "
+              "| safe until | reason |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     shown = Counter()
-    for name, lss, ratio, kind, st, k, t, reason, inside in losses:
+    for name, lss, ratio, kind, st, k, t, reason, inside, cause in losses:
         shown[(name, ratio, kind)] += 1
         if shown[(name, ratio, kind)] > LOSSES_SHOWN:
             continue
+        c, ts = _cause_cells(cause)
         lines.append(f"| {name} | {lss:g} | {ratio:g} | {kind} | ({st[0]:.3f}, {st[1]:.3f}, "
-                     f"{st[2]:.3f}) | {k} | {t:.2f} | {'yes' if inside else 'no'} | "
-                     f"{reason} |")
+                     f"{st[2]:.3f}) | {k} | {t:.2f} | {'yes' if inside else 'no'} | {c} | "
+                     f"{ts} | {reason} |")
     lines += ["", "Rerun one: `tether simulate MAP.json --lss LSS --vt R --vo 1 --start X Y A "
               "--target KIND --seed K --duration D --plot run.png` (MAP.json: "
               "`src/tether/examples/<map>.json` or `docs/maps/<floorplan>.json`); the kernel "

@@ -161,7 +161,7 @@ def test_prop3_applies_to_vertex_escape_points():
     v = verdict("gallery")
     st = (0.939, 2.344, 6.143)
     res = assess(v, 0.6, 1.0, *st)
-    assert not res.safe and "Prop. 3" in res.reasons[0]
+    assert not res.safe and any("Prop. 3" in r for r in res.reasons)
     kinds = {res.escape_points[i].piece for pair in res.conflicts for i in pair}
     assert {"V6", "V7"} <= kinds
     w = _gallery_world(0.6)
@@ -208,14 +208,16 @@ def test_committed_rotation_turns_the_other_way_when_pinned():
     """Gallery, vt/vo = 0.3, safe start (4.078, 5.341, 3.17), random walker seed 1: the
     controller committed to a CW sweep for reflex vertex V4 (8, 9) while the rod lay on the
     wall E4 (y = 9), pinned in compliant motion; it never re-chose the sense when the arc
-    opened CCW toward the goal, and the rod pivoted about V4 at 17.96 s. Held now."""
+    opened CCW toward the goal, and the rod pivoted about V4 at 17.96 s. Held now. (Since
+    the vertex goals were shrunk by ``VERTEX_GOAL_MARGIN`` the start is no longer called safe
+    (V6 and V7 conflict, Prop. 3): the run stays as a test of the pinned rotation.)"""
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
     from tether.sim.targets import make_target
 
     v = verdict("gallery")
     st = (4.078, 5.341, 3.17)
-    assert assess(v, 0.3, 1.0, *st).safe
+    assert assess(v, 0.3, 1.0, *st).rod_free
     w = _gallery_world(0.3)
     r = simulate(w, PaperController(w), make_target("random", w), st, duration=19.0, dt=0.02,
                  seed=1)

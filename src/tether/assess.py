@@ -376,13 +376,36 @@ def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
         ok = np.ones(n_dir, dtype=bool)
         for pt in pts:
             ok &= rod_free_fan(env, pt, dirs, lss)
-        arcs = _runs(ok, dirs, TWO_PI / n_dir)
+        arcs = _shrunk(_runs(ok, dirs, TWO_PI / n_dir), VERTEX_GOAL_MARGIN) \
+            or _runs(ok, dirs, TWO_PI / n_dir)
         if not arcs:
             rows = table.rows_of(i)
             arcs = [(float(s), float(e)) for s, e in zip(table.start[rows], table.end[rows],
                                                          strict=True)]
         goals.append(arcs)
     return q, goals
+
+
+#: Angle (rad) by which a reflex vertex's goal arcs are shrunk at each end. The goal is the
+#: set free at sampled target positions around the vertex; between the samples the contact
+#: orientation reaches past it (on the gallery a rod 0.05 rad inside the goal's edge was
+#: caught by the vertex's arc end, 0.06 rad past the edge, while the target pulled away at
+#: 0.1 from the vertex: `unforeseen` losses of ``docs/strategy.md``). Arcs narrower than
+#: twice this are kept whole.
+VERTEX_GOAL_MARGIN = 0.1
+
+
+def _shrunk(arcs: list[tuple[float, float]], margin: float) -> list[tuple[float, float]]:
+    """CCW arcs shrunk by ``margin`` rad at each end, those narrower than ``2·margin``
+    dropped (the full circle ``(s, s)`` kept as it is)."""
+    out = []
+    for s, e in arcs:
+        width = (e - s) % TWO_PI
+        if width == 0.0:
+            out.append((s, e))
+        elif width > 2.0 * margin:
+            out.append(((s + margin) % TWO_PI, (e - margin) % TWO_PI))
+    return out
 
 
 def rod_free_fan(env: Any, point: np.ndarray, dirs: np.ndarray, lss: float) -> np.ndarray:
@@ -620,36 +643,47 @@ def _arc_at(env: Any, p: np.ndarray, a: float, lss: float) -> tuple[float, float
     return None
 
 
-def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
-                   lss: float, arc: tuple[float, float] | None = None) -> list[EscapePoint]:
-    """The concerning escape samples within reach, one per piece or vertex (the tightest),
-    sorted by margin."""
-    out: list[EscapePoint] = []
-    if not len(table):
-        return out
+def _escape_rows(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
+                 lss: float, arc: tuple[float, float] | None = None) -> tuple[list[int], tuple]:
+    """The rows of the concerning escape samples within reach, one per piece or vertex (the
+    tightest), sorted by margin; and ``(Δ, σ, margin, points, distances)`` of every row
+    (margin ``inf`` where the row does not concern the rod)."""
     concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
     qs = table.points_for(p, a)
     dist = np.hypot(*(qs - p).T)
-    lg = l_safe(delta, vt, vo, lss)
     reach = _reach(vt, vo, lss) + lss
     best: dict[int, int] = {}
     for i in np.flatnonzero(concern & (dist <= reach)):
         k = int(table.piece[i])
         if k not in best or margin[i] < margin[best[k]]:
             best[k] = int(i)
-    for i in sorted(best.values(), key=lambda i: margin[i]):
-        vertex = bool(table.piece[i] < 0)
-        kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
-        out.append(EscapePoint(kind,
-                               (float(qs[i, 0]), float(qs[i, 1])),
-                               None if vertex else table.cell[i], _row_name(int(table.piece[i])),
-                               float(dist[i]), float(delta[i]), int(sense[i]),
-                               float(l_paper(delta[i], vt, vo, lss)), float(lg[i]),
-                               float(margin[i]),
-                               tuple((float(g0), float(g1)) for g0, g1
-                                     in zip(table.g_start[i], table.g_end[i], strict=True)
-                                     if np.isfinite(g0))))
-    return out
+    return sorted(best.values(), key=lambda i: margin[i]), (delta, sense, margin, qs, dist)
+
+
+def _escape_point(table: EscapeTable, i: int, values: tuple, vt: float, vo: float,
+                  lss: float) -> EscapePoint:
+    """Row ``i`` as an :class:`EscapePoint` (``values`` from :func:`_escape_rows`)."""
+    delta, sense, margin, qs, dist = values
+    vertex = bool(table.piece[i] < 0)
+    kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
+    return EscapePoint(kind, (float(qs[i, 0]), float(qs[i, 1])),
+                       None if vertex else table.cell[i], _row_name(int(table.piece[i])),
+                       float(dist[i]), float(delta[i]), int(sense[i]),
+                       float(l_paper(delta[i], vt, vo, lss)),
+                       float(l_safe(delta[i], vt, vo, lss)), float(margin[i]),
+                       tuple((float(g0), float(g1)) for g0, g1
+                             in zip(table.g_start[i], table.g_end[i], strict=True)
+                             if np.isfinite(g0)))
+
+
+def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
+                   lss: float, arc: tuple[float, float] | None = None) -> list[EscapePoint]:
+    """The concerning escape samples within reach, one per piece or vertex (the tightest),
+    sorted by margin."""
+    if not len(table):
+        return []
+    rows, values = _escape_rows(table, p, a, vt, vo, lss, arc)
+    return [_escape_point(table, i, values, vt, vo, lss) for i in rows]
 
 
 #: Directions sampled to find the orientations two goals share (0.25°).

@@ -131,9 +131,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         world.extra["kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
     target = make_target(args.target, world, **opts)
-    controller = CONTROLLERS[args.controller](world)
+    paper = args.controller == "paper"
+    controller = CONTROLLERS[args.controller](world, **({"record": True} if paper else {}))
     res = simulate(world, controller, target, tuple(args.start), duration=args.duration,
                    dt=args.dt, seed=args.seed, progress=Progress("simulate"))
+    cause = None
+    if paper and not res.held:
+        from tether.sim.diagnose import explain_loss
+
+        cause = explain_loss(world, res, controller.commitments)
     if args.trace:
         from tether.output import atomic_output
 
@@ -152,13 +158,20 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         animate_run(res, world, args.animate)
     if args.json:
-        print_json(res.to_dict())
+        print_json({**res.to_dict(), **({"cause": cause.to_dict()} if cause else {})})
         return 0
     print(f"{res.target} vs {res.controller} from {tuple(args.start)} for {res.duration:g}s "
           f"(dt={res.dt:g}, seed={res.seed}): {res.outcome.upper()}"
           + (f" at t={res.lost_at:.3f}s" if res.lost_at is not None else ""))
     if res.reason:
         print(f"  reason: {res.reason}")
+    if cause is not None:
+        kind = {"gap": "a gap of the paper's conditions", "bug": "a bug of tether's",
+                "start": "not a loss from a safe start"}[cause.kind]
+        print(f"  cause: {cause.cause} ({kind}): "
+              + (f"safe by Props. 2-3 until t={cause.t_safe:.3f}s"
+                 if cause.t_safe is not None else "unsafe from the start")
+              + (f", then {cause.escape}" if cause.escape else "") + f"; {cause.text}")
     print("  modes: " + " -> ".join(res.modes))
     print("  time per mode: " + ", ".join(f"{m} {t:.2f}s" for m, t in res.mode_time.items()))
     m = res.monitor

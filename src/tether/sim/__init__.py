@@ -9,5 +9,6 @@ rates, assess); never imports matplotlib.
 Modules: ``protocols`` (World, Command, Controller, Target), ``simulate`` (the loop, the
 monitor, traces), ``controller`` (paper, follow, translate; ``CONTROLLERS``), ``targets``
 (``TARGETS``), ``local`` (the free arc around the rod in µs), ``paths`` (shortest paths for
-targets), ``scenarios`` (the paper's Figs. 7 and 8, live).
+targets), ``scenarios`` (the paper's Figs. 7 and 8, live), ``diagnose`` (why a run from a
+safe start was lost: a gap of the paper's conditions or a bug).
 """

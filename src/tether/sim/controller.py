@@ -161,22 +161,27 @@ class PaperController(_Compliant):
     The trigger: for the rod orientation ``a``, every escape sample ``q`` that concerns it
     (:meth:`tether.assess.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when
     ``|p − q| <= L_g(Δ) + pad`` with ``pad = trigger_steps·vt·dt`` and keeps its sense until the
-    rod is in that sample's goal. The escape table is re-evaluated when a cheap lower bound on
-    the smallest margin (it shrinks by at most ``vt·dt + vt·Lss·|δa|/(vo − vt)`` a step) gets
-    close to the pad, and at least every ``refresh`` steps. A committed rotation goes on until
-    the rod is ``overshoot`` rad inside the goal.
+    rod is in that sample's goal. The escape table is evaluated at every reactive step (a lazy
+    re-evaluation, on a lower bound of the smallest margin, let the trigger fire late whenever
+    an escape point became a concern of the rod already close to its ``L_g``: 36 of the
+    losses once listed in ``docs/strategy.md``). A committed rotation goes on until the rod is
+    ``overshoot`` rad inside the goal; one pinned against an arc end for ``refresh`` steps is
+    handed over (:meth:`_hand_over`).
 
     ``reactive`` is ``"follow"`` (default) or ``"translate"``. ``escape_rows``: ``"all"``
     (pieces, reflex vertices, steep walls), ``"pieces"`` (Def. 2 alone, the paper's literal
-    escape points) or ``"pieces+vertices"``. Needs ``world.verdict``.
+    escape points) or ``"pieces+vertices"``. ``record=True`` keeps, per step, the escape-table
+    row the rotation serves (``None`` when reactive) in ``commitments``, for
+    :func:`tether.sim.diagnose.explain_loss`. Needs ``world.verdict``.
     """
 
     name = "paper"
 
     def __init__(self, world: World | None = None, reactive: str = "follow",
                  trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2,
-                 escape_rows: str = "all") -> None:
+                 escape_rows: str = "all", record: bool = False) -> None:
         self.reactive = reactive
+        self.record = bool(record)
         self.escape_rows = escape_rows
         self.overshoot = float(overshoot)
         self._arc = None
@@ -198,15 +203,13 @@ class PaperController(_Compliant):
             gs, ge = t.g_start.reshape(len(t), -1), t.g_end.reshape(len(t), -1)
             self._goals = [(g[np.isfinite(g)].tolist(), h[np.isfinite(g)].tolist())
                            for g, h in zip(gs, ge, strict=True)]
-        self.gain = self.vt * self.lss / (self.vo - self.vt)  # L_g per radian
         self._reset_state()
 
     def _reset_state(self) -> None:
-        self.bound = -math.inf  # lower bound on the smallest margin
-        self.since = 0
         self.goal_row: int | None = None
         self.sense = 0
         self._pinned = 0  # steps the committed rotation has been held back by an arc end
+        self.commitments: list[int | None] = []  # per step, with ``record``
 
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
         super().reset(world, p, a)
@@ -235,7 +238,6 @@ class PaperController(_Compliant):
             # committed row is checked meanwhile
             if not self._still_concerned(p, a - self.sense * self.overshoot)[0]:
                 self.goal_row, self.sense = None, 0
-                self.bound = -math.inf
             else:
                 # the sense is re-chosen every step for the rod's arc now: a rotation pinned
                 # against an arc end (the goal unreachable that way, compliant and making no
@@ -246,13 +248,9 @@ class PaperController(_Compliant):
                 if self._pinned >= self.refresh:
                     self._hand_over(p, a)
                 return self.goal_row, self.sense
-        if self.bound <= 2.0 * pad or self.since >= self.refresh:
-            row, margin, sense = self._scan(p, a)
-            self.bound, self.since = margin, 0
-            if row is not None and margin <= pad:
-                self.goal_row, self.sense = row, sense
-        else:
-            self.since += 1
+        row, margin, sense = self._scan(p, a)
+        if row is not None and margin <= pad:
+            self.goal_row, self.sense = row, sense
         return self.goal_row, self.sense
 
     def _hand_over(self, p: np.ndarray, a: float) -> None:
@@ -297,8 +295,8 @@ class PaperController(_Compliant):
             self._pinned += 1
         else:
             self._pinned = 0
-        if cmd.feasible:
-            self.bound -= self.vt * dt + self.gain * abs(cmd.rate) * dt
+        if self.record:
+            self.commitments.append(self.goal_row)
         return cmd
 
 
