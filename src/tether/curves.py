@@ -86,33 +86,48 @@ class Family:
     def __len__(self) -> int:
         return len(self.lo)
 
-    def points(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Points ``q(t)`` of curves ``c`` (arrays of equal length), map units."""
+    def points(self, c: np.ndarray | None, t: np.ndarray) -> np.ndarray:
+        """Points ``q(t)`` of curves ``c`` (arrays of equal length; ``None``: every curve in
+        order, one parameter each), map units."""
         L = self.lss
         if self.kind == "A":  # p = A + L n, d = B - A
-            return self.p[c] + t[:, None] * self.d[c]
+            return _take(self.p, c) + t[:, None] * _take(self.d, c)
         if self.kind == "B":  # p = vertex
-            return self.p[c] + L * np.column_stack((np.cos(t), np.sin(t)))
+            return _take(self.p, c) + L * np.column_stack((np.cos(t), np.sin(t)))
         if self.kind in "CD":  # p = ray origin (vertex), d = unit direction away from it
-            return self.p[c] + t[:, None] * self.d[c]
-        # E: p = pole, w = edge start, d = edge vector
-        Q = self.w[c] + t[:, None] * self.d[c]
-        r = self.p[c] - Q
-        return Q + L * r / np.linalg.norm(r, axis=1)[:, None]
+            return _take(self.p, c) + t[:, None] * _take(self.d, c)
+        # E: p = pole, w = edge start, d = edge vector (columns apart: the same numbers as
+        # with (k, 2) rows and np.linalg.norm, fewer temporaries)
+        w, d, p = _take(self.w, c), _take(self.d, c), _take(self.p, c)
+        qx = w[:, 0] + t * d[:, 0]
+        qy = w[:, 1] + t * d[:, 1]
+        rx, ry = p[:, 0] - qx, p[:, 1] - qy
+        norm = np.sqrt(rx * rx + ry * ry)
+        out = np.empty((len(t), 2))
+        out[:, 0] = qx + L * rx / norm
+        out[:, 1] = qy + L * ry / norm
+        return out
 
-    def rod_angles(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Orientations ``a*`` of the event rods at ``q(t)``, radians."""
+    def rod_angles(self, c: np.ndarray | None, t: np.ndarray) -> np.ndarray:
+        """Orientations ``a*`` of the event rods at ``q(t)``, radians (``c`` as in
+        :meth:`points`)."""
         if self.kind == "A":  # toward the edge: -n
-            n = self.w[c]
+            n = _take(self.w, c)
             return np.arctan2(-n[:, 1], -n[:, 0])
         if self.kind == "B":
             return t + math.pi
         if self.kind in "CD":
-            d = self.d[c]
+            d = _take(self.d, c)
             return np.arctan2(-d[:, 1], -d[:, 0])
-        Q = self.w[c] + t[:, None] * self.d[c]
-        r = Q - self.p[c]
+        Q = _take(self.w, c) + t[:, None] * _take(self.d, c)
+        r = Q - _take(self.p, c)
         return np.arctan2(r[:, 1], r[:, 0])
+
+    def rows(self, c: np.ndarray) -> Family:
+        """The curves ``c`` (repeats allowed) as a family of their own, without features or
+        marks: for loops evaluating the same rows many times (``points(None, t)``)."""
+        return Family(self.kind, self.lss, self.p[c], self.d[c], self.w[c], self.lo[c],
+                      self.hi[c], [])
 
     def length_scale(self, c: np.ndarray) -> np.ndarray:
         """Rough length of each curve's domain, map units (for sample counts)."""
@@ -124,6 +139,11 @@ class Family:
         if self.kind in "CD":
             return span
         return np.full(len(c), 2.0 * self.lss)
+
+
+def _take(a: np.ndarray, c: np.ndarray | None) -> np.ndarray:
+    """Rows ``c`` of ``a`` (all of them for ``None``)."""
+    return a if c is None else a[c]
 
 
 @dataclass(frozen=True, eq=False)
@@ -438,10 +458,10 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     trans = np.flatnonzero(same & (free[1:] != free[:-1]))
     ta, tb = t[trans].copy(), t[trans + 1].copy()
     fa = free[trans]
-    ct = c[trans]
+    sub = fam.rows(c[trans])  # the same rows every round: gathered once
     for _ in range(_BISECTIONS):
         mid = 0.5 * (ta + tb)
-        fm = rod_is_free_many(env, fam.points(ct, mid), fam.rod_angles(ct, mid), L)
+        fm = rod_is_free_many(env, sub.points(None, mid), sub.rod_angles(None, mid), L)
         move_a = fm == fa
         ta = np.where(move_a, mid, ta)
         tb = np.where(move_a, tb, mid)
@@ -609,9 +629,11 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     ta = lo[r] + frac[k] * (hi - lo)[r]
     tb = lo[r] + frac[k + 1] * (hi - lo)[r]
     fa = np.sign(f[r, k])
+    sub, ar, er = fam.rows(c[r]), a[r], e[r]  # the same rows every round: gathered once
     for _ in range(_BISECTIONS):
         mid = 0.5 * (ta + tb)
-        same = np.sign(side(mid, r)) == fa
+        q = sub.points(None, mid)
+        same = np.sign(er[:, 0] * (q[:, 1] - ar[:, 1]) - er[:, 1] * (q[:, 0] - ar[:, 0])) == fa
         ta = np.where(same, mid, ta)
         tb = np.where(same, tb, mid)
     return c[r], 0.5 * (ta + tb)
