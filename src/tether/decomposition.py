@@ -382,8 +382,18 @@ def _ring_segments(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 class _Arrangement:
     parts: np.ndarray  # noded linestrings
     part_faces: np.ndarray  # (nparts, 2) face ids, -1 for none
-    part_sources: list[tuple[int, ...]]  # curve ids (-1 = wall) of each part
+    #: curve ids (-1 = wall) of each part, CSR: part ``k``'s are
+    #: ``source_ids[source_ptr[k]:source_ptr[k + 1]]`` (increasing)
+    source_ptr: np.ndarray
+    source_ids: np.ndarray
     faces: np.ndarray  # polygons
+
+    @property
+    def part_sources(self) -> list[tuple[int, ...]]:
+        """The curve ids (-1 = wall) of each part, as tuples."""
+        flat = self.source_ids.tolist()
+        ptr = self.source_ptr.tolist()
+        return [tuple(flat[a:b]) for a, b in zip(ptr[:-1], ptr[1:], strict=True)]
 
     def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, shapely.STRtree]:
         """All segments of the parts (a, b, part index) and their STRtree, built once."""
@@ -399,23 +409,18 @@ class _Arrangement:
         built once."""
         got = self.__dict__.get("_end_ids")
         if got is None:
-            ends = np.vstack((shapely.get_coordinates(shapely.get_point(self.parts, 0)),
-                              shapely.get_coordinates(shapely.get_point(self.parts, -1))))
+            coords, idx = shapely.get_coordinates(self.parts, return_index=True)
+            count = np.bincount(idx, minlength=len(self.parts))
+            start = np.cumsum(count) - count  # parts have 2 or more points
+            ends = np.vstack((coords[start], coords[start + count - 1]))
             ids = _point_ids(ends)
             got = self.__dict__["_end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
         return got
 
     def sources(self) -> tuple[np.ndarray, np.ndarray]:
-        """``part_sources`` as CSR arrays: part ``k``'s sources are
-        ``src[ptr[k]:ptr[k + 1]]`` (increasing), built once."""
-        got = self.__dict__.get("_sources")
-        if got is None:
-            count = np.fromiter((len(t) for t in self.part_sources), np.int64,
-                                len(self.part_sources))
-            src = np.fromiter((c for t in self.part_sources for c in t), np.int64,
-                              int(count.sum()))
-            got = self.__dict__["_sources"] = (np.concatenate(([0], np.cumsum(count))), src)
-        return got
+        """The parts' sources as CSR arrays ``(ptr, src)``: part ``k``'s sources are
+        ``src[ptr[k]:ptr[k + 1]]`` (increasing)."""
+        return self.source_ptr, self.source_ids
 
     def chain_sources(self, chains: list) -> list[list[int]]:
         """The curves (no walls) of each chain ``(pair, parts)``, sorted, distinct;
@@ -492,12 +497,13 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     mid = 0.5 * (pa[longest] + pb[longest])
     qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12),
                                _segment_tree(la, lb))
-    src_of = np.asarray(source)[lowner[si]]
-    pair = np.unique(np.column_stack((powner[longest[qi]], src_of)), axis=0)
-    src: list[list[int]] = [[] for _ in range(len(parts))]
-    for k, s in pair.tolist():
-        src[k].append(s)
-    return _Arrangement(parts, part_faces, [tuple(s) for s in src], faces)
+    src_of = np.asarray(source, dtype=np.int64)[lowner[si]]
+    # distinct (part, source) pairs in (part, source) order, as one integer key
+    base = int(src_of.max(initial=0)) + 2  # sources are -1 (wall) .. max
+    key = np.unique(powner[longest[qi]].astype(np.int64) * base + src_of + 1)
+    part_of, src = np.divmod(key, base)
+    ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
+    return _Arrangement(parts, part_faces, ptr, src - 1, faces)
 
 
 def _segment_tree(a: np.ndarray, b: np.ndarray) -> shapely.STRtree:
