@@ -910,11 +910,10 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
                                  np.repeat(end_id[len(parts):], nsrc)))
     src_row = np.tile(src, 2)
     k = parts[local]
-    order = np.lexsort((local, src_row, end_of_row, hi[k], lo[k]))
-    keys = np.column_stack((lo[k], hi[k], end_of_row, src_row))[order]
-    new_group = np.r_[True, np.any(keys[1:] != keys[:-1], axis=1)]
-    head = local[order][np.maximum.accumulate(np.where(new_group, np.arange(len(order)), 0))]
-    comp = _components(len(parts), local[order], head)
+    # rows of one (region pair, end point, source) group are linked to one of them (any: the
+    # components, labelled by their smallest part, do not depend on which)
+    group, first = _row_ids(np.column_stack((lo[k], hi[k], end_of_row, src_row)))
+    comp = _components(len(parts), local, local[first][group])
     # chains sorted by (region pair, first part): parts in increasing order within each
     order = np.lexsort((parts, comp))
     comp_o, parts_o = comp[order], parts[order]
