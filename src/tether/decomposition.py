@@ -877,15 +877,26 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
     union of the faces), area, point, structure and cells."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
+    rank = numbering["rank"].tolist()
+    # the regions' polygons: single faces as they are, unions of several one by one
+    polys = arr.faces[[lists[g][0] for g in rank]] if rank else np.zeros(0, dtype=object)
+    for rid, g in enumerate(rank):
+        if len(lists[g]) > 1:
+            polys[rid] = shapely.union_all(arr.faces[lists[g]])
+    best_l = best.tolist()
+    area_l = area.tolist()
+    point_l = point.tolist()
+    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
     regions = []
-    for rid, g in enumerate(numbering["rank"].tolist()):
-        faces = lists[g]
-        poly = shapely.union_all(arr.faces[faces]) if len(faces) > 1 else arr.faces[faces[0]]
-        st = face_struct[int(best[g])]
-        cells = tuple(cell_name(rid, s, e) for s, e in structure_names(env, st))
-        regions.append(Region(rid, poly, float(area[g]),
-                              (float(point[g, 0]), float(point[g, 1])), st, cells))
-    shapely.prepare([r.polygon for r in regions])
+    for rid, g in enumerate(rank):
+        st = face_struct[best_l[g]]
+        got = names.get(id(st))
+        if got is None:
+            got = names[id(st)] = structure_names(env, st)
+        cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        pt = point_l[g]
+        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
+    shapely.prepare(polys)
     return regions
 
 
