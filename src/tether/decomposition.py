@@ -520,9 +520,22 @@ def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
     lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
                      pts[:, 1] + reach)
     qi, si = tree.query(lo)  # envelopes only; exact distances below
-    d = _point_segment_distance(pts[qi], a[si], b[si])
-    near = d <= reach
+    d = _point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], a[:, 0][si], a[:, 1][si],
+                                   b[:, 0][si], b[:, 1][si])
+    near = np.flatnonzero(d <= reach)
     return qi[near], si[near], d[near]
+
+
+def _point_segment_distance_xy(px: np.ndarray, py: np.ndarray, ax: np.ndarray,
+                               ay: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """:func:`_point_segment_distance` on coordinate columns (the same numbers, without the
+    (k, 2) temporaries)."""
+    abx, aby = bx - ax, by - ay
+    den = abx * abx + aby * aby
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(den > 0, ((px - ax) * abx + (py - ay) * aby) / den, 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.hypot(ax + u * abx - px, ay + u * aby - py)
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
