@@ -475,9 +475,7 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # faces' ring segments (polygonize keeps the noded coordinates exactly)
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
-    order = np.lexsort((-seg_len, powner))
-    first = np.r_[True, powner[order][1:] != powner[order][:-1]]
-    longest = order[first]  # index of the longest segment of each part
+    longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
     fa, fb, fowner = _ring_segments(faces)
     ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
     part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
@@ -500,10 +498,24 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     src_of = np.asarray(source, dtype=np.int64)[lowner[si]]
     # distinct (part, source) pairs in (part, source) order, as one integer key
     base = int(src_of.max(initial=0)) + 2  # sources are -1 (wall) .. max
-    key = np.unique(powner[longest[qi]].astype(np.int64) * base + src_of + 1)
+    key = np.sort(powner[longest[qi]].astype(np.int64) * base + src_of + 1)
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
     return _Arrangement(parts, part_faces, ptr, src - 1, faces)
+
+
+def _first_max_per_group(value: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """For ``group`` sorted (runs of equal values, all present from 0), the index of the
+    first largest ``value`` of each run: ``np.lexsort((-value, group))``'s first row per run,
+    without the sort."""
+    if len(value) == 0:
+        return np.zeros(0, np.int64)
+    start = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    top = np.maximum.reduceat(value, start)
+    run = np.cumsum(np.r_[True, group[1:] != group[:-1]]) - 1
+    hit = np.flatnonzero(value == top[run])
+    return hit[np.r_[True, run[hit][1:] != run[hit][:-1]]]
 
 
 def _segment_tree(a: np.ndarray, b: np.ndarray) -> shapely.STRtree:
