@@ -768,9 +768,15 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
-    cells = tuple(Cell(cid, r.id, s, e) for r in regions
-                  for cid, (s, e) in zip(r.cells, structure_names(env, r.structure),
-                                         strict=True))
+    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
+    cells = []
+    for r in regions:
+        got = names.get(id(r.structure))
+        if got is None:
+            got = names[id(r.structure)] = structure_names(env, r.structure)
+        rid = r.id
+        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
+    cells = tuple(cells)
     report("done", 1.0)
     dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
                         unresolved_pieces)
@@ -958,8 +964,10 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     head = parts_o[starts]
     rank = np.lexsort((head, hi[head], lo[head]))
     flat = parts_o.tolist()
-    return [((int(lo[h]), int(hi[h])), flat[a:b]) for h, a, b in
-            zip(head[rank].tolist(), starts[rank].tolist(), stops[rank].tolist(), strict=True)]
+    h = head[rank]
+    return [((a_, b_), flat[a:b]) for a_, b_, a, b in
+            zip(lo[h].tolist(), hi[h].tolist(), starts[rank].tolist(), stops[rank].tolist(),
+                strict=True)]
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
