@@ -617,14 +617,16 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
         return np.zeros(0, int), np.zeros(0)
     lo, hi = fam.lo[c], fam.hi[c]
 
-    def side(t: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        q = fam.points(c[rows], t)
-        return e[rows, 0] * (q[:, 1] - a[rows, 1]) - e[rows, 1] * (q[:, 0] - a[rows, 0])
-
     frac = np.linspace(0.0, 1.0, grid)
-    rows = np.repeat(np.arange(len(c)), grid)
-    t = (lo[:, None] + frac[None, :] * (hi - lo)[:, None]).ravel()
-    f = side(t, rows).reshape(len(c), grid)
+    t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
+    # the side function on the grid, each pair's rows broadcast (Family.points' arithmetic)
+    w, d, p = fam.w[c], fam.d[c], fam.p[c]
+    qx = w[:, :1] + t * d[:, :1]
+    qy = w[:, 1:] + t * d[:, 1:]
+    rx, ry = p[:, :1] - qx, p[:, 1:] - qy
+    norm = np.sqrt(rx * rx + ry * ry)
+    qx, qy = qx + fam.lss * rx / norm, qy + fam.lss * ry / norm
+    f = e[:, :1] * (qy - a[:, 1:]) - e[:, 1:] * (qx - a[:, :1])
     r, k = np.nonzero(np.sign(f[:, :-1]) * np.sign(f[:, 1:]) < 0)
     ta = lo[r] + frac[k] * (hi - lo)[r]
     tb = lo[r] + frac[k + 1] * (hi - lo)[r]
