@@ -1067,10 +1067,10 @@ def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list
 
 
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
-#: this: the peak memory is about 2.5 kB per estimated vertex on floor plans (noded parts,
-#: faces, region polygons, cells and G; measured 0.91 M -> 2.0 GB at 800 map vertices,
-#: 1.22 M -> 3.1 GB at 1,000), so the default bounds a decomposition near 4 GB. Raise it on a
-#: machine with more memory.
+#: this: the peak memory is about 1.2 kB per estimated vertex on floor plans (noded parts,
+#: faces, region polygons, cells and G; measured 1.25 M -> 1.53 GB at 1,000 map vertices,
+#: decompose + analyze; it was 2.5 kB before the freed C heap was returned between stages),
+#: so the default bounds a decomposition near 2 GB. Raise it on a machine with more memory.
 MAX_CURVE_VERTICES = 1_500_000
 
 
@@ -1084,7 +1084,7 @@ def check_vertex_budget(vertices: float, lss: float) -> None:
         raise ResourceLimitError(
             f"the critical curves at lss {lss:g} (internal units) would need about "
             f"{vertices:,.0f} polyline vertices, more than the limit {MAX_CURVE_VERTICES:,} "
-            "(tether.curves.MAX_CURVE_VERTICES, about 4 GB of memory): use a smaller lss, "
+            "(tether.curves.MAX_CURVE_VERTICES, about 2 GB of memory): use a smaller lss, "
             "a coarser curve tolerance, or split the map")
 
 
