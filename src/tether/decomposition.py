@@ -61,7 +61,10 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     base = 2 * env.n + 1
     pair = table.start_code.astype(np.int64) * base + table.end_code
     # np.lexsort((pair, point)) on one exact integer key (pair < base**2), several times faster
-    order = np.argsort(table.point.astype(np.int64) * (base * base) + pair, kind="stable")
+    if (npts + 1) * base * base < 2**62:
+        order = np.argsort(table.point.astype(np.int64) * (base * base) + pair, kind="stable")
+    else:  # the key would overflow
+        order = np.lexsort((pair, table.point))
     point, pair = table.point[order], pair[order]
     counts = np.bincount(point, minlength=npts)
     width = int(counts.max())
