@@ -18,8 +18,11 @@ E     conchoid: pole reflex V_j, base  ``s`` along ``Ei`` where |V_j-Q|<lss graz
 ====  ===============================  ===================================  ================
 
 A point of a candidate curve is critical iff its event rod is semi-free (in the closed free
-space). tether samples each candidate densely, keeps the runs of semi-free samples, pins each
-run's ends by bisection and then lets them overshoot by a small margin (an end of a critical
+space). Freeness can change along a candidate only at its exact breakpoints (the rod sweeping
+across a vertex, an end of the rod crossing an edge): tether tests each candidate just either
+side of every breakpoint and once between consecutive ones, keeps the runs of semi-free
+samples, pins each run's ends by bisection and then lets them overshoot by a small margin
+(an end of a critical
 part lies on another curve; overshooting only adds a dangling bit, undershooting would leave a
 gap between two regions). Including non-critical bits is harmless: faces with equal structure
 are merged later.
