@@ -15,7 +15,6 @@ import argparse
 import glob
 import hashlib
 import json
-import math
 import os
 import subprocess
 import sys
@@ -28,37 +27,13 @@ def _h(x) -> str:
     return hashlib.sha1(json.dumps(x, sort_keys=True, default=str).encode()).hexdigest()[:12]
 
 
-def _random_map(rng):
-    import numpy as np
-    from shapely.geometry import Polygon
-
-    from tether import Environment
-
-    k = int(rng.integers(4, 13))
-    t = np.cumsum(rng.uniform(0.2, 1.0, k))
-    t = 2 * math.pi * t / t[-1]
-    r = rng.uniform(3.0, 10.0, k)
-    boundary = np.column_stack((r * np.cos(t), r * np.sin(t)))
-    outer = Environment(boundary)
-    holes: list = []
-    for _ in range(int(rng.integers(0, 3))):
-        cx, cy = rng.uniform(-2, 2, 2)
-        rad = rng.uniform(0.3, 1.2)
-        m = int(rng.integers(3, 7))
-        a = rng.uniform(0, 2 * math.pi) + np.linspace(0, 2 * math.pi, m, endpoint=False)
-        hole = np.column_stack((cx + rad * np.cos(a), cy + rad * np.sin(a)))
-        hp = Polygon(hole)
-        if outer.polygon.buffer(-0.05).contains(hp) and all(
-                hp.distance(Polygon(x)) > 0.05 for x in holes):
-            holes.append(hole)
-    return Environment(boundary, tuple(holes), "random")
-
-
 def _cases(big: bool):
     import numpy as np
 
     sys.path.insert(0, str(ROOT / "tests"))
+    sys.path.insert(0, str(ROOT / "benchmarks"))
     import conftest
+    from invariance_sweep import random_map  # the same seeded random maps
 
     from tether.environment import from_dict, load_map
     from tether.floorplan import floor_plan
@@ -74,7 +49,7 @@ def _cases(big: bool):
         yield Path(p).name, from_dict(d["map"]), d["lss"]
     rng = np.random.default_rng(12345)
     for i in range(40):
-        env = _random_map(rng)
+        env = random_map(rng)
         lss = float(rng.uniform(1.0, 6.0))
         yield f"rand{i}@{lss:.3f}", env, lss
     for n in ((100, 200, 400) if big else (100,)):
