@@ -108,3 +108,17 @@ def test_simulate_cli_reports_the_cause(capsys, tmp_path):
     assert d["cause"]["kind"] == CAUSES[d["cause"]["cause"]][0]
     assert main(args) == 0
     assert f"cause: {d['cause']['cause']}" in capsys.readouterr().out
+
+
+def test_recording_survives_the_search_targets_look_ahead():
+    """The `search` target plays trial steps on copies of the controller: those must not
+    append to the run's record (they did, and the diagnosis read the wrong commitments)."""
+    import copy
+
+    w = _world("gallery", 2.0, 0.3)
+    ctrl = PaperController(w, record=True)
+    twin = copy.copy(ctrl)
+    assert not twin.record and twin.commitments is not ctrl.commitments
+    r = simulate(w, ctrl, make_target("search", w), (2.0, 2.5, 0.5), duration=0.5, dt=0.02,
+                 seed=3)
+    assert len(ctrl.commitments) == len(r.trace.t) - 1

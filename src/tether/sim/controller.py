@@ -215,6 +215,14 @@ class PaperController(_Compliant):
         super().reset(world, p, a)
         self._reset_state()
 
+    def __copy__(self) -> PaperController:
+        """A copy that does not record (the `search` target's look-ahead copies the controller;
+        a shared ``commitments`` list would mix its trial steps into the run's record)."""
+        twin = object.__new__(type(self))
+        twin.__dict__.update(self.__dict__)
+        twin.record, twin.commitments = False, []
+        return twin
+
     def _scan(self, p: np.ndarray, a: float) -> tuple[int | None, float, int]:
         """The concerning escape sample with the smallest margin: (row, margin, sense)."""
         t = self.table
