@@ -90,7 +90,9 @@ def test_infeasible_pivot_is_reported():
 def test_fig7_rotation_needed_and_made():
     _, r = fig7("paper")
     assert r.outcome == "held"
-    assert "rotational" in r.modes
+    # the rotation ends once the rod is in the goal (V5's goal is 0.07 rad wide: the hysteresis
+    # is capped at half of it, or the rotation never ended and the rod hovered in the goal)
+    assert r.modes[:2] == ["rotational", "reactive"]
     _, r0 = fig7("follow")  # without the rotation the observer pivots about the corner
     assert r0.outcome == "lost" and "pivot about V6" in r0.reason
 

@@ -165,8 +165,10 @@ class PaperController(_Compliant):
     re-evaluation, on a lower bound of the smallest margin, let the trigger fire late whenever
     an escape point became a concern of the rod already close to its ``L_g``: 36 of the
     losses once listed in ``docs/strategy.md``). A committed rotation goes on until the rod is
-    ``overshoot`` rad inside the goal; one pinned against an arc end for ``refresh`` steps is
-    handed over (:meth:`_hand_over`).
+    ``overshoot`` rad inside the goal, or half the width of the goal's narrowest arc if that is
+    less (a goal narrower than twice the overshoot would never release the rotation: the rod
+    hovered in it); one pinned against an arc end for ``refresh`` steps is handed over
+    (:meth:`_hand_over`).
 
     ``reactive`` is ``"follow"`` (default) or ``"translate"``. ``escape_rows``: ``"all"``
     (pieces, reflex vertices, steep walls), ``"pieces"`` (Def. 2 alone, the paper's literal
@@ -203,6 +205,9 @@ class PaperController(_Compliant):
             gs, ge = t.g_start.reshape(len(t), -1), t.g_end.reshape(len(t), -1)
             self._goals = [(g[np.isfinite(g)].tolist(), h[np.isfinite(g)].tolist())
                            for g, h in zip(gs, ge, strict=True)]
+            self._hysteresis = [min([self.overshoot] + [0.5 * (((e - s) % TWO_PI) or TWO_PI)
+                                                        for s, e in zip(*g, strict=True)])
+                                for g in self._goals]
         self._reset_state()
 
     def _reset_state(self) -> None:
@@ -242,9 +247,11 @@ class PaperController(_Compliant):
         pad = self.trigger_steps * self.vt * dt
         if self.goal_row is not None:
             # keep the committed rotation until the rod is ``overshoot`` rad inside the goal
+            # (at most half the goal's narrowest arc)
             # (hysteresis: the reactive law would otherwise pull it straight back); only the
             # committed row is checked meanwhile
-            if not self._still_concerned(p, a - self.sense * self.overshoot)[0]:
+            back = self._hysteresis[self.goal_row]
+            if not self._still_concerned(p, a - self.sense * back)[0]:
                 self.goal_row, self.sense = None, 0
             else:
                 # the sense is re-chosen every step for the rod's arc now: a rotation pinned
