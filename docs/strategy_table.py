@@ -124,7 +124,7 @@ def _run(job):
     w = _world(label, ratio)
     ctrl = PaperController(w, record=True)
     r = simulate(w, ctrl, make_target(kind, w), st, duration=duration, dt=dt, seed=k)
-    cause = explain_loss(w, r, ctrl.commitments)
+    cause = explain_loss(w, r, ctrl)
     return r.held, r.lost_at, r.reason, None if cause is None else cause.to_dict()
 
 

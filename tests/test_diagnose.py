@@ -56,7 +56,7 @@ def test_cause_is_where_assess_stops_calling_the_state_safe(case):
     w, r, ctrl = _run(*case)
     assert assess(w.verdict, vt, 1.0, *start).safe
     assert r.outcome == "lost"
-    cause = explain_loss(w, r, ctrl.commitments)
+    cause = explain_loss(w, r, ctrl)
     assert cause.cause in CAUSES and cause.kind in ("gap", "bug")
     tr = r.trace
     i = int(np.argmin(np.abs(tr.t - cause.t_safe)))
@@ -78,7 +78,7 @@ def test_held_run_has_no_cause():
     w = _world("gallery", 2.0, 0.3)
     ctrl = PaperController(w, record=True)
     r = simulate(w, ctrl, make_target("random", w), (2.0, 2.5, 0.5), duration=2.0, dt=0.02)
-    assert r.held and explain_loss(w, r, ctrl.commitments) is None
+    assert r.held and explain_loss(w, r, ctrl) is None
     assert len(ctrl.commitments) == len(r.trace.t) - 1
 
 

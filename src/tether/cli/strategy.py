@@ -139,7 +139,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if paper and not res.held:
         from tether.sim.diagnose import explain_loss
 
-        cause = explain_loss(world, res, controller.commitments)
+        cause = explain_loss(world, res, controller)
     if args.trace:
         from tether.output import atomic_output
 

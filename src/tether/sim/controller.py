@@ -186,7 +186,6 @@ class PaperController(_Compliant):
         self.record = bool(record)
         self.escape_rows = escape_rows
         self.overshoot = float(overshoot)
-        self._arc = None
         self.trigger_steps = float(trigger_steps)
         self.refresh = int(refresh)
         super().__init__(world)
@@ -233,10 +232,7 @@ class PaperController(_Compliant):
         t = self.table
         if t is None or not len(t):
             return None, math.inf, 0
-        e = self.local.ends(float(p[0]), float(p[1]), a)
-        arc = ((a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI) if math.isfinite(e.ccw_gap) \
-            else None
-        self._arc = arc
+        arc = self.local.arc(float(p[0]), float(p[1]), a)
         concern, _, sense, margin = t.margins(p, a, self.vt, self.vo, arc)
         k = int(np.argmin(margin))
         if not concern[k]:
@@ -244,7 +240,7 @@ class PaperController(_Compliant):
         return k, float(margin[k]), int(sense[k])
 
     def _trigger(self, p: np.ndarray, a: float, dt: float) -> tuple[int | None, int]:
-        pad = self.trigger_steps * self.vt * dt
+        pad = self.pad(dt)
         if self.goal_row is not None:
             # keep the committed rotation until the rod is ``overshoot`` rad inside the goal
             # (at most half the goal's narrowest arc)
@@ -285,9 +281,7 @@ class PaperController(_Compliant):
         k = self.goal_row
         ks, ke = self._k_arcs[k]
         if self._anywhere[k]:
-            e = self.local.ends(float(p[0]), float(p[1]), a)
-            if math.isfinite(e.ccw_gap):
-                ks, ke = (a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI
+            ks, ke = self.local.arc(float(p[0]), float(p[1]), a) or (ks, ke)
         concern, _, sense = sweep_row(ks, ke, self._goals[k][0], self._goals[k][1], a % TWO_PI)
         return concern, sense
 
@@ -300,6 +294,10 @@ class PaperController(_Compliant):
         if self.reactive == "translate":
             return 0.0, "reactive"
         return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive"
+
+    def pad(self, dt: float) -> float:
+        """The trigger's pad (map units) at control period ``dt`` (s)."""
+        return self.trigger_steps * self.vt * dt
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
         cmd = super().step(p, v, a, dt)

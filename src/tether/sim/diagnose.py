@@ -21,8 +21,6 @@ from tether.assess import _conflicts, _escape_point, _escape_rows, _row_name, es
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import World
 
-TWO_PI = 2.0 * math.pi
-
 #: Causes: name → (``"gap"`` or ``"bug"``, what happened).
 CAUSES: dict[str, tuple[str, str]] = {
     "prop3": ("gap", "a Prop. 3 conflict arose: two escape points in reach came to need "
@@ -84,21 +82,18 @@ class LossCause:
 def _state(world: World, table, local: LocalArcs, p: np.ndarray, a: float):
     """Margins of every row (``inf`` where not concerned) and the Prop. 3 conflicts (pairs of
     escape-point names) at ``(p, a)``."""
-    e = local.ends(float(p[0]), float(p[1]), a)
-    arc = ((a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI) if math.isfinite(e.ccw_gap) \
-        else None
+    arc = local.arc(float(p[0]), float(p[1]), a)
     rows, values = _escape_rows(table, p, a, world.vt, world.vo, world.lss, arc)
     pts = [_escape_point(table, i, values, world.vt, world.vo, world.lss) for i in rows]
     pairs = _conflicts(pts, world.vt, world.vo, world.lss, a, arc)
     return values[2], [f"{pts[i].piece}/{pts[j].piece}" for i, j in pairs]
 
 
-def explain_loss(world: World, result, committed: list | None = None,
-                 pad: float | None = None) -> LossCause | None:
-    """The cause of ``result``'s loss (``None`` when it was held). ``committed``: per step, the
-    escape-table row the controller was rotating toward (``None`` when not), as recorded by
-    ``PaperController(record=True)``; ``pad`` (map units): its trigger pad (default
-    ``2·vt·dt``)."""
+def explain_loss(world: World, result, controller=None) -> LossCause | None:
+    """The cause of ``result``'s loss (``None`` when it was held). ``controller``: the
+    ``PaperController(record=True)`` of the run, for the escape-table row it was rotating
+    toward at each step and its trigger pad; without it no step counts as committed and the
+    pad is the default controller's."""
     if result.held:
         return None
     table = escape_table_of(world.verdict, world.vt / world.vo)
@@ -107,7 +102,11 @@ def explain_loss(world: World, result, committed: list | None = None,
     local = LocalArcs(world.env, world.lss, pad=0.0)
     names = [_row_name(int(k)) for k in table.piece]
     tr = result.trace
-    pad = 2.0 * world.vt * result.dt if pad is None else pad
+    if controller is None:
+        from tether.sim.controller import PaperController
+
+        controller = PaperController(world)
+    pad = controller.pad(result.dt)
     after = None
     for i in range(len(tr.t) - 1, -1, -1):
         margin, conflicts = _state(world, table, local, tr.p[i], float(tr.a[i]))
@@ -119,9 +118,9 @@ def explain_loss(world: World, result, committed: list | None = None,
     t_safe = float(tr.t[i])
     if after is None:
         return LossCause("unforeseen", t_safe, result.lost_at)
-    rows = committed or []
+    rows = controller.commitments
     goal = rows[i] if i < len(rows) else None
-    goal_name = names[goal] if goal is not None and goal >= 0 else None
+    goal_name = None if goal is None else names[goal]
     m_after, c_after = after
     k = int(np.argmin(m_after))
     if m_after[k] >= 0:

@@ -117,6 +117,14 @@ class LocalArcs:
         """The ends of the free arc holding rod ``a`` at ``(x, y)`` (see :class:`ArcEnds`)."""
         return ends_of(self.blocked(x, y), a)
 
+    def arc(self, x: float, y: float, a: float) -> tuple[float, float] | None:
+        """The free arc holding rod ``a`` at ``(x, y)`` as CCW ``(start, end)`` (rad), ``None``
+        when no obstacle is in reach (FULL)."""
+        e = self.ends(x, y, a)
+        if not math.isfinite(e.ccw_gap):
+            return None
+        return (a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI
+
 
 def ends_of(blocked: list[Blocked], a: float) -> ArcEnds:
     """:class:`ArcEnds` of orientation ``a`` among blocked intervals (plain floats)."""
