@@ -620,11 +620,20 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
     near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
     c, a, e = cc[near], a[near], e[near]
+    frac = np.linspace(0.0, 1.0, grid)
+    # a pair whose edge line leaves the whole grid of its conchoid strictly on one side (by a
+    # margin above rounding) shows no sign change on it: dropped before the grid (most pairs)
+    x0, y0, x1, y1 = _conchoid_grid_boxes(fam, frac)
+    side = [e[:, 0] * (y - a[:, 1]) - e[:, 1] * (x - a[:, 0])
+            for x, y in ((x0[c], y0[c]), (x0[c], y1[c]), (x1[c], y0[c]), (x1[c], y1[c]))]
+    margin = 1e-9 * np.hypot(e[:, 0], e[:, 1]) * (np.abs(a).max(axis=1) + fam.lss)
+    low, high = np.minimum.reduce(side), np.maximum.reduce(side)
+    keep = ~((low > margin) | (high < -margin))
+    c, a, e = c[keep], a[keep], e[keep]
     if len(c) == 0:
         return np.zeros(0, int), np.zeros(0)
     lo, hi = fam.lo[c], fam.hi[c]
 
-    frac = np.linspace(0.0, 1.0, grid)
     t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
     # the side function on the grid, each pair's rows broadcast (Family.points' arithmetic)
     w, d, p = fam.w[c], fam.d[c], fam.p[c]
@@ -646,6 +655,21 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
         ta = np.where(same, mid, ta)
         tb = np.where(same, tb, mid)
     return c[r], 0.5 * (ta + tb)
+
+
+def _conchoid_grid_boxes(fam: Family, frac: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each conchoid's target-end points at the grid ``lo + frac (hi - lo)`` (the arithmetic
+    of :func:`_conchoid_edge_crossings`), reduced to their bounding box (x0, y0, x1, y1)."""
+    lo, hi = fam.lo, fam.hi
+    t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
+    w, d, p = fam.w, fam.d, fam.p
+    qx = w[:, :1] + t * d[:, :1]
+    qy = w[:, 1:] + t * d[:, 1:]
+    rx, ry = p[:, :1] - qx, p[:, 1:] - qy
+    norm = np.sqrt(rx * rx + ry * ry)
+    qx, qy = qx + fam.lss * rx / norm, qy + fam.lss * ry / norm
+    return qx.min(axis=1), qy.min(axis=1), qx.max(axis=1), qy.max(axis=1)
 
 
 def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
