@@ -577,35 +577,74 @@ def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     nring = int(ring_of.max(initial=-1)) + 1
     first = np.searchsorted(ring_pt, np.arange(nring))
     ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
-    ring_idx = np.repeat(np.arange(nring), np.bincount(ring_pt, minlength=nring) + 1)
-    rings = shapely.linearrings(coords[ci], indices=ring_idx)
-    ccw = shapely.is_ccw(rings)
+    xy = coords[ci]
+    size = np.bincount(ring_pt, minlength=nring) + 1
+    ring_ptr = np.r_[0, np.cumsum(size)]
+    ccw = _rings_ccw(xy, ring_ptr)
     shell = np.flatnonzero(ccw)
     hole = np.flatnonzero(~ccw)
     face_of_ring = np.full(nring, -1)
     face_of_ring[shell] = np.arange(len(shell))
-    shells = shapely.polygons(rings[shell])
-    # holes: in the smallest shell whose interior holds a node of theirs off every pinch
+    faces = _ragged_polygons(xy, ring_ptr, shell, np.ones(len(shell), np.int64))
+    # holes: in the smallest shell whose interior holds a point of theirs off every pinch
+    # (the faces have no holes yet: their polygons are their shells)
     pts = shapely.points(coords[test_pt[hole]])
-    hi, si = shapely.STRtree(shells).query(pts, predicate="within")
-    area = shapely.area(shells)
+    hi, si = shapely.STRtree(faces).query(pts, predicate="within")
+    area = shapely.area(faces)
     pick = np.lexsort((area[si], hi))
     hi, si = hi[pick], si[pick]
     head = np.r_[True, hi[1:] != hi[:-1]] if len(hi) else np.zeros(0, bool)
     face_of_ring[hole[hi[head]]] = si[head]
-    # the faces: each shell then its holes
+    # the faces with holes again: each shell then its holes
     inner = hole[face_of_ring[hole] >= 0]
-    rows = np.concatenate((shell, inner))
-    owner = face_of_ring[rows]
-    o = np.argsort(owner, kind="stable")
-    faces = shapely.polygons(rings[rows[o]], indices=owner[o])
+    if len(inner):
+        with_holes = np.unique(face_of_ring[inner])
+        rows = np.concatenate((shell[with_holes], inner))
+        o = np.argsort(face_of_ring[rows], kind="stable")
+        faces[with_holes] = _ragged_polygons(xy, ring_ptr, rows[o], np.bincount(
+            face_of_ring[rows], minlength=len(shell))[with_holes])
     side = np.full(2 * n, -1)
     side[seq] = face_of_ring[ring_of]
     pf = np.sort(side.reshape(n, 2), axis=1)
     one = pf[:, 0] < 0  # -1 (none) goes second
     pf[one] = pf[one][:, ::-1]
     pf[pf[:, 0] == pf[:, 1]] = -1
-    return np.asarray(faces, dtype=object), pf
+    return faces, pf
+
+
+def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """Whether each closed ring ``xy[ptr[r]:ptr[r + 1]]`` runs counter-clockwise: the sign of
+    its shoelace sum about its first point where that exceeds the sum's rounding bound
+    (nearly all), GEOS's robust ``is_ccw`` for the others (specks of ~1e-16 map units)."""
+    nring = len(ptr) - 1
+    ring = np.repeat(np.arange(nring), np.diff(ptr))
+    d = xy - xy[ptr[:-1]][ring]
+    a = d[:-1, 0] * d[1:, 1]
+    b = d[1:, 0] * d[:-1, 1]
+    row = ring[:-1]
+    ok = ring[1:] == row  # pairs of consecutive points of one ring
+    total = np.bincount(row[ok], weights=(a - b)[ok], minlength=nring)
+    bound = np.bincount(row[ok], weights=(np.abs(a) + np.abs(b))[ok], minlength=nring)
+    ccw = total > 0
+    unsure = np.flatnonzero(np.abs(total) <= 8 * np.diff(ptr) * np.finfo(float).eps * bound)
+    if len(unsure):
+        idx = ragged_arange(ptr[unsure], ptr[unsure + 1] - ptr[unsure])
+        rings = shapely.linearrings(xy[idx], indices=np.repeat(np.arange(len(unsure)),
+                                                                np.diff(ptr)[unsure]))
+        ccw[unsure] = shapely.is_ccw(rings)
+    return ccw
+
+
+def _ragged_polygons(xy: np.ndarray, ptr: np.ndarray, rings: np.ndarray,
+                     per_polygon: np.ndarray) -> np.ndarray:
+    """Polygons from closed rings ``xy[ptr[r]:ptr[r + 1]]``: ``rings`` in order, the first
+    ``per_polygon[0]`` of them the first polygon (shell, then holes), and so on; built in one
+    call, without intermediate ring objects."""
+    size = ptr[rings + 1] - ptr[rings]
+    idx = ragged_arange(ptr[rings], size)
+    offsets = (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_polygon)])
+    return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy[idx],
+                                                offsets), dtype=object)
 
 
 def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
