@@ -413,11 +413,7 @@ class _Arrangement:
         built once."""
         got = self.__dict__.get("_end_ids")
         if got is None:
-            coords, idx = shapely.get_coordinates(self.parts, return_index=True)
-            count = np.bincount(idx, minlength=len(self.parts))
-            start = np.cumsum(count) - count  # parts have 2 or more points
-            ends = np.vstack((coords[start], coords[start + count - 1]))
-            ids = _point_ids(ends)
+            ids = _part_ends(self.parts)[4]
             got = self.__dict__["_end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
         return got
 
@@ -477,7 +473,8 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
     longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
-    traced = _trace_faces(parts)
+    ends = _part_ends(parts)
+    traced = _trace_faces(parts, ends)
     if traced is not None:
         faces, part_faces = traced
     else:
@@ -495,7 +492,9 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
-    return _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+    arr = _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+    arr.__dict__["_end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
+    return arr
 
 
 def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
@@ -521,7 +520,19 @@ def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner:
     return faces, part_faces
 
 
-def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The parts' coordinates, each part's number of points, index of its first and of its
+    last point there, and an id per end point (first points, then last points), equal for
+    equal coordinates."""
+    coords, idx = shapely.get_coordinates(parts, return_index=True)
+    count = np.bincount(idx, minlength=len(parts))
+    start = np.cumsum(count) - count  # parts have 2 or more points
+    last = start + count - 1
+    return coords, count, start, last, _point_ids(np.vstack((coords[start], coords[last])))
+
+
+def _trace_faces(parts: np.ndarray, ends: tuple | None = None
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The faces of the noded ``parts`` (polygons) and the faces on the two sides of every
     part (``(nparts, 2)``, the smaller face id first, -1 for none), traced on the planar
     graph of the parts' half-edges in numpy instead of ``shapely.polygonize`` and matching
@@ -530,14 +541,10 @@ def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     into simple rings, counter-clockwise rings are shells, clockwise rings holes of the
     smallest shell containing them, the unbounded face is none. Returns None where the
     tracing cannot decide (two half-edges leaving a node in exactly the same direction,
-    which noding rules out, or a hole touching its shell at all its nodes): the caller
-    polygonizes then."""
+    which noding rules out, or a ring with no point off its cycle's other rings): the caller
+    polygonizes then. ``ends``: :func:`_part_ends` of the parts, if already computed."""
     n = len(parts)
-    coords, idx = shapely.get_coordinates(parts, return_index=True)
-    count = np.bincount(idx, minlength=n)
-    start = np.cumsum(count) - count
-    last = start + count - 1
-    ends = _point_ids(np.vstack((coords[start], coords[last])))
+    coords, count, start, last, ends = ends if ends is not None else _part_ends(parts)
     origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
     origin[0::2], origin[1::2] = ends[:n], ends[n:]
     nodes = int(ends.max(initial=-1)) + 1
