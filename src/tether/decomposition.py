@@ -691,13 +691,22 @@ def gc_paused() -> Iterator[None]:
     """Pause Python's cyclic garbage collector for a block. A decomposition creates millions of
     small objects that live on (cells, names, geometries) and none in reference cycles: each
     collection would walk them all again (a fifth of the time at 400 vertices) to free
-    nothing. Reference counting still frees everything else at once."""
+    nothing. Reference counting still frees everything else at once.
+
+    On leaving the outermost pause, the objects still alive (the results) go straight to the
+    oldest generation (``gc.freeze`` then ``gc.unfreeze``, both constant time): re-enabled as
+    they were, the collector's next young collection would walk every one of them (1.2 s at
+    1,000 map vertices) and the one after that again. They stay collectable by a full
+    collection; nothing is left frozen (skipped if the caller froze objects itself)."""
     was = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
         if was:
+            if gc.get_freeze_count() == 0:
+                gc.freeze()
+                gc.unfreeze()
             gc.enable()
 
 
