@@ -19,7 +19,7 @@ import gc
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -31,6 +31,9 @@ from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
+
+if TYPE_CHECKING:
+    from tether.userframe import UserFrame
 
 
 class ArrangementError(TetherError):
@@ -644,22 +647,21 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         If the geometry engine fails even with snap rounding (one line, no traceback).
     """
     lss = check_lss(lss, env)
+    out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
-        from tether.userframe import decomposition_to_user
+        from tether.userframe import UserFrame
 
-        with gc_paused():
-            inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
-            release_memory()  # the arrangement, freed
-            dec = decomposition_to_user(inner, env, lss)
-        del inner
-        release_memory()  # the internal frame's geometries, freed
-        return dec
+        out = UserFrame(env, lss)
+        inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused():
-            return _decompose(env, lss, rel_tol, progress)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{_geos_message(exc)}") from exc
+    if out is not None:
+        release_memory()  # the arrangement and the internal frame's geometries, freed
+    return dec
 
 
 def release_memory() -> None:
@@ -710,7 +712,10 @@ def gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> Decomposition:
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
+               out: UserFrame | None = None) -> Decomposition:
+    """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
+    reported as is, or in the user's frame of ``out`` (the result objects made once)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -762,7 +767,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         touched = {r for i in has for r in chains[i][0]}
         isolated = set(range(nreg)) - touched if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct)
+            regions = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -780,20 +785,36 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
+    cells = _make_cells(env, regions, out)
+    report("done", 1.0)
+    if out is None:
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                            unresolved_pieces)
+    else:  # the regions' polygons and structures and the pieces to the user's frame
+        del arr, chains, cands  # the arrangement, freed first
+        out.regions(regions)
+        out.pieces(pieces)
+        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+                            tuple(pieces), tol / out.scale, unresolved_pieces)
+        arcs = out.crossing_arcs(arcs)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    return dec
+
+
+def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
+                ) -> tuple[Cell, ...]:
+    """Every region's cells, region by region (named after the file's features with
+    ``out``; the regions' structures still in the internal feature codes)."""
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
     cells = []
     for r in regions:
         got = names.get(id(r.structure))
         if got is None:
-            got = names[id(r.structure)] = structure_names(env, r.structure)
+            got = structure_names(env, r.structure)
+            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
         rid = r.id
         cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    cells = tuple(cells)
-    report("done", 1.0)
-    dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                        unresolved_pieces)
-    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
-    return dec
+    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -916,9 +937,13 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
-                  face_struct: dict[int, Structure]) -> list[Region]:
+                  face_struct: dict[int, Structure], out: UserFrame | None = None
+                  ) -> list[Region]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells."""
+    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    cell names are the user's (converted before the regions are made); the polygon and the
+    structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
+    compare the structures with internal ones)."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
     rank = numbering["rank"].tolist()
     # the regions' polygons: single faces as they are, unions of several one by one
@@ -926,6 +951,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     for rid, g in enumerate(rank):
         if len(lists[g]) > 1:
             polys[rid] = shapely.union_all(arr.faces[lists[g]])
+    if out is not None:  # all at once, before any region is made (polygons: see below)
+        area = area / (out.scale * out.scale)
+        point = out.points(point)
     best_l = best.tolist()
     area_l = area.tolist()
     point_l = point.tolist()
@@ -935,11 +963,13 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
-            got = names[id(st)] = structure_names(env, st)
+            got = structure_names(env, st)
+            got = names[id(st)] = got if out is None else out.feature_pairs(got)
         cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
         pt = point_l[g]
         regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
-    shapely.prepare(polys)
+    if out is None:  # else converted and prepared once the pieces are made (no two copies
+        shapely.prepare(polys)  # of every polygon while the pieces stage runs)
     return regions
 
 
