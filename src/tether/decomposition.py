@@ -16,6 +16,7 @@ A target passing exactly through an arrangement vertex is not modelled (``math.m
 from __future__ import annotations
 
 import gc
+import itertools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -1134,17 +1135,16 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
                     ) -> tuple[list, list[ArcTable]]:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
-    are tried in rounds, all chains at once (vectorized: structures compared as integer ids).
-    A chain with no clean candidate keeps its first one (``check`` reports it); a chain with
-    no candidate at all gets ``None``. Each answer is ``(q, n, eps, verified, at)``, ``at``
-    saying where the arcs of its two sides are in the returned tables: ``(round, row of the
-    +n side, row of the other)``."""
+    are tried in rounds, all chains at once (vectorized: structures compared as integer rows,
+    :func:`_rows_equal`). A chain with no clean candidate keeps its first one (``check``
+    reports it); a chain with no candidate at all gets ``None``. Each answer is
+    ``(q, n, eps, verified, at)``, ``at`` saying where the arcs of its two sides are in the
+    returned tables: ``(round, row of the +n side, row of the other)``."""
     m = len(chains)
     count = cands.count
-    sid: dict = {}  # structure -> integer id (regions' first)
-    reg_sid = _structure_codes([r.structure for r in regions], sid)
+    reg_rows, reg_of = _set_rows([r.structure for r in regions], 2 * env.n + 1)
     pair = np.array([p for p, _ in chains], dtype=np.int64).reshape(-1, 2)
-    sa, sb = reg_sid[pair[:, 0]], reg_sid[pair[:, 1]]
+    sa, sb = reg_of[pair[:, 0]], reg_of[pair[:, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
     out_eps = np.zeros(m)
     out_ok = np.zeros(m, bool)
@@ -1162,12 +1162,13 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
         j = np.arange(k)
         if first is None:  # every chain with a candidate is tried in round 0
             first = (q, n, eps, np.column_stack((np.zeros(k, np.int64), j, j + k)))
-        table, plus, minus = _arcs_across(env, lss, q, n, eps)
+        table, sides = _arcs_across(env, lss, q, n, eps)
         tables.append(table)
-        sp = _structure_codes(plus, sid)
-        sm = _structure_codes(minus, sid)
-        fwd = (sp == sa[pending]) & (sm == sb[pending])
-        back = ~fwd & (sp == sb[pending]) & (sm == sa[pending])
+        fwd = (_rows_equal(sides, j, reg_rows, sa[pending])
+               & _rows_equal(sides, j + k, reg_rows, sb[pending]))
+        back = ~fwd
+        back[back] = (_rows_equal(sides, j[back], reg_rows, sb[pending[back]])
+                      & _rows_equal(sides, j[back] + k, reg_rows, sa[pending[back]]))
         done = fwd | back
         for sel, sign, at in ((fwd, 1.0, np.column_stack((j, j + k))),
                               (back, -1.0, np.column_stack((j + k, j)))):
@@ -1192,27 +1193,81 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
     return samples, tables
 
 
-def _structure_codes(structs: list, codes: dict) -> np.ndarray:
-    """An integer per structure, equal for equal structures, from (and added to) ``codes``.
-    Equal structures are mostly one shared object: each distinct object is looked up once
-    (comparing two equal frozensets of different identity costs their size)."""
+@dataclass
+class _StructureRows:
+    """Structures as integer rows (CSR), compared exactly and vectorized
+    (:func:`_rows_equal`) instead of as frozensets: structure ``i`` is ``kind[i]`` (0:
+    ``"EMPTY"``, 1: ``"FULL"``, 2: a set of ``(start_code, end_code)`` pairs), the set's
+    pairs encoded ``start_code * base + end_code``, sorted and distinct, in
+    ``pairs[ptr[i]:ptr[i + 1]]``."""
+
+    kind: np.ndarray
+    ptr: np.ndarray
+    pairs: np.ndarray
+
+
+def _table_rows(env: Environment, table: ArcTable, npts: int) -> _StructureRows:
+    """The structure of each point of an :class:`ArcTable` as integer rows (the structures of
+    :func:`structures`, without building a frozenset per point)."""
+    base = 2 * env.n + 1
+    point = table.point.astype(np.int64)
+    pair = table.start_code.astype(np.int64) * base + table.end_code
+    if len(point) and (npts + 1) * base * base < 2**62:  # one exact integer key
+        order = np.argsort(point * (base * base) + pair, kind="stable")
+    else:
+        order = np.lexsort((pair, point))
+    point, pair = point[order], pair[order]
+    new = np.r_[True, (point[1:] != point[:-1]) | (pair[1:] != pair[:-1])] if len(point) \
+        else np.zeros(0, bool)
+    point, pair = point[new], pair[new]
+    size = np.bincount(point, minlength=npts)
+    kind = np.where(size > 0, 2, np.asarray(table.full, dtype=bool).astype(np.int64))
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], pair)
+
+
+def _set_rows(structs: list[Structure], base: int) -> tuple[_StructureRows, np.ndarray]:
+    """The distinct structure objects of ``structs`` as integer rows (pairs encoded with
+    ``base``, see :class:`_StructureRows`) and the row of each item. Equal structures are
+    mostly one shared object: each distinct object is read once."""
     if not structs:
-        return np.zeros(0, np.int64)
+        return _StructureRows(np.zeros(0, np.int64), np.zeros(1, np.int64),
+                              np.zeros(0, np.int64)), np.zeros(0, np.int64)
     obj = np.fromiter(map(id, structs), np.int64, len(structs))
     _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
-    val = np.fromiter((codes.setdefault(structs[i], len(codes)) for i in first.tolist()),
-                      np.int64, len(first))
-    return val[inv.ravel()]
+    objs = [structs[i] for i in first.tolist()]
+    kind = np.fromiter((0 if s == "EMPTY" else 1 if s == "FULL" else 2 for s in objs),
+                       np.int64, len(objs))
+    sets = [s if k == 2 else () for s, k in zip(objs, kind.tolist(), strict=True)]
+    size = np.fromiter(map(len, sets), np.int64, len(sets))
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(sets)),
+                       np.int64, 2 * int(size.sum()))
+    code = flat[0::2] * base + flat[1::2]
+    row = np.repeat(np.arange(len(objs)), size)
+    code = code[np.lexsort((code, row))]  # frozensets hold distinct pairs
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], code), inv.ravel()
+
+
+def _rows_equal(a: _StructureRows, i: np.ndarray, b: _StructureRows, j: np.ndarray
+                ) -> np.ndarray:
+    """Whether structure ``i[k]`` of ``a`` equals structure ``j[k]`` of ``b``, for every ``k``
+    (exact: same kind, same pairs)."""
+    na, nb = a.ptr[i + 1] - a.ptr[i], b.ptr[j + 1] - b.ptr[j]
+    eq = (a.kind[i] == b.kind[j]) & (na == nb)
+    k = np.flatnonzero(eq & (na > 0))
+    c = na[k]
+    diff = a.pairs[ragged_arange(a.ptr[i[k]], c)] != b.pairs[ragged_arange(b.ptr[j[k]], c)]
+    bad = np.bincount(np.repeat(np.arange(len(k)), c)[diff], minlength=len(k)) > 0
+    eq[k[bad]] = False
+    return eq
 
 
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
-                 ) -> tuple[ArcTable, list[Structure], list[Structure]]:
+                 ) -> tuple[ArcTable, _StructureRows]:
     """Exact free arcs at both sides of crossings (rows ``0..k-1``: ``q + eps n``, then
-    ``q - eps n``) and the structures of the two sides."""
+    ``q - eps n``) and the structures of those ``2k`` points."""
     pts = crossing_points(q, n, eps)
     table = free_arcs_many(env, pts, lss, check=False)
-    st = structures(env, table, len(pts))
-    return table, st[: len(q)], st[len(q):]
+    return table, _table_rows(env, table, len(pts))
 
 
 def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> ArcTable:
