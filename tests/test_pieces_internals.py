@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 from conftest import GENERIC, interior_points
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tether.decomposition as D
 from tether import free_arcs_many, load_map
@@ -46,3 +48,21 @@ def test_structure_rows_of_empty_and_full():
     i = np.arange(4)
     eq = D._rows_equal(sets, of[np.repeat(i, 4)], sets, of[np.tile(i, 4)]).reshape(4, 4)
     assert np.array_equal(eq, [[1, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 1]])
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0.01, 0.5))
+def test_staged_clearance_equals_brute_force(seed, reach):
+    """The clearance searched within growing radii equals the nearest other-owner segment's
+    distance over all segments (capped at ``reach``), bit for bit."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(0, 1, (300, 2))
+    b = a + rng.normal(0, 0.05, (300, 2))
+    sowner = rng.integers(0, 40, 300)
+    k = rng.integers(0, 300, 200)
+    pts = 0.5 * (a[k] + b[k])
+    got = D._clearance(pts, sowner[k], a, b, sowner, D._segment_tree(a, b), reach)
+    d = D._point_segment_distance(np.repeat(pts, 300, axis=0), np.tile(a, (200, 1)),
+                                  np.tile(b, (200, 1))).reshape(200, 300)
+    d[sowner[k][:, None] == sowner[None, :]] = np.inf
+    assert np.array_equal(got, np.minimum(d.min(axis=1), reach))
