@@ -106,3 +106,26 @@ def test_breakpoint_sampling_floor_plan():
 @given(env=random_maps(), lss=st.floats(0.3, 8.0))
 def test_breakpoint_sampling_random_maps(env, lss):
     assert_same_as_dense(env, lss)
+
+
+def no_boxes(fam, frac):
+    """Boxes that hold every point: the pair filter of the conchoid crossings disabled."""
+    big = np.full(len(fam), 1e150)  # an edge line always splits it (finite: no nan)
+    return -big, -big, big, big
+
+
+@pytest.mark.parametrize(("env", "lss"), [(GENERIC, 2.5), (STAR_HOLE, 1.5), (GENERIC, 6.0),
+                                          (floor_plan(120, seed=3), 2.0)])
+def test_conchoid_pair_filter_drops_no_crossing(env, lss, monkeypatch):
+    """Dropping the (conchoid, edge) pairs whose edge line leaves the conchoid's grid box on one
+    side finds the very same crossings as testing every pair on the grid."""
+    inner = env.internal
+    fam = candidate_families(inner, lss * env.frame.scale)[4]
+    assert fam.kind == "E" and len(fam)
+    cc, vk = curves_mod._breakpoint_pairs(inner, fam)
+    kept = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
+    with monkeypatch.context() as mp:
+        mp.setattr(curves_mod, "_conchoid_grid_boxes", no_boxes)
+        every = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
+    assert len(every[0]) > 0
+    assert np.array_equal(kept[0], every[0]) and np.array_equal(kept[1], every[1])

@@ -327,63 +327,62 @@ def _family_c(env: Environment, L: float) -> Family:
 
 
 def _family_d(env: Environment, L: float) -> Family:
+    """Lines through two reflex vertices ``V1``, ``V2`` closer than ``L`` (by more than the
+    length tolerance), not adjacent: the rod on the line beyond ``V2``, ``τ`` in
+    ``[0, L - |V1 V2|]`` (vectorized over the pairs, in row-major order)."""
     V = env.vertices
-    R = env.reflex_indices
-    p, d, hi, feats = [], [], [], []
+    R = np.asarray(env.reflex_indices, dtype=np.int64)
+    a = b = np.zeros(0, np.int64)
+    diff, dist = np.zeros((0, 0, 2)), np.zeros((0, 0))
     if len(R) > 1:
         diff = V[R][:, None, :] - V[R][None, :, :]
         dist = np.linalg.norm(diff, axis=2)
         # the two vertices must be within lss by more than the tolerance
-        i1, i2 = np.nonzero((dist < L - env.length_tol) & (dist > 0))
-        for a, b in zip(i1, i2, strict=True):
-            v1, v2 = R[a], R[b]
-            if env.next_vertex[v1] == v2 or env.next_vertex[v2] == v1:
-                continue  # adjacent: that line is an edge, its extension is type C
-            p.append(V[v1])
-            d.append(diff[a, b] / dist[a, b])
-            hi.append(L - dist[a, b])
-            feats.append((f"V{v1}", f"V{v2}"))
-    m = len(p)
-    return Family("D", L, np.array(p).reshape(m, 2), np.array(d).reshape(m, 2),
-                  np.zeros((m, 2)), np.zeros(m), np.array(hi, dtype=float), feats)
+        a, b = np.nonzero((dist < L - env.length_tol) & (dist > 0))
+        v1, v2 = R[a], R[b]
+        # adjacent: that line is an edge, its extension is type C
+        keep = (env.next_vertex[v1] != v2) & (env.next_vertex[v2] != v1)
+        a, b = a[keep], b[keep]
+    d = diff[a, b] / dist[a, b][:, None]
+    feats = [(f"V{x}", f"V{y}") for x, y in zip(R[a].tolist(), R[b].tolist(), strict=True)]
+    m = len(a)
+    return Family("D", L, V[R[a]].reshape(m, 2), d.reshape(m, 2), np.zeros((m, 2)),
+                  np.zeros(m), (L - dist[a, b]).astype(float), feats)
 
 
 def _family_e(env: Environment, L: float) -> Family:
+    """Conchoids: pole a reflex vertex ``V_j``, base an edge ``E_i`` within ``L`` of it, ``V_j``
+    strictly on the edge's free side; parameter ``s`` along the edge where ``|V_j - Q(s)| < L``
+    (vectorized over the (pole, edge) pairs, in the order of the edge index's query)."""
     A, B, tag_a, tag_b = env.oriented_edges
     R = env.reflex_indices
     V = env.vertices
-    p, w, d, lo, hi, feats = [], [], [], [], [], []
-    if len(R):
-        pidx, eidx = env.edge_index(L).query(V[R])
-        for k, i in zip(pidx, eidx, strict=True):
-            j = R[k]
-            if j in (tag_a[i], tag_b[i]):
-                continue
-            a, e = A[i], B[i] - A[i]
-            rel = V[j] - a
-            if e[0] * rel[1] - e[1] * rel[0] <= env.length_tol * np.linalg.norm(e):
-                continue  # pole not strictly on the free side of the base edge
-            # |V - (a + s e)| < L  <=>  s in (r1, r2)
-            ee = e @ e
-            b = e @ rel
-            disc = b * b - ee * (rel @ rel - L * L)
-            foot = min(max(b / ee, 0.0), 1.0)
-            if disc <= 0 or np.hypot(*(rel - foot * e)) >= L - env.length_tol:
-                continue  # the pole must be within lss of the edge by more than the tolerance
-            sq = math.sqrt(disc)
-            s0, s1 = max(0.0, (b - sq) / ee), min(1.0, (b + sq) / ee)
-            if s1 - s0 <= 1e-12:
-                continue
-            p.append(V[j])
-            w.append(a)
-            d.append(e)
-            lo.append(s0)
-            hi.append(s1)
-            feats.append((f"V{j}", f"E{i}"))
-    m = len(p)
-    return Family("E", L, np.array(p).reshape(m, 2), np.array(d).reshape(m, 2),
-                  np.array(w).reshape(m, 2), np.array(lo, dtype=float),
-                  np.array(hi, dtype=float), feats)
+    tol = env.length_tol
+    pidx, eidx = env.edge_index(L).query(V[R]) if len(R) else (np.zeros(0, int),) * 2
+    j, i = np.asarray(R)[pidx].astype(np.int64), np.asarray(eidx, dtype=np.int64)
+    a, e = A[i], B[i] - A[i]
+    rel = V[j] - a
+    ex, ey, rx, ry = e[:, 0], e[:, 1], rel[:, 0], rel[:, 1]
+
+    def dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # row-wise, the very bits of x @ y
+        return (x[:, None, :] @ y[:, :, None])[:, 0, 0]
+
+    ee, b = dot(e, e), dot(e, rel)
+    disc = b * b - ee * (dot(rel, rel) - L * L)
+    foot = np.clip(b / ee, 0.0, 1.0)
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    s0 = np.maximum(0.0, (b - sq) / ee)
+    s1 = np.minimum(1.0, (b + sq) / ee)
+    keep = ((j != tag_a[i]) & (j != tag_b[i])
+            # the pole strictly on the free side of the base edge
+            & (ex * ry - ey * rx > tol * np.sqrt(ee))
+            # within lss of the edge by more than the tolerance
+            & (disc > 0) & (np.hypot(rx - foot * ex, ry - foot * ey) < L - tol)
+            & (s1 - s0 > 1e-12))
+    k = np.flatnonzero(keep)
+    feats = [(f"V{jj}", f"E{ii}") for jj, ii in zip(j[k].tolist(), i[k].tolist(), strict=True)]
+    return Family("E", L, V[j[k]].reshape(-1, 2), e[k].reshape(-1, 2), a[k].reshape(-1, 2),
+                  s0[k].astype(float), s1[k].astype(float), feats)
 
 
 def candidate_families(env: Environment, lss: float) -> list[Family]:
@@ -566,7 +565,12 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             continue
         cs.append(cc[ok])
         ts.append(t[ok])
-    return np.concatenate(cs), np.concatenate(ts)
+    c, t = np.concatenate(cs), np.concatenate(ts)
+    # only breakpoints within 1e-5 of its span of a curve's domain place samples in it (most
+    # conchoid ones fall outside: a tenth are kept at 1,000 map vertices); 2e-5 to spare
+    span = (fam.hi - fam.lo)[c]
+    near = (t > fam.lo[c] - 2e-5 * span) & (t < fam.hi[c] + 2e-5 * span)
+    return c[near], t[near]
 
 
 def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
@@ -616,11 +620,20 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
     near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
     c, a, e = cc[near], a[near], e[near]
+    frac = np.linspace(0.0, 1.0, grid)
+    # a pair whose edge line leaves the whole grid of its conchoid strictly on one side (by a
+    # margin above rounding) shows no sign change on it: dropped before the grid (most pairs)
+    x0, y0, x1, y1 = _conchoid_grid_boxes(fam, frac)
+    side = [e[:, 0] * (y - a[:, 1]) - e[:, 1] * (x - a[:, 0])
+            for x, y in ((x0[c], y0[c]), (x0[c], y1[c]), (x1[c], y0[c]), (x1[c], y1[c]))]
+    margin = 1e-9 * np.hypot(e[:, 0], e[:, 1]) * (np.abs(a).max(axis=1) + fam.lss)
+    low, high = np.minimum.reduce(side), np.maximum.reduce(side)
+    keep = ~((low > margin) | (high < -margin))
+    c, a, e = c[keep], a[keep], e[keep]
     if len(c) == 0:
         return np.zeros(0, int), np.zeros(0)
     lo, hi = fam.lo[c], fam.hi[c]
 
-    frac = np.linspace(0.0, 1.0, grid)
     t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
     # the side function on the grid, each pair's rows broadcast (Family.points' arithmetic)
     w, d, p = fam.w[c], fam.d[c], fam.p[c]
@@ -642,6 +655,21 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
         ta = np.where(same, mid, ta)
         tb = np.where(same, tb, mid)
     return c[r], 0.5 * (ta + tb)
+
+
+def _conchoid_grid_boxes(fam: Family, frac: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each conchoid's target-end points at the grid ``lo + frac (hi - lo)`` (the arithmetic
+    of :func:`_conchoid_edge_crossings`), reduced to their bounding box (x0, y0, x1, y1)."""
+    lo, hi = fam.lo, fam.hi
+    t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
+    w, d, p = fam.w, fam.d, fam.p
+    qx = w[:, :1] + t * d[:, :1]
+    qy = w[:, 1:] + t * d[:, 1:]
+    rx, ry = p[:, :1] - qx, p[:, 1:] - qy
+    norm = np.sqrt(rx * rx + ry * ry)
+    qx, qy = qx + fam.lss * rx / norm, qy + fam.lss * ry / norm
+    return qx.min(axis=1), qy.min(axis=1), qx.max(axis=1), qy.max(axis=1)
 
 
 def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
@@ -1036,8 +1064,11 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
             for poly in c.polylines:
                 a = (poly - base) @ uu
                 lo, hi = a.min(), a.max()
-                inner = (along > lo + tol) & (along < hi - tol)
-                merged = np.vstack((poly[[int(np.argmin(a))]], pts[inner],
+                # the group's vertices strictly inside (lo + tol, hi - tol): a slice of the
+                # sorted ``along`` (a mask over the whole group was quadratic in its size)
+                i0 = np.searchsorted(along, lo + tol, side="right")
+                i1 = max(i0, np.searchsorted(along, hi - tol, side="left"))
+                merged = np.vstack((poly[[int(np.argmin(a))]], pts[i0:i1],
                                     poly[[int(np.argmax(a))]]))
                 if a[0] > a[-1]:
                     merged = merged[::-1]
