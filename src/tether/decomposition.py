@@ -16,10 +16,11 @@ A target passing exactly through an arrangement vertex is not modelled (``math.m
 from __future__ import annotations
 
 import gc
+import itertools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -31,6 +32,9 @@ from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
+
+if TYPE_CHECKING:
+    from tether.userframe import UserFrame
 
 
 class ArrangementError(TetherError):
@@ -422,13 +426,12 @@ class _Arrangement:
         ``src[ptr[k]:ptr[k + 1]]`` (increasing)."""
         return self.source_ptr, self.source_ids
 
-    def chain_sources(self, chains: list) -> list[list[int]]:
-        """The curves (no walls) of each chain ``(pair, parts)``, sorted, distinct;
-        vectorized over all chains."""
+    def chain_sources(self, chains: _Chains) -> tuple[np.ndarray, np.ndarray]:
+        """The curves (no walls) of each chain, sorted, distinct, as CSR arrays ``(ptr,
+        src)``: chain ``i``'s are ``src[ptr[i]:ptr[i + 1]]``; vectorized over all chains."""
         ptr, src = self.sources()
-        nparts = np.fromiter((len(ks) for _, ks in chains), np.int64, len(chains))
-        parts = np.fromiter((k for _, ks in chains for k in ks), np.int64, int(nparts.sum()))
-        chain = np.repeat(np.arange(len(chains), dtype=np.int64), nparts)
+        parts = chains.parts
+        chain = np.repeat(np.arange(len(chains), dtype=np.int64), chains.size)
         nsrc = ptr[parts + 1] - ptr[parts]
         rows = ragged_arange(ptr[parts], nsrc)
         base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
@@ -437,9 +440,7 @@ class _Arrangement:
         c, s = np.divmod(key, base)
         s = s - 1
         c, s = c[s >= 0], s[s >= 0]
-        bounds = np.searchsorted(c, np.arange(len(chains) + 1)).tolist()
-        flat = s.tolist()
-        return [flat[bounds[i]:bounds[i + 1]] for i in range(len(chains))]
+        return np.searchsorted(c, np.arange(len(chains) + 1)), s
 
 
 def _input_lines(env: Environment, curves: list[Curve]) -> tuple[np.ndarray, np.ndarray]:
@@ -941,22 +942,21 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         If the geometry engine fails even with snap rounding (one line, no traceback).
     """
     lss = check_lss(lss, env)
+    out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
-        from tether.userframe import decomposition_to_user
+        from tether.userframe import UserFrame
 
-        with gc_paused():
-            inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
-            release_memory()  # the arrangement, freed
-            dec = decomposition_to_user(inner, env, lss)
-        del inner
-        release_memory()  # the internal frame's geometries, freed
-        return dec
+        out = UserFrame(env, lss)
+        inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused():
-            return _decompose(env, lss, rel_tol, progress)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{_geos_message(exc)}") from exc
+    if out is not None:
+        release_memory()  # the arrangement and the internal frame's geometries, freed
+    return dec
 
 
 def release_memory() -> None:
@@ -988,17 +988,29 @@ def gc_paused() -> Iterator[None]:
     """Pause Python's cyclic garbage collector for a block. A decomposition creates millions of
     small objects that live on (cells, names, geometries) and none in reference cycles: each
     collection would walk them all again (a fifth of the time at 400 vertices) to free
-    nothing. Reference counting still frees everything else at once."""
+    nothing. Reference counting still frees everything else at once.
+
+    On leaving the outermost pause, the objects still alive (the results) go straight to the
+    oldest generation (``gc.freeze`` then ``gc.unfreeze``, both constant time): re-enabled as
+    they were, the collector's next young collection would walk every one of them (1.2 s at
+    1,000 map vertices) and the one after that again. They stay collectable by a full
+    collection; nothing is left frozen (skipped if the caller froze objects itself)."""
     was = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
         if was:
+            if gc.get_freeze_count() == 0:
+                gc.freeze()
+                gc.unfreeze()
             gc.enable()
 
 
-def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> Decomposition:
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
+               out: UserFrame | None = None) -> Decomposition:
+    """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
+    reported as is, or in the user's frame of ``out`` (the result objects made once)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -1046,14 +1058,14 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         numbering = _number_regions(arr, flat, size, pts, clear)
         face_region, nreg = numbering["face_region"], len(numbering["lists"])
         chains = _chains(arr, face_region)
-        cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
+        cands = _crossing_candidates(arr, chains, tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
-        has = np.flatnonzero(cands.count > 0).tolist()
-        touched = {r for i in has for r in chains[i][0]}
-        isolated = set(range(nreg)) - touched if nreg > 1 else set()
+        touched = np.zeros(nreg, bool)
+        touched[chains.pair[cands.count > 0].ravel()] = True
+        isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct)
+            regions = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -1071,20 +1083,36 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
+    cells = _make_cells(env, regions, out)
+    report("done", 1.0)
+    if out is None:
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                            unresolved_pieces)
+    else:  # the regions' polygons and structures and the pieces to the user's frame
+        del arr, chains, cands  # the arrangement, freed first
+        out.regions(regions)
+        out.pieces(pieces)
+        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+                            tuple(pieces), tol / out.scale, unresolved_pieces)
+        arcs = out.crossing_arcs(arcs)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    return dec
+
+
+def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
+                ) -> tuple[Cell, ...]:
+    """Every region's cells, region by region (named after the file's features with
+    ``out``; the regions' structures still in the internal feature codes)."""
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
     cells = []
     for r in regions:
         got = names.get(id(r.structure))
         if got is None:
-            got = names[id(r.structure)] = structure_names(env, r.structure)
+            got = structure_names(env, r.structure)
+            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
         rid = r.id
         cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    cells = tuple(cells)
-    report("done", 1.0)
-    dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                        unresolved_pieces)
-    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
-    return dec
+    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -1207,9 +1235,13 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
-                  face_struct: dict[int, Structure]) -> list[Region]:
+                  face_struct: dict[int, Structure], out: UserFrame | None = None
+                  ) -> list[Region]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells."""
+    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    cell names are the user's (converted before the regions are made); the polygon and the
+    structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
+    compare the structures with internal ones)."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
     rank = numbering["rank"].tolist()
     # the regions' polygons: single faces as they are, unions of several one by one
@@ -1217,6 +1249,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     for rid, g in enumerate(rank):
         if len(lists[g]) > 1:
             polys[rid] = shapely.union_all(arr.faces[lists[g]])
+    if out is not None:  # all at once, before any region is made (polygons: see below)
+        area = area / (out.scale * out.scale)
+        point = out.points(point)
     best_l = best.tolist()
     area_l = area.tolist()
     point_l = point.tolist()
@@ -1226,24 +1261,44 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
-            got = names[id(st)] = structure_names(env, st)
+            got = structure_names(env, st)
+            got = names[id(st)] = got if out is None else out.feature_pairs(got)
         cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
         pt = point_l[g]
         regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
-    shapely.prepare(polys)
+    if out is None:  # else converted and prepared once the pieces are made (no two copies
+        shapely.prepare(polys)  # of every polygon while the pieces stage runs)
     return regions
 
 
-def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, list[int]]]:
+@dataclass
+class _Chains:
+    """Chains of arrangement parts (CSR): chain ``i`` separates regions ``pair[i, 0] <
+    pair[i, 1]`` and is made of the parts ``parts[ptr[i]:ptr[i + 1]]`` (increasing). Chains
+    are sorted by region pair, then first part."""
+
+    pair: np.ndarray
+    ptr: np.ndarray
+    parts: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.pair)
+
+    @property
+    def size(self) -> np.ndarray:
+        """Number of parts of each chain."""
+        return np.diff(self.ptr)
+
+
+def _chains(arr: _Arrangement, face_region: np.ndarray) -> _Chains:
     """Arrangement parts separating two regions, grouped into chains: parts that meet end to
-    end and share a source curve. Each chain is ``((region_a, region_b), part indices)``.
-    Vectorized: parts sharing (region pair, end point, source) are linked, chains are the
-    connected components (scipy)."""
+    end and share a source curve. Vectorized: parts sharing (region pair, end point, source)
+    are linked, chains are the connected components."""
     fr = np.append(face_region, -1)  # index -1 (no face) maps to the last slot, -1
     ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
     parts = np.flatnonzero((ra >= 0) & (rb >= 0) & (ra != rb))
     if len(parts) == 0:
-        return []
+        return _Chains(np.zeros((0, 2), np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64))
     lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
     first_id, last_id = arr.end_ids()
     end_id = np.concatenate((first_id[parts], last_id[parts]))
@@ -1266,11 +1321,10 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     stops = np.r_[starts[1:], len(parts_o)]
     head = parts_o[starts]
     rank = np.lexsort((head, hi[head], lo[head]))
-    flat = parts_o.tolist()
     h = head[rank]
-    return [((a_, b_), flat[a:b]) for a_, b_, a, b in
-            zip(lo[h].tolist(), hi[h].tolist(), starts[rank].tolist(), stops[rank].tolist(),
-                strict=True)]
+    size = (stops - starts)[rank]
+    return _Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
+                   parts_o[ragged_arange(starts[rank], size)])
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -1294,54 +1348,48 @@ def _point_ids(pts: np.ndarray) -> np.ndarray:
     return _row_ids(pts)[0]
 
 
-def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
-                 cands: list, curves: list[Curve], lss: float
+def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: _Chains,
+                 cands: _Candidates, curves: list[Curve], lss: float
                  ) -> tuple[list[Piece], int, ArcTable]:
     """One piece per chain with a crossing sample. Returns the pieces, the number of
     chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only) and the exact arcs at both sides of every piece's crossing (see
     :meth:`Decomposition.crossing_arcs`)."""
-    chain_srcs = arr.chain_sources(chains)
-    samples, tables = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
-    geoms = _chain_geometries(arr, chains, samples)
-    pieces, dropped, at = [], 0, []
+    sptr, ssrc = arr.chain_sources(chains)
+    got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
+    kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
+    geoms = _chain_geometries(arr, chains, kept)
+    flat, ptr = ssrc.tolist(), sptr.tolist()
+    pieces = []
     described: dict[tuple[int, ...], tuple[str, tuple[str, ...]]] = {}  # many pieces share
-    for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
-                                                 strict=True):
-        if sample is None:
-            dropped += 1
-            continue
-        q, n, eps, verified, where = sample
-        at.append(where)
-        key = tuple(srcs)
-        got = described.get(key)
-        if got is None:
-            kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
-            feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
-            got = described[key] = (kinds, feats)
-        pieces.append(Piece(len(pieces), (ra, rb), key, got[0], got[1], geom,
-                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
-                            bool(verified)))
-    return pieces, dropped, _crossing_table(tables, at)
+    for pid, (i, (ra, rb), (qx, qy), (nx, ny), eps, verified, geom) in enumerate(zip(
+            kept.tolist(), chains.pair[kept].tolist(), got["q"][kept].tolist(),
+            got["n"][kept].tolist(), got["eps"][kept].tolist(), got["ok"][kept].tolist(),
+            geoms, strict=True)):
+        key = tuple(flat[ptr[i]:ptr[i + 1]])
+        desc = described.get(key)
+        if desc is None:
+            kinds = "".join(sorted({curves[c].kind for c in key})) or "?"
+            feats = tuple(dict.fromkeys(f for c in key for f in curves[c].features))
+            desc = described[key] = (kinds, feats)
+        pieces.append(Piece(pid, (ra, rb), key, desc[0], desc[1], geom, (qx, qy), (nx, ny),
+                            eps, verified))
+    return pieces, len(chains) - len(kept), _crossing_table(tables, got["at"][kept])
 
 
-def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
-    """Each kept chain's line: its part, or its parts merged into as few lines as they form
-    (all multi-part chains at once); None for chains without a sample."""
-    out: list = [None] * len(chains)
-    multi = [i for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True))
-             if smp is not None and len(ks) > 1]
-    for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True)):
-        if smp is not None and len(ks) == 1:
-            out[i] = arr.parts[ks[0]]
-    if multi:
-        ks = [chains[i][1] for i in multi]
-        idx = np.repeat(np.arange(len(multi)), [len(k) for k in ks])
-        lines = shapely.multilinestrings(arr.parts[np.concatenate(ks)], indices=idx)
-        for i, g in zip(multi, shapely.line_merge(lines).tolist(), strict=True):
-            out[i] = g
-    return out
+def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
+    """The lines of the chains ``which``: a chain's part, or its parts merged into as few
+    lines as they form (all multi-part chains at once)."""
+    size = chains.size[which]
+    out = arr.parts[chains.parts[chains.ptr[which]]]  # single parts as they are
+    multi = np.flatnonzero(size > 1)
+    if len(multi):
+        rows = ragged_arange(chains.ptr[which[multi]], size[multi])
+        lines = shapely.multilinestrings(arr.parts[chains.parts[rows]],
+                                         indices=np.repeat(np.arange(len(multi)), size[multi]))
+        out[multi] = shapely.line_merge(lines)
+    return out.tolist()
 
 
 @dataclass
@@ -1359,15 +1407,13 @@ class _Candidates:
         return np.diff(self.ptr)
 
 
-def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float, lss: float
+def _crossing_candidates(arr: _Arrangement, chains: _Chains, tol: float, lss: float
                          ) -> _Candidates:
     """For every chain, candidate crossing points (midpoints of the 6 longest segments of
     each of its parts) with their offsets ``eps``, best clearance first (up to 8); only points
     clear of every other part by ``4 tol``. All chains are handled in one vectorized pass."""
     part_chain = np.full(len(arr.parts), -1)
-    size = np.fromiter((len(ks) for ks in chains), np.int64, len(chains))
-    flat = np.fromiter((k for ks in chains for k in ks), np.int64, int(size.sum()))
-    part_chain[flat] = np.repeat(np.arange(len(chains)), size)
+    part_chain[chains.parts] = np.repeat(np.arange(len(chains)), chains.size)
     Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
@@ -1386,6 +1432,35 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
 #: Candidate points handled per batch when measuring their clearance: each brings one row per
 #: segment near it, so this bounds the working memory (not the speed).
 CLEARANCE_BATCH = 20_000
+
+
+#: The clearance search's radii, as fractions of its reach: a point is searched again within
+#: the next radius only if nothing of another part was found within the previous one.
+CLEARANCE_STAGES = (1 / 16, 1 / 4, 1.0)
+
+
+def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
+               sowner: np.ndarray, tree: shapely.STRtree, reach: float) -> np.ndarray:
+    """Each point's distance to the nearest segment ``sa[k]-sb[k]`` of another part
+    (``sowner[k] != owner[i]``), at most ``reach`` (map units). Searched within growing radii
+    (``CLEARANCE_STAGES``): a distance found within a radius is the nearest (every segment
+    that close is among the radius's candidates), and most points have a neighbour much
+    closer than ``reach``, so far fewer (point, segment) pairs are measured than in one search
+    within ``reach``; the same distances."""
+    clear = np.full(len(pts), reach)
+    todo = np.arange(len(pts))
+    for frac in CLEARANCE_STAGES:
+        r = reach * frac
+        found = np.full(len(todo), np.inf)
+        for i in range(0, len(todo), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
+            rows = todo[i:i + CLEARANCE_BATCH]
+            qi, sj, d = _segments_near(pts[rows], sa, sb, r, tree)
+            other = sowner[sj] != owner[rows[qi]]
+            np.minimum.at(found, i + qi[other], d[other])
+        hit = found <= r
+        clear[todo[hit]] = found[hit]
+        todo = todo[~hit]
+    return clear
 
 
 def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
@@ -1413,12 +1488,7 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         take = order[keep]
         Q = 0.5 * (a[take] + b[take])
         mine = part[take]
-        reach = max(1e3 * tol, 1e-3 * lss)
-        clear = np.full(len(Q), reach)
-        for i in range(0, len(Q), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
-            qi, sj, d = _segments_near(Q[i:i + CLEARANCE_BATCH], sa, sb, reach, tree)
-            other = sowner[sj] != mine[i + qi]
-            np.minimum.at(clear, i + qi[other], d[other])
+        clear = _clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
         cache["Q"] = np.vstack((cache["Q"], Q))
         cache["part"] = np.concatenate((cache["part"], mine))
         cache["rank"] = np.concatenate((cache["rank"], rank[keep]))
@@ -1429,22 +1499,22 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
     return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
 
 
-def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions: list[Region],
-                    curves: list[Curve], chain_srcs: list[list[int]], lss: float
-                    ) -> tuple[list, list[ArcTable]]:
+def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
+                    regions: list[Region], curves: list[Curve],
+                    chain_srcs: tuple[np.ndarray, np.ndarray], lss: float
+                    ) -> tuple[dict[str, np.ndarray], list[ArcTable]]:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
-    are tried in rounds, all chains at once (vectorized: structures compared as integer ids).
-    A chain with no clean candidate keeps its first one (``check`` reports it); a chain with
-    no candidate at all gets ``None``. Each answer is ``(q, n, eps, verified, at)``, ``at``
-    saying where the arcs of its two sides are in the returned tables: ``(round, row of the
-    +n side, row of the other)``."""
+    are tried in rounds, all chains at once (vectorized: structures compared as integer rows,
+    :func:`_rows_equal`). A chain with no clean candidate keeps its first one (``check``
+    reports it); a chain without candidates gets nothing (zeros). Returns arrays over the
+    chains: ``q``, ``n``, ``eps``, ``ok`` (verified) and ``at``, saying where the arcs of the
+    two sides are in the returned tables: ``(round, row of the +n side, row of the other)``;
+    ``chain_srcs`` are the chains' curves (CSR, :meth:`_Arrangement.chain_sources`)."""
     m = len(chains)
     count = cands.count
-    sid: dict = {}  # structure -> integer id (regions' first)
-    reg_sid = _structure_codes([r.structure for r in regions], sid)
-    pair = np.array([p for p, _ in chains], dtype=np.int64).reshape(-1, 2)
-    sa, sb = reg_sid[pair[:, 0]], reg_sid[pair[:, 1]]
+    reg_rows, reg_of = _set_rows([r.structure for r in regions], 2 * env.n + 1)
+    sa, sb = reg_of[chains.pair[:, 0]], reg_of[chains.pair[:, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
     out_eps = np.zeros(m)
     out_ok = np.zeros(m, bool)
@@ -1455,19 +1525,19 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
     rnd = 0
     while len(pending):
         row = cands.ptr[pending] + rnd
-        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending.tolist()],
-                                   cands.q[row])
+        q, n = _project_on_sources(curves, chain_srcs, pending, cands.q[row])
         eps = cands.eps[row]
         k = len(pending)
         j = np.arange(k)
         if first is None:  # every chain with a candidate is tried in round 0
             first = (q, n, eps, np.column_stack((np.zeros(k, np.int64), j, j + k)))
-        table, plus, minus = _arcs_across(env, lss, q, n, eps)
+        table, sides = _arcs_across(env, lss, q, n, eps)
         tables.append(table)
-        sp = _structure_codes(plus, sid)
-        sm = _structure_codes(minus, sid)
-        fwd = (sp == sa[pending]) & (sm == sb[pending])
-        back = ~fwd & (sp == sb[pending]) & (sm == sa[pending])
+        fwd = (_rows_equal(sides, j, reg_rows, sa[pending])
+               & _rows_equal(sides, j + k, reg_rows, sb[pending]))
+        back = ~fwd
+        back[back] = (_rows_equal(sides, j[back], reg_rows, sb[pending[back]])
+                      & _rows_equal(sides, j[back] + k, reg_rows, sa[pending[back]]))
         done = fwd | back
         for sel, sign, at in ((fwd, 1.0, np.column_stack((j, j + k))),
                               (back, -1.0, np.column_stack((j + k, j)))):
@@ -1484,43 +1554,93 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
             out_at[i] = first[3][f]
         pending = pending[~done & ~last]
         rnd += 1
-    has = (count > 0).tolist()
-    q_l, n_l, e_l, ok_l = (out_q.tolist(), out_n.tolist(), out_eps.tolist(), out_ok.tolist())
-    at_l = [tuple(a) for a in out_at.tolist()]
-    samples = [(q_l[i], n_l[i], e_l[i], ok_l[i], at_l[i]) if has[i] else None
-               for i in range(m)]
-    return samples, tables
+    return {"q": out_q, "n": out_n, "eps": out_eps, "ok": out_ok, "at": out_at}, tables
 
 
-def _structure_codes(structs: list, codes: dict) -> np.ndarray:
-    """An integer per structure, equal for equal structures, from (and added to) ``codes``.
-    Equal structures are mostly one shared object: each distinct object is looked up once
-    (comparing two equal frozensets of different identity costs their size)."""
+@dataclass
+class _StructureRows:
+    """Structures as integer rows (CSR), compared exactly and vectorized
+    (:func:`_rows_equal`) instead of as frozensets: structure ``i`` is ``kind[i]`` (0:
+    ``"EMPTY"``, 1: ``"FULL"``, 2: a set of ``(start_code, end_code)`` pairs), the set's
+    pairs encoded ``start_code * base + end_code``, sorted and distinct, in
+    ``pairs[ptr[i]:ptr[i + 1]]``."""
+
+    kind: np.ndarray
+    ptr: np.ndarray
+    pairs: np.ndarray
+
+
+def _table_rows(env: Environment, table: ArcTable, npts: int) -> _StructureRows:
+    """The structure of each point of an :class:`ArcTable` as integer rows (the structures of
+    :func:`structures`, without building a frozenset per point)."""
+    base = 2 * env.n + 1
+    point = table.point.astype(np.int64)
+    pair = table.start_code.astype(np.int64) * base + table.end_code
+    if len(point) and (npts + 1) * base * base < 2**62:  # one exact integer key
+        order = np.argsort(point * (base * base) + pair, kind="stable")
+    else:
+        order = np.lexsort((pair, point))
+    point, pair = point[order], pair[order]
+    new = np.r_[True, (point[1:] != point[:-1]) | (pair[1:] != pair[:-1])] if len(point) \
+        else np.zeros(0, bool)
+    point, pair = point[new], pair[new]
+    size = np.bincount(point, minlength=npts)
+    kind = np.where(size > 0, 2, np.asarray(table.full, dtype=bool).astype(np.int64))
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], pair)
+
+
+def _set_rows(structs: list[Structure], base: int) -> tuple[_StructureRows, np.ndarray]:
+    """The distinct structure objects of ``structs`` as integer rows (pairs encoded with
+    ``base``, see :class:`_StructureRows`) and the row of each item. Equal structures are
+    mostly one shared object: each distinct object is read once."""
     if not structs:
-        return np.zeros(0, np.int64)
+        return _StructureRows(np.zeros(0, np.int64), np.zeros(1, np.int64),
+                              np.zeros(0, np.int64)), np.zeros(0, np.int64)
     obj = np.fromiter(map(id, structs), np.int64, len(structs))
     _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
-    val = np.fromiter((codes.setdefault(structs[i], len(codes)) for i in first.tolist()),
-                      np.int64, len(first))
-    return val[inv.ravel()]
+    objs = [structs[i] for i in first.tolist()]
+    kind = np.fromiter((0 if s == "EMPTY" else 1 if s == "FULL" else 2 for s in objs),
+                       np.int64, len(objs))
+    sets = [s if k == 2 else () for s, k in zip(objs, kind.tolist(), strict=True)]
+    size = np.fromiter(map(len, sets), np.int64, len(sets))
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(sets)),
+                       np.int64, 2 * int(size.sum()))
+    code = flat[0::2] * base + flat[1::2]
+    row = np.repeat(np.arange(len(objs)), size)
+    code = code[np.lexsort((code, row))]  # frozensets hold distinct pairs
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], code), inv.ravel()
+
+
+def _rows_equal(a: _StructureRows, i: np.ndarray, b: _StructureRows, j: np.ndarray
+                ) -> np.ndarray:
+    """Whether structure ``i[k]`` of ``a`` equals structure ``j[k]`` of ``b``, for every ``k``
+    (exact: same kind, same pairs)."""
+    na, nb = a.ptr[i + 1] - a.ptr[i], b.ptr[j + 1] - b.ptr[j]
+    eq = (a.kind[i] == b.kind[j]) & (na == nb)
+    k = np.flatnonzero(eq & (na > 0))
+    c = na[k]
+    diff = a.pairs[ragged_arange(a.ptr[i[k]], c)] != b.pairs[ragged_arange(b.ptr[j[k]], c)]
+    bad = np.bincount(np.repeat(np.arange(len(k)), c)[diff], minlength=len(k)) > 0
+    eq[k[bad]] = False
+    return eq
 
 
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
-                 ) -> tuple[ArcTable, list[Structure], list[Structure]]:
+                 ) -> tuple[ArcTable, _StructureRows]:
     """Exact free arcs at both sides of crossings (rows ``0..k-1``: ``q + eps n``, then
-    ``q - eps n``) and the structures of the two sides."""
+    ``q - eps n``) and the structures of those ``2k`` points."""
     pts = crossing_points(q, n, eps)
     table = free_arcs_many(env, pts, lss, check=False)
-    st = structures(env, table, len(pts))
-    return table, st[: len(q)], st[len(q):]
+    return table, _table_rows(env, table, len(pts))
 
 
-def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> ArcTable:
+def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     """The arcs at both sides of every piece's crossing, gathered from the tables of the
     rounds that chose them (the very points of :meth:`Decomposition.piece_crossings`):
-    points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other."""
+    points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other. ``at``: each
+    piece's ``(round, row of the +n side, row of the other)``, shape (m, 3)."""
     m = len(at)
-    at_arr = np.array(at, dtype=np.int64).reshape(-1, 3)
+    at_arr = np.asarray(at, dtype=np.int64).reshape(-1, 3)
     parts = []
     full = np.zeros(2 * m, bool)
     for r, table in enumerate(tables):
@@ -1544,17 +1664,18 @@ def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> A
     return ArcTable(point[order], *cols, full)
 
 
-def _project_on_sources(curves: list[Curve], srcs: list[list[int]], q0: np.ndarray
-                        ) -> tuple[np.ndarray, np.ndarray]:
-    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves
-    ``srcs[k]`` (all rows at once); a row without a source curve keeps its point, normal
-    (0, 1)."""
+def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray],
+                        which: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves of
+    chain ``which[k]`` (``srcs``: the chains' curves, CSR ``(ptr, src)``; all rows at once); a
+    row without a source curve keeps its point, normal (0, 1)."""
     q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))
-    count = np.array([len(s) for s in srcs], dtype=int)
+    ptr, src = srcs
+    count = ptr[which + 1] - ptr[which]
     if count.sum() == 0:
         return q, n
-    row = np.repeat(np.arange(len(srcs)), count)
-    cid = np.fromiter((c for s in srcs for c in s), dtype=int, count=int(count.sum()))
+    row = np.repeat(np.arange(len(which)), count)
+    cid = src[ragged_arange(ptr[which], count)]
     _, p, nrm = project_many(curves, cid, q0[row])
     dist = np.hypot(*(p - q0[row]).T)
     order = np.lexsort((dist, row))
