@@ -2,10 +2,10 @@
 
 Regions are the maximal connected open sets of target positions over which the labelled
 free-arc structure stays the same. They are computed from the arrangement of the critical
-curves, never from a grid: the curves' polylines and the map's rings are noded and polygonized
-(shapely) into faces; each face's structure is evaluated exactly at a point well inside it;
-faces adjacent across a curve piece with equal structure are merged. Sampling is how
-:func:`check` verifies the result.
+curves, never from a grid: the curves' polylines and the map's rings are noded (shapely) and
+the faces of the noded lines traced from their half-edges; each face's structure is evaluated
+exactly at a point well inside it; faces adjacent across a curve piece with equal structure
+are merged. Sampling is how :func:`check` verifies the result.
 
 Tolerances: curves are drawn within ``curve_tol = REL_CURVE_TOL * diameter`` of their exact
 shape. A face whose inscribed circle is smaller than ``2 * curve_tol`` is below that resolution:
@@ -1017,7 +1017,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     curves = critical_curves(env, lss, rel_tol)
     report("arrangement", 0.3)
     arr = _arrangement(env, curves, tol)
-    release_memory()  # the noder's and the polygonizer's temporaries
+    release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     pts, clear = _face_points(arr.faces, tol, arr.grid)
     inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
