@@ -553,6 +553,13 @@ def _trace_faces(parts: np.ndarray, ends: tuple | None = None
     step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
     step[0::2] = coords[start + 1] - coords[start]
     step[1::2] = coords[last - 1] - coords[last]
+    for h in np.flatnonzero(~step.any(axis=1)).tolist():  # a repeated point (none seen)
+        k, sign = h // 2, 1 - 2 * (h % 2)
+        at = start[k] if sign > 0 else last[k]
+        j = at + sign
+        while not (coords[j] != coords[at]).any():  # parts have length > 0
+            j += sign
+        step[h] = coords[j] - coords[at]
     angle = np.arctan2(step[:, 1], step[:, 0])
     label = None
     for _ in range(2):  # the second pass without the cut edges
