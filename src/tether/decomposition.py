@@ -470,6 +470,8 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     lines, source = _input_lines(env, curves)
     noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
+    del noded
+    release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
     parts = parts[shapely.length(parts) > 0]
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
@@ -484,18 +486,27 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(lines)
     mid = 0.5 * (pa[longest] + pb[longest])
-    qi, si, _ = _segments_near(mid, la, lb, max(1e-3 * tol + 2 * grid, 1e-12),
-                               _segment_tree(la, lb))
-    src_of = np.asarray(source, dtype=np.int64)[lowner[si]]
-    # distinct (part, source) pairs in (part, source) order, as one integer key
-    base = int(src_of.max(initial=0)) + 2  # sources are -1 (wall) .. max
-    key = np.sort(powner[longest[qi]].astype(np.int64) * base + src_of + 1)
+    tree = _segment_tree(la, lb)
+    source = np.asarray(source, dtype=np.int64)
+    base = int(source.max(initial=0)) + 2  # sources are -1 (wall) .. max
+    keys = []  # (part, source) pairs as one integer key; in batches: their candidate pairs
+    for lo in range(0, len(mid), SOURCE_BATCH):  # (1.3 M at 1,000 v) set the stage's peak
+        qi, si, _ = _segments_near(mid[lo:lo + SOURCE_BATCH], la, lb,
+                                   max(1e-3 * tol + 2 * grid, 1e-12), tree)
+        keys.append(powner[longest[qi + lo]].astype(np.int64) * base + source[lowner[si]] + 1)
+    del tree
+    # distinct (part, source) pairs in (part, source) order
+    key = np.sort(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
     arr = _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
     arr.__dict__["_end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
     return arr
+
+
+#: Parts whose sources are looked up per batch (bounds the candidate pairs' memory).
+SOURCE_BATCH = 65536
 
 
 def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
