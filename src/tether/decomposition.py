@@ -767,7 +767,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         touched = {r for i in has for r in chains[i][0]}
         isolated = set(range(nreg)) - touched if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct, out)
+            regions, cells = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -785,7 +785,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
-    cells = _make_cells(env, regions, out)
     report("done", 1.0)
     if out is None:
         dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
@@ -799,22 +798,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         arcs = out.crossing_arcs(arcs)
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     return dec
-
-
-def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
-                ) -> tuple[Cell, ...]:
-    """Every region's cells, region by region (named after the file's features with
-    ``out``; the regions' structures still in the internal feature codes)."""
-    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    cells = []
-    for r in regions:
-        got = names.get(id(r.structure))
-        if got is None:
-            got = structure_names(env, r.structure)
-            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
-        rid = r.id
-        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -938,9 +921,10 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_struct: dict[int, Structure], out: UserFrame | None = None
-                  ) -> list[Region]:
+                  ) -> tuple[list[Region], tuple[Cell, ...]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    union of the faces), area, point, structure and cells; and the :class:`Cell` objects,
+    region by region (each region's structure named once for both). With ``out``, area, point and
     cell names are the user's (converted before the regions are made); the polygon and the
     structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
     compare the structures with internal ones)."""
@@ -958,19 +942,20 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     area_l = area.tolist()
     point_l = point.tolist()
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    regions = []
+    regions, cells = [], []
     for rid, g in enumerate(rank):
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
             got = structure_names(env, st)
             got = names[id(st)] = got if out is None else out.feature_pairs(got)
-        cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        ids = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(ids, got, strict=True)]
         pt = point_l[g]
-        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
+        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, ids))
     if out is None:  # else converted and prepared once the pieces are made (no two copies
         shapely.prepare(polys)  # of every polygon while the pieces stage runs)
-    return regions
+    return regions, tuple(cells)
 
 
 def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, list[int]]]:
