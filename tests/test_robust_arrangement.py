@@ -116,7 +116,7 @@ def test_geos_failure_is_one_line_tether_error(monkeypatch, capsys, tmp_path):
     def fail(*args, **kwargs):
         raise GEOSException("TopologyException: side location conflict at 1 2\nmore")
 
-    monkeypatch.setattr(shapely, "polygonize", fail)
+    monkeypatch.setattr(shapely, "point_on_surface", fail)  # every decomposition calls it
     env = load_map(example_path("rectangle"))
     with pytest.raises(ArrangementError) as info:
         decompose(env, 1.0)
@@ -182,7 +182,9 @@ def test_unverified_crossings_reach_the_users_verdict(monkeypatch):
     real = D._arcs_across
 
     def garbage(env, lss, q, n, eps):  # the arcs as found, the structures unrecognizable
-        return real(env, lss, q, n, eps)[0], ["?"] * len(q), ["?"] * len(q)
+        table, sides = real(env, lss, q, n, eps)
+        return table, D._StructureRows(np.full(2 * len(q), -1), np.zeros(2 * len(q) + 1, int),
+                                       np.zeros(0, int))
 
     monkeypatch.setattr(D, "_arcs_across", garbage)
     verdict = analyze(decompose(load_map(example_path("rectangle")), 1.0))

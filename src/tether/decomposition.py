@@ -16,6 +16,7 @@ A target passing exactly through an arrangement vertex is not modelled (``math.m
 from __future__ import annotations
 
 import gc
+import itertools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -393,6 +394,7 @@ class _Arrangement:
     source_ptr: np.ndarray
     source_ids: np.ndarray
     faces: np.ndarray  # polygons
+    grid: float = 0.0  # the snap-rounding grid of the noding (map units), 0: exact
 
     @property
     def part_sources(self) -> list[tuple[int, ...]]:
@@ -428,13 +430,12 @@ class _Arrangement:
         ``src[ptr[k]:ptr[k + 1]]`` (increasing)."""
         return self.source_ptr, self.source_ids
 
-    def chain_sources(self, chains: list) -> list[list[int]]:
-        """The curves (no walls) of each chain ``(pair, parts)``, sorted, distinct;
-        vectorized over all chains."""
+    def chain_sources(self, chains: _Chains) -> tuple[np.ndarray, np.ndarray]:
+        """The curves (no walls) of each chain, sorted, distinct, as CSR arrays ``(ptr,
+        src)``: chain ``i``'s are ``src[ptr[i]:ptr[i + 1]]``; vectorized over all chains."""
         ptr, src = self.sources()
-        nparts = np.fromiter((len(ks) for _, ks in chains), np.int64, len(chains))
-        parts = np.fromiter((k for _, ks in chains for k in ks), np.int64, int(nparts.sum()))
-        chain = np.repeat(np.arange(len(chains), dtype=np.int64), nparts)
+        parts = chains.parts
+        chain = np.repeat(np.arange(len(chains), dtype=np.int64), chains.size)
         nsrc = ptr[parts + 1] - ptr[parts]
         rows = ragged_arange(ptr[parts], nsrc)
         base = int(src.max(initial=0)) + 2  # sources are -1 (wall) .. max
@@ -443,9 +444,7 @@ class _Arrangement:
         c, s = np.divmod(key, base)
         s = s - 1
         c, s = c[s >= 0], s[s >= 0]
-        bounds = np.searchsorted(c, np.arange(len(chains) + 1)).tolist()
-        flat = s.tolist()
-        return [flat[bounds[i]:bounds[i + 1]] for i in range(len(chains))]
+        return np.searchsorted(c, np.arange(len(chains) + 1)), s
 
 
 def _input_lines(env: Environment, curves: list[Curve]) -> tuple[np.ndarray, np.ndarray]:
@@ -476,25 +475,14 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
     parts = parts[shapely.length(parts) > 0]
-    faces = shapely.get_parts(shapely.polygonize(parts))
-    # which faces lie on the two sides of each part: match the part's longest segment with the
-    # faces' ring segments (polygonize keeps the noded coordinates exactly)
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
     longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
-    fa, fb, fowner = _ring_segments(faces)
-    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
-    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
-    part_faces = np.full((len(parts), 2), -1)
-    # the first two faces (in face order) having each part's longest segment in their ring
-    order = np.argsort(face_ids, kind="stable")
-    sorted_ids, owner_sorted = face_ids[order], fowner[order]
-    pos = np.searchsorted(sorted_ids, part_ids)
-    for slot in (0, 1):
-        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
-        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
-            sorted_ids) else np.zeros(len(part_ids), bool)
-        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
+    traced = _trace_faces(parts)
+    if traced is not None:
+        faces, part_faces = traced
+    else:
+        faces, part_faces = _polygonize_faces(parts, pa, pb, powner, longest)
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(lines)
@@ -508,7 +496,237 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
-    return _Arrangement(parts, part_faces, ptr, src - 1, faces)
+    return _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+
+
+def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
+                      longest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_trace_faces` by ``shapely.polygonize`` (the fallback): the faces, and which
+    faces lie on the two sides of each part, by matching the part's longest segment
+    (``longest``: its index in the parts' segments ``pa-pb`` of owner ``powner``) with the
+    faces' ring segments (polygonize keeps the noded coordinates exactly)."""
+    faces = shapely.get_parts(shapely.polygonize(parts))
+    fa, fb, fowner = _ring_segments(faces)
+    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
+    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
+    part_faces = np.full((len(parts), 2), -1)
+    # the first two faces (in face order) having each part's longest segment in their ring
+    order = np.argsort(face_ids, kind="stable")
+    sorted_ids, owner_sorted = face_ids[order], fowner[order]
+    pos = np.searchsorted(sorted_ids, part_ids)
+    for slot in (0, 1):
+        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
+        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
+            sorted_ids) else np.zeros(len(part_ids), bool)
+        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
+    return faces, part_faces
+
+
+def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The faces of the noded ``parts`` (polygons) and the faces on the two sides of every
+    part (``(nparts, 2)``, the smaller face id first, -1 for none), traced on the planar
+    graph of the parts' half-edges in numpy instead of ``shapely.polygonize`` and matching
+    rings back to parts (several times slower). As polygonize: dangles and cut edges bound
+    no face (their parts get ``(-1, -1)``), rings touching themselves at a node are split
+    into simple rings, counter-clockwise rings are shells, clockwise rings holes of the
+    smallest shell containing them, the unbounded face is none. Returns None where the
+    tracing cannot decide (two half-edges leaving a node in exactly the same direction,
+    which noding rules out, or a hole touching its shell at all its nodes): the caller
+    polygonizes then."""
+    n = len(parts)
+    coords, idx = shapely.get_coordinates(parts, return_index=True)
+    count = np.bincount(idx, minlength=n)
+    start = np.cumsum(count) - count
+    last = start + count - 1
+    ends = _point_ids(np.vstack((coords[start], coords[last])))
+    origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
+    origin[0::2], origin[1::2] = ends[:n], ends[n:]
+    nodes = int(ends.max(initial=-1)) + 1
+    alive = _drop_dangles(origin, nodes)
+    step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
+    step[0::2] = coords[start + 1] - coords[start]
+    step[1::2] = coords[last - 1] - coords[last]
+    angle = np.arctan2(step[:, 1], step[:, 0])
+    label = None
+    for _ in range(2):  # the second pass without the cut edges
+        nxt = _next_half_edges(origin, angle, alive)
+        if nxt is None:
+            return None
+        label = _cycle_labels(nxt, alive)
+        cut = alive[0::2] & (label[0::2] == label[1::2])  # one face on both sides
+        if not cut.any():
+            break
+        alive[0::2] &= ~cut
+        alive[1::2] &= ~cut
+    seq = _cycle_order(nxt, label, alive)  # alive half-edges, cycle after cycle, in order
+    at = np.where(np.arange(2 * n) % 2 == 0, np.repeat(start, 2), np.repeat(last, 2))
+    inner = np.where(np.repeat(count, 2) > 2, np.repeat(start + 1, 2), -1)
+    loop = _split_pinched(seq, label[seq], origin, at, inner)
+    if loop is None:
+        return None
+    ring_of, test_pt = loop
+    # each ring's coordinates: every half-edge's points but its last, then the first again
+    fwd = seq % 2 == 0
+    k = seq // 2
+    m = count[k] - 1
+    pos = ragged_arange(np.zeros(len(seq), np.int64), m)
+    he_rep = np.repeat(np.arange(len(seq)), m)
+    ci = np.where(fwd[he_rep], start[k][he_rep] + pos, last[k][he_rep] - pos)
+    ring_pt = ring_of[he_rep]
+    order = np.argsort(ring_pt, kind="stable")
+    ci, ring_pt = ci[order], ring_pt[order]
+    nring = int(ring_of.max(initial=-1)) + 1
+    first = np.searchsorted(ring_pt, np.arange(nring))
+    ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
+    ring_idx = np.repeat(np.arange(nring), np.bincount(ring_pt, minlength=nring) + 1)
+    rings = shapely.linearrings(coords[ci], indices=ring_idx)
+    ccw = shapely.is_ccw(rings)
+    shell = np.flatnonzero(ccw)
+    hole = np.flatnonzero(~ccw)
+    face_of_ring = np.full(nring, -1)
+    face_of_ring[shell] = np.arange(len(shell))
+    shells = shapely.polygons(rings[shell])
+    # holes: in the smallest shell whose interior holds a node of theirs off every pinch
+    pts = shapely.points(coords[test_pt[hole]])
+    hi, si = shapely.STRtree(shells).query(pts, predicate="within")
+    area = shapely.area(shells)
+    pick = np.lexsort((area[si], hi))
+    hi, si = hi[pick], si[pick]
+    head = np.r_[True, hi[1:] != hi[:-1]] if len(hi) else np.zeros(0, bool)
+    face_of_ring[hole[hi[head]]] = si[head]
+    # the faces: each shell then its holes
+    inner = hole[face_of_ring[hole] >= 0]
+    rows = np.concatenate((shell, inner))
+    owner = face_of_ring[rows]
+    o = np.argsort(owner, kind="stable")
+    faces = shapely.polygons(rings[rows[o]], indices=owner[o])
+    side = np.full(2 * n, -1)
+    side[seq] = face_of_ring[ring_of]
+    pf = np.sort(side.reshape(n, 2), axis=1)
+    one = pf[:, 0] < 0  # -1 (none) goes second
+    pf[one] = pf[one][:, ::-1]
+    pf[pf[:, 0] == pf[:, 1]] = -1
+    return np.asarray(faces, dtype=object), pf
+
+
+def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
+    """Which half-edges (``origin``: each one's start node, twins ``2k``, ``2k + 1``) remain
+    once dangles are removed: parts with an end of degree 1, repeatedly."""
+    alive = np.ones(len(origin), bool)
+    deg = np.bincount(origin, minlength=nodes)
+    order = np.argsort(origin, kind="stable")
+    ptr = np.searchsorted(origin[order], np.arange(nodes + 1))
+    tip = np.flatnonzero(deg == 1)
+    while len(tip):
+        he = order[ragged_arange(ptr[tip], ptr[tip + 1] - ptr[tip])]
+        he = he[alive[he]]
+        part = np.unique(he // 2)
+        alive[2 * part] = alive[2 * part + 1] = False
+        end = origin[np.concatenate((2 * part, 2 * part + 1))]
+        np.subtract.at(deg, end, 1)
+        tip = np.unique(end[deg[end] == 1])
+    return alive
+
+
+def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
+                     ) -> np.ndarray | None:
+    """The next half-edge of each alive one along its face (the face on its left): at its end
+    node, the outgoing half-edge just clockwise of its twin. None if two half-edges leave a
+    node in exactly the same direction."""
+    live = np.flatnonzero(alive)
+    order = live[np.lexsort((angle[live], origin[live]))]
+    o, a = origin[order], angle[order]
+    if np.any((o[1:] == o[:-1]) & (a[1:] == a[:-1])):
+        return None
+    pos = np.empty(len(origin), np.int64)
+    pos[order] = np.arange(len(order))
+    new = np.r_[True, o[1:] != o[:-1]]
+    gstart = np.flatnonzero(new)
+    gid = np.cumsum(new) - 1
+    gend = np.r_[gstart[1:], len(order)]
+    tp = pos[live ^ 1]  # each half-edge's twin, in the sorted order
+    prev = np.where(tp > gstart[gid[tp]], tp - 1, gend[gid[tp]] - 1)
+    nxt = np.full(len(origin), -1)
+    nxt[live] = order[prev]
+    return nxt
+
+
+def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """The smallest half-edge of each alive half-edge's cycle under ``nxt`` (dead ones: their
+    own index)."""
+    live = np.flatnonzero(alive)
+    return _components(len(nxt), live, nxt[live])
+
+
+def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """The alive half-edges cycle after cycle (by smallest half-edge), each cycle from its
+    smallest half-edge along ``nxt`` (list ranking by pointer doubling)."""
+    live = np.flatnonzero(alive)
+    succ = nxt.copy()
+    tail = np.zeros(len(nxt), bool)
+    tail[live] = nxt[live] == label[live]  # the last half-edge of its cycle
+    succ[~alive | tail] = np.flatnonzero(~alive | tail)
+    dist = np.where(alive & ~tail, 1, 0)  # steps to the cycle's last half-edge
+    while True:
+        s2 = succ[succ]
+        if np.array_equal(s2, succ):
+            break
+        dist = dist + dist[succ]
+        succ = s2
+    return live[np.lexsort((-dist[live], label[live]))]
+
+
+def _split_pinched(seq: np.ndarray, lab: np.ndarray, origin: np.ndarray, at: np.ndarray,
+                   inner: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Simple rings from the cycles ``seq`` (half-edges cycle after cycle, in order; ``lab``:
+    their cycle): a cycle passing a node twice is cut there into rings (rare: a Python loop
+    over those cycles only). Returns the ring of every position of ``seq`` and, per ring, the
+    coordinate index of a point of it on no other ring of its cycle (a node passed once, or
+    an inner point of a part: ``at`` and ``inner`` per half-edge, -1 for none), None if a
+    ring has none."""
+    new = np.r_[True, lab[1:] != lab[:-1]] if len(lab) else np.zeros(0, bool)
+    ring = np.cumsum(new) - 1
+    test = at[seq[new]]
+    key = ring * (int(origin.max(initial=0)) + 1) + origin[seq]
+    srt = np.sort(key)
+    dup = srt[1:][srt[1:] == srt[:-1]]
+    pinched = np.unique(dup // (int(origin.max(initial=0)) + 1))
+    if len(pinched) == 0:
+        return ring, test
+    ring = ring.copy()
+    tests = test.tolist()
+    starts = np.flatnonzero(new)
+    stops = np.r_[starts[1:], len(seq)]
+    for c in pinched.tolist():
+        a, b = int(starts[c]), int(stops[c])
+        nodes = origin[seq[a:b]].tolist()
+        seen: dict[int, int] = {}
+        for v in nodes:
+            seen[v] = seen.get(v, 0) + 1
+        loops: list[list[int]] = []
+        stack: list[int] = []  # positions in seq
+        where: dict[int, int] = {}
+        for p, v in zip(range(a, b), nodes, strict=True):
+            if v in where:
+                i = where[v]
+                loops.append(stack[i:])
+                for q in stack[i:]:
+                    del where[int(origin[seq[q]])]
+                del stack[i:]
+            where[v] = len(stack)
+            stack.append(p)
+        loops.append(stack)
+        for j, lp in enumerate(loops):
+            free = [int(at[seq[q]]) for q in lp if seen[int(origin[seq[q]])] == 1]
+            free += [int(inner[seq[q]]) for q in lp if inner[seq[q]] >= 0]
+            if not free:
+                return None
+            r = c if j == 0 else len(tests)
+            if j:
+                tests.append(0)
+            ring[lp] = r
+            tests[r] = free[0]
+    return ring, np.asarray(tests, dtype=np.int64)
 
 
 def _first_max_per_group(value: np.ndarray, group: np.ndarray) -> np.ndarray:
@@ -605,11 +823,22 @@ def _geos_message(exc: BaseException | None) -> str:
     return str(exc).splitlines()[0] if exc is not None else "unknown error"
 
 
-def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """A point well inside each face and its distance to the face's boundary."""
+def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """A point well inside each face and its distance to the face's boundary (map units).
+
+    ``point_on_surface`` first; faces where it lies closer than ``4 tol`` to the boundary get
+    the centre of their maximum inscribed circle instead if that is farther. The circle (the
+    costly step) is skipped where it cannot change a result: faces that cannot be resolved
+    (:data:`MIC_MIN_BOUND`; :func:`_decompose` only compares clearances with ``2 tol`` and,
+    among resolved faces, with each other) whose point is clear of the boundary by more than
+    rounding and the noding ``grid`` (whether the face is in the free space is then the same
+    at either point; specks of ~1e-16 map units, where it is not, get their circle: cheap)."""
     pts = shapely.get_coordinates(shapely.point_on_surface(faces))
     clear = shapely.distance(shapely.boundary(faces), shapely.points(pts))
     thin = np.flatnonzero(clear < 4 * tol)
+    speck = clear[thin] < 1e-6 * tol + 2 * grid
+    thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
     if len(thin):
         circ = shapely.maximum_inscribed_circle(faces[thin], tolerance=0.1 * tol)
         c = shapely.get_coordinates(circ)[::2]
@@ -618,6 +847,24 @@ def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]
         pts[thin[better]] = c[better]
         clear[thin[better]] = r[better]
     return pts, clear
+
+
+#: Faces whose inradius bound (:func:`_inradius_bound`) is below this many curve tolerances
+#: get no inscribed circle: their inradius is below ``2 tol`` with a margin of 4 (the bound
+#: holds up to rounding, which only faces of ~1e-16 map units exceed, by at most 2x).
+MIC_MIN_BOUND = 0.5
+
+
+def _inradius_bound(polys: np.ndarray) -> np.ndarray:
+    """An upper bound of each polygon's inradius (map units): ``2 area / perimeter`` of its
+    convex hull (a convex set containing a disc of radius ``r`` has area at least
+    ``r * perimeter / 2``; the polygon's disc lies in its hull). Vectorized, cheap."""
+    if len(polys) == 0:
+        return np.zeros(0)
+    hull = shapely.convex_hull(polys)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bound = 2 * shapely.area(hull) / shapely.length(hull)
+    return np.nan_to_num(bound, nan=0.0)
 
 
 def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
@@ -724,9 +971,12 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     arr = _arrangement(env, curves, tol)
     release_memory()  # the noder's and the polygonizer's temporaries
     report("face structures", 0.5)
-    pts, clear = _face_points(arr.faces, tol)
+    pts, clear = _face_points(arr.faces, tol, arr.grid)
     inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
-    inside &= np.asarray(env.boundary_distance(pts[:, 0], pts[:, 1]) > 0)
+    # and not on a wall: walls are arrangement parts (moved at most 0.71 grid by snapping),
+    # so a point farther than tol + grid from its face's boundary is off every wall
+    near = np.flatnonzero(inside & (clear < tol + arr.grid))
+    inside[near] = np.asarray(env.boundary_distance(pts[near, 0], pts[near, 1]) > 0)
     # a face belongs to the free space iff its interior point does (faces inside holes, or
     # between an overshooting curve end and an obstacle, are dropped)
     keep = np.flatnonzero(inside)
@@ -760,12 +1010,12 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         numbering = _number_regions(arr, flat, size, pts, clear)
         face_region, nreg = numbering["face_region"], len(numbering["lists"])
         chains = _chains(arr, face_region)
-        cands = _crossing_candidates(arr, [ks for _, ks in chains], tol, lss)
+        cands = _crossing_candidates(arr, chains, tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
-        has = np.flatnonzero(cands.count > 0).tolist()
-        touched = {r for i in has for r in chains[i][0]}
-        isolated = set(range(nreg)) - touched if nreg > 1 else set()
+        touched = np.zeros(nreg, bool)
+        touched[chains.pair[cands.count > 0].ravel()] = True
+        isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
             regions, cells = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
@@ -958,16 +1208,34 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     return regions, tuple(cells)
 
 
-def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, list[int]]]:
+@dataclass
+class _Chains:
+    """Chains of arrangement parts (CSR): chain ``i`` separates regions ``pair[i, 0] <
+    pair[i, 1]`` and is made of the parts ``parts[ptr[i]:ptr[i + 1]]`` (increasing). Chains
+    are sorted by region pair, then first part."""
+
+    pair: np.ndarray
+    ptr: np.ndarray
+    parts: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.pair)
+
+    @property
+    def size(self) -> np.ndarray:
+        """Number of parts of each chain."""
+        return np.diff(self.ptr)
+
+
+def _chains(arr: _Arrangement, face_region: np.ndarray) -> _Chains:
     """Arrangement parts separating two regions, grouped into chains: parts that meet end to
-    end and share a source curve. Each chain is ``((region_a, region_b), part indices)``.
-    Vectorized: parts sharing (region pair, end point, source) are linked, chains are the
-    connected components (scipy)."""
+    end and share a source curve. Vectorized: parts sharing (region pair, end point, source)
+    are linked, chains are the connected components."""
     fr = np.append(face_region, -1)  # index -1 (no face) maps to the last slot, -1
     ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
     parts = np.flatnonzero((ra >= 0) & (rb >= 0) & (ra != rb))
     if len(parts) == 0:
-        return []
+        return _Chains(np.zeros((0, 2), np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64))
     lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
     first_id, last_id = arr.end_ids()
     end_id = np.concatenate((first_id[parts], last_id[parts]))
@@ -990,11 +1258,10 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> list[tuple[tuple, lis
     stops = np.r_[starts[1:], len(parts_o)]
     head = parts_o[starts]
     rank = np.lexsort((head, hi[head], lo[head]))
-    flat = parts_o.tolist()
     h = head[rank]
-    return [((a_, b_), flat[a:b]) for a_, b_, a, b in
-            zip(lo[h].tolist(), hi[h].tolist(), starts[rank].tolist(), stops[rank].tolist(),
-                strict=True)]
+    size = (stops - starts)[rank]
+    return _Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
+                   parts_o[ragged_arange(starts[rank], size)])
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -1018,54 +1285,48 @@ def _point_ids(pts: np.ndarray) -> np.ndarray:
     return _row_ids(pts)[0]
 
 
-def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: list,
-                 cands: list, curves: list[Curve], lss: float
+def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: _Chains,
+                 cands: _Candidates, curves: list[Curve], lss: float
                  ) -> tuple[list[Piece], int, ArcTable]:
     """One piece per chain with a crossing sample. Returns the pieces, the number of
     chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only) and the exact arcs at both sides of every piece's crossing (see
     :meth:`Decomposition.crossing_arcs`)."""
-    chain_srcs = arr.chain_sources(chains)
-    samples, tables = _pick_crossings(env, chains, cands, regions, curves, chain_srcs, lss)
-    geoms = _chain_geometries(arr, chains, samples)
-    pieces, dropped, at = [], 0, []
+    sptr, ssrc = arr.chain_sources(chains)
+    got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
+    kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
+    geoms = _chain_geometries(arr, chains, kept)
+    flat, ptr = ssrc.tolist(), sptr.tolist()
+    pieces = []
     described: dict[tuple[int, ...], tuple[str, tuple[str, ...]]] = {}  # many pieces share
-    for ((ra, rb), _), srcs, sample, geom in zip(chains, chain_srcs, samples, geoms,
-                                                 strict=True):
-        if sample is None:
-            dropped += 1
-            continue
-        q, n, eps, verified, where = sample
-        at.append(where)
-        key = tuple(srcs)
-        got = described.get(key)
-        if got is None:
-            kinds = "".join(sorted({curves[c].kind for c in srcs})) or "?"
-            feats = tuple(dict.fromkeys(f for c in srcs for f in curves[c].features))
-            got = described[key] = (kinds, feats)
-        pieces.append(Piece(len(pieces), (ra, rb), key, got[0], got[1], geom,
-                            (float(q[0]), float(q[1])), (float(n[0]), float(n[1])), eps,
-                            bool(verified)))
-    return pieces, dropped, _crossing_table(tables, at)
+    for pid, (i, (ra, rb), (qx, qy), (nx, ny), eps, verified, geom) in enumerate(zip(
+            kept.tolist(), chains.pair[kept].tolist(), got["q"][kept].tolist(),
+            got["n"][kept].tolist(), got["eps"][kept].tolist(), got["ok"][kept].tolist(),
+            geoms, strict=True)):
+        key = tuple(flat[ptr[i]:ptr[i + 1]])
+        desc = described.get(key)
+        if desc is None:
+            kinds = "".join(sorted({curves[c].kind for c in key})) or "?"
+            feats = tuple(dict.fromkeys(f for c in key for f in curves[c].features))
+            desc = described[key] = (kinds, feats)
+        pieces.append(Piece(pid, (ra, rb), key, desc[0], desc[1], geom, (qx, qy), (nx, ny),
+                            eps, verified))
+    return pieces, len(chains) - len(kept), _crossing_table(tables, got["at"][kept])
 
 
-def _chain_geometries(arr: _Arrangement, chains: list, samples: list) -> list:
-    """Each kept chain's line: its part, or its parts merged into as few lines as they form
-    (all multi-part chains at once); None for chains without a sample."""
-    out: list = [None] * len(chains)
-    multi = [i for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True))
-             if smp is not None and len(ks) > 1]
-    for i, ((_, ks), smp) in enumerate(zip(chains, samples, strict=True)):
-        if smp is not None and len(ks) == 1:
-            out[i] = arr.parts[ks[0]]
-    if multi:
-        ks = [chains[i][1] for i in multi]
-        idx = np.repeat(np.arange(len(multi)), [len(k) for k in ks])
-        lines = shapely.multilinestrings(arr.parts[np.concatenate(ks)], indices=idx)
-        for i, g in zip(multi, shapely.line_merge(lines).tolist(), strict=True):
-            out[i] = g
-    return out
+def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
+    """The lines of the chains ``which``: a chain's part, or its parts merged into as few
+    lines as they form (all multi-part chains at once)."""
+    size = chains.size[which]
+    out = arr.parts[chains.parts[chains.ptr[which]]]  # single parts as they are
+    multi = np.flatnonzero(size > 1)
+    if len(multi):
+        rows = ragged_arange(chains.ptr[which[multi]], size[multi])
+        lines = shapely.multilinestrings(arr.parts[chains.parts[rows]],
+                                         indices=np.repeat(np.arange(len(multi)), size[multi]))
+        out[multi] = shapely.line_merge(lines)
+    return out.tolist()
 
 
 @dataclass
@@ -1083,15 +1344,13 @@ class _Candidates:
         return np.diff(self.ptr)
 
 
-def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float, lss: float
+def _crossing_candidates(arr: _Arrangement, chains: _Chains, tol: float, lss: float
                          ) -> _Candidates:
     """For every chain, candidate crossing points (midpoints of the 6 longest segments of
     each of its parts) with their offsets ``eps``, best clearance first (up to 8); only points
     clear of every other part by ``4 tol``. All chains are handled in one vectorized pass."""
     part_chain = np.full(len(arr.parts), -1)
-    size = np.fromiter((len(ks) for ks in chains), np.int64, len(chains))
-    flat = np.fromiter((k for ks in chains for k in ks), np.int64, int(size.sum()))
-    part_chain[flat] = np.repeat(np.arange(len(chains)), size)
+    part_chain[chains.parts] = np.repeat(np.arange(len(chains)), chains.size)
     Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
     chain = part_chain[mine]
     ok = np.flatnonzero(clear >= 4 * tol)
@@ -1110,6 +1369,35 @@ def _crossing_candidates(arr: _Arrangement, chains: list[list[int]], tol: float,
 #: Candidate points handled per batch when measuring their clearance: each brings one row per
 #: segment near it, so this bounds the working memory (not the speed).
 CLEARANCE_BATCH = 20_000
+
+
+#: The clearance search's radii, as fractions of its reach: a point is searched again within
+#: the next radius only if nothing of another part was found within the previous one.
+CLEARANCE_STAGES = (1 / 16, 1 / 4, 1.0)
+
+
+def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
+               sowner: np.ndarray, tree: shapely.STRtree, reach: float) -> np.ndarray:
+    """Each point's distance to the nearest segment ``sa[k]-sb[k]`` of another part
+    (``sowner[k] != owner[i]``), at most ``reach`` (map units). Searched within growing radii
+    (``CLEARANCE_STAGES``): a distance found within a radius is the nearest (every segment
+    that close is among the radius's candidates), and most points have a neighbour much
+    closer than ``reach``, so far fewer (point, segment) pairs are measured than in one search
+    within ``reach``; the same distances."""
+    clear = np.full(len(pts), reach)
+    todo = np.arange(len(pts))
+    for frac in CLEARANCE_STAGES:
+        r = reach * frac
+        found = np.full(len(todo), np.inf)
+        for i in range(0, len(todo), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
+            rows = todo[i:i + CLEARANCE_BATCH]
+            qi, sj, d = _segments_near(pts[rows], sa, sb, r, tree)
+            other = sowner[sj] != owner[rows[qi]]
+            np.minimum.at(found, i + qi[other], d[other])
+        hit = found <= r
+        clear[todo[hit]] = found[hit]
+        todo = todo[~hit]
+    return clear
 
 
 def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
@@ -1137,12 +1425,7 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         take = order[keep]
         Q = 0.5 * (a[take] + b[take])
         mine = part[take]
-        reach = max(1e3 * tol, 1e-3 * lss)
-        clear = np.full(len(Q), reach)
-        for i in range(0, len(Q), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
-            qi, sj, d = _segments_near(Q[i:i + CLEARANCE_BATCH], sa, sb, reach, tree)
-            other = sowner[sj] != mine[i + qi]
-            np.minimum.at(clear, i + qi[other], d[other])
+        clear = _clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
         cache["Q"] = np.vstack((cache["Q"], Q))
         cache["part"] = np.concatenate((cache["part"], mine))
         cache["rank"] = np.concatenate((cache["rank"], rank[keep]))
@@ -1153,22 +1436,22 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
     return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
 
 
-def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions: list[Region],
-                    curves: list[Curve], chain_srcs: list[list[int]], lss: float
-                    ) -> tuple[list, list[ArcTable]]:
+def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
+                    regions: list[Region], curves: list[Curve],
+                    chain_srcs: tuple[np.ndarray, np.ndarray], lss: float
+                    ) -> tuple[dict[str, np.ndarray], list[ArcTable]]:
     """For each chain, the first candidate whose two offsets (from the exact curve, along its
     exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
-    are tried in rounds, all chains at once (vectorized: structures compared as integer ids).
-    A chain with no clean candidate keeps its first one (``check`` reports it); a chain with
-    no candidate at all gets ``None``. Each answer is ``(q, n, eps, verified, at)``, ``at``
-    saying where the arcs of its two sides are in the returned tables: ``(round, row of the
-    +n side, row of the other)``."""
+    are tried in rounds, all chains at once (vectorized: structures compared as integer rows,
+    :func:`_rows_equal`). A chain with no clean candidate keeps its first one (``check``
+    reports it); a chain without candidates gets nothing (zeros). Returns arrays over the
+    chains: ``q``, ``n``, ``eps``, ``ok`` (verified) and ``at``, saying where the arcs of the
+    two sides are in the returned tables: ``(round, row of the +n side, row of the other)``;
+    ``chain_srcs`` are the chains' curves (CSR, :meth:`_Arrangement.chain_sources`)."""
     m = len(chains)
     count = cands.count
-    sid: dict = {}  # structure -> integer id (regions' first)
-    reg_sid = _structure_codes([r.structure for r in regions], sid)
-    pair = np.array([p for p, _ in chains], dtype=np.int64).reshape(-1, 2)
-    sa, sb = reg_sid[pair[:, 0]], reg_sid[pair[:, 1]]
+    reg_rows, reg_of = _set_rows([r.structure for r in regions], 2 * env.n + 1)
+    sa, sb = reg_of[chains.pair[:, 0]], reg_of[chains.pair[:, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
     out_eps = np.zeros(m)
     out_ok = np.zeros(m, bool)
@@ -1179,19 +1462,19 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
     rnd = 0
     while len(pending):
         row = cands.ptr[pending] + rnd
-        q, n = _project_on_sources(curves, [chain_srcs[i] for i in pending.tolist()],
-                                   cands.q[row])
+        q, n = _project_on_sources(curves, chain_srcs, pending, cands.q[row])
         eps = cands.eps[row]
         k = len(pending)
         j = np.arange(k)
         if first is None:  # every chain with a candidate is tried in round 0
             first = (q, n, eps, np.column_stack((np.zeros(k, np.int64), j, j + k)))
-        table, plus, minus = _arcs_across(env, lss, q, n, eps)
+        table, sides = _arcs_across(env, lss, q, n, eps)
         tables.append(table)
-        sp = _structure_codes(plus, sid)
-        sm = _structure_codes(minus, sid)
-        fwd = (sp == sa[pending]) & (sm == sb[pending])
-        back = ~fwd & (sp == sb[pending]) & (sm == sa[pending])
+        fwd = (_rows_equal(sides, j, reg_rows, sa[pending])
+               & _rows_equal(sides, j + k, reg_rows, sb[pending]))
+        back = ~fwd
+        back[back] = (_rows_equal(sides, j[back], reg_rows, sb[pending[back]])
+                      & _rows_equal(sides, j[back] + k, reg_rows, sa[pending[back]]))
         done = fwd | back
         for sel, sign, at in ((fwd, 1.0, np.column_stack((j, j + k))),
                               (back, -1.0, np.column_stack((j + k, j)))):
@@ -1208,43 +1491,93 @@ def _pick_crossings(env: Environment, chains: list, cands: _Candidates, regions:
             out_at[i] = first[3][f]
         pending = pending[~done & ~last]
         rnd += 1
-    has = (count > 0).tolist()
-    q_l, n_l, e_l, ok_l = (out_q.tolist(), out_n.tolist(), out_eps.tolist(), out_ok.tolist())
-    at_l = [tuple(a) for a in out_at.tolist()]
-    samples = [(q_l[i], n_l[i], e_l[i], ok_l[i], at_l[i]) if has[i] else None
-               for i in range(m)]
-    return samples, tables
+    return {"q": out_q, "n": out_n, "eps": out_eps, "ok": out_ok, "at": out_at}, tables
 
 
-def _structure_codes(structs: list, codes: dict) -> np.ndarray:
-    """An integer per structure, equal for equal structures, from (and added to) ``codes``.
-    Equal structures are mostly one shared object: each distinct object is looked up once
-    (comparing two equal frozensets of different identity costs their size)."""
+@dataclass
+class _StructureRows:
+    """Structures as integer rows (CSR), compared exactly and vectorized
+    (:func:`_rows_equal`) instead of as frozensets: structure ``i`` is ``kind[i]`` (0:
+    ``"EMPTY"``, 1: ``"FULL"``, 2: a set of ``(start_code, end_code)`` pairs), the set's
+    pairs encoded ``start_code * base + end_code``, sorted and distinct, in
+    ``pairs[ptr[i]:ptr[i + 1]]``."""
+
+    kind: np.ndarray
+    ptr: np.ndarray
+    pairs: np.ndarray
+
+
+def _table_rows(env: Environment, table: ArcTable, npts: int) -> _StructureRows:
+    """The structure of each point of an :class:`ArcTable` as integer rows (the structures of
+    :func:`structures`, without building a frozenset per point)."""
+    base = 2 * env.n + 1
+    point = table.point.astype(np.int64)
+    pair = table.start_code.astype(np.int64) * base + table.end_code
+    if len(point) and (npts + 1) * base * base < 2**62:  # one exact integer key
+        order = np.argsort(point * (base * base) + pair, kind="stable")
+    else:
+        order = np.lexsort((pair, point))
+    point, pair = point[order], pair[order]
+    new = np.r_[True, (point[1:] != point[:-1]) | (pair[1:] != pair[:-1])] if len(point) \
+        else np.zeros(0, bool)
+    point, pair = point[new], pair[new]
+    size = np.bincount(point, minlength=npts)
+    kind = np.where(size > 0, 2, np.asarray(table.full, dtype=bool).astype(np.int64))
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], pair)
+
+
+def _set_rows(structs: list[Structure], base: int) -> tuple[_StructureRows, np.ndarray]:
+    """The distinct structure objects of ``structs`` as integer rows (pairs encoded with
+    ``base``, see :class:`_StructureRows`) and the row of each item. Equal structures are
+    mostly one shared object: each distinct object is read once."""
     if not structs:
-        return np.zeros(0, np.int64)
+        return _StructureRows(np.zeros(0, np.int64), np.zeros(1, np.int64),
+                              np.zeros(0, np.int64)), np.zeros(0, np.int64)
     obj = np.fromiter(map(id, structs), np.int64, len(structs))
     _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
-    val = np.fromiter((codes.setdefault(structs[i], len(codes)) for i in first.tolist()),
-                      np.int64, len(first))
-    return val[inv.ravel()]
+    objs = [structs[i] for i in first.tolist()]
+    kind = np.fromiter((0 if s == "EMPTY" else 1 if s == "FULL" else 2 for s in objs),
+                       np.int64, len(objs))
+    sets = [s if k == 2 else () for s, k in zip(objs, kind.tolist(), strict=True)]
+    size = np.fromiter(map(len, sets), np.int64, len(sets))
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(sets)),
+                       np.int64, 2 * int(size.sum()))
+    code = flat[0::2] * base + flat[1::2]
+    row = np.repeat(np.arange(len(objs)), size)
+    code = code[np.lexsort((code, row))]  # frozensets hold distinct pairs
+    return _StructureRows(kind, np.r_[0, np.cumsum(size)], code), inv.ravel()
+
+
+def _rows_equal(a: _StructureRows, i: np.ndarray, b: _StructureRows, j: np.ndarray
+                ) -> np.ndarray:
+    """Whether structure ``i[k]`` of ``a`` equals structure ``j[k]`` of ``b``, for every ``k``
+    (exact: same kind, same pairs)."""
+    na, nb = a.ptr[i + 1] - a.ptr[i], b.ptr[j + 1] - b.ptr[j]
+    eq = (a.kind[i] == b.kind[j]) & (na == nb)
+    k = np.flatnonzero(eq & (na > 0))
+    c = na[k]
+    diff = a.pairs[ragged_arange(a.ptr[i[k]], c)] != b.pairs[ragged_arange(b.ptr[j[k]], c)]
+    bad = np.bincount(np.repeat(np.arange(len(k)), c)[diff], minlength=len(k)) > 0
+    eq[k[bad]] = False
+    return eq
 
 
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
-                 ) -> tuple[ArcTable, list[Structure], list[Structure]]:
+                 ) -> tuple[ArcTable, _StructureRows]:
     """Exact free arcs at both sides of crossings (rows ``0..k-1``: ``q + eps n``, then
-    ``q - eps n``) and the structures of the two sides."""
+    ``q - eps n``) and the structures of those ``2k`` points."""
     pts = crossing_points(q, n, eps)
     table = free_arcs_many(env, pts, lss, check=False)
-    st = structures(env, table, len(pts))
-    return table, st[: len(q)], st[len(q):]
+    return table, _table_rows(env, table, len(pts))
 
 
-def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> ArcTable:
+def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     """The arcs at both sides of every piece's crossing, gathered from the tables of the
     rounds that chose them (the very points of :meth:`Decomposition.piece_crossings`):
-    points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other."""
+    points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other. ``at``: each
+    piece's ``(round, row of the +n side, row of the other)``, shape (m, 3)."""
     m = len(at)
-    at_arr = np.array(at, dtype=np.int64).reshape(-1, 3)
+    at_arr = np.asarray(at, dtype=np.int64).reshape(-1, 3)
     parts = []
     full = np.zeros(2 * m, bool)
     for r, table in enumerate(tables):
@@ -1268,17 +1601,18 @@ def _crossing_table(tables: list[ArcTable], at: list[tuple[int, int, int]]) -> A
     return ArcTable(point[order], *cols, full)
 
 
-def _project_on_sources(curves: list[Curve], srcs: list[list[int]], q0: np.ndarray
-                        ) -> tuple[np.ndarray, np.ndarray]:
-    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves
-    ``srcs[k]`` (all rows at once); a row without a source curve keeps its point, normal
-    (0, 1)."""
+def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray],
+                        which: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each point ``q0[k]``, the nearest point and unit normal on the exact curves of
+    chain ``which[k]`` (``srcs``: the chains' curves, CSR ``(ptr, src)``; all rows at once); a
+    row without a source curve keeps its point, normal (0, 1)."""
     q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))
-    count = np.array([len(s) for s in srcs], dtype=int)
+    ptr, src = srcs
+    count = ptr[which + 1] - ptr[which]
     if count.sum() == 0:
         return q, n
-    row = np.repeat(np.arange(len(srcs)), count)
-    cid = np.fromiter((c for s in srcs for c in s), dtype=int, count=int(count.sum()))
+    row = np.repeat(np.arange(len(which)), count)
+    cid = src[ragged_arange(ptr[which], count)]
     _, p, nrm = project_many(curves, cid, q0[row])
     dist = np.hypot(*(p - q0[row]).T)
     order = np.lexsort((dist, row))

@@ -1,0 +1,68 @@
+"""The regions and pieces stages' vectorized helpers against their plain definitions: structures
+compared as integer rows against frozenset equality."""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import GENERIC, interior_points
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tether.decomposition as D
+from tether import free_arcs_many, load_map
+from tether.cli import example_path
+from tether.floorplan import floor_plan
+
+
+def _points_and_structures(env, lss, n, seed):
+    pts = interior_points(env, n, seed)
+    table = free_arcs_many(env.internal, env.frame.to_internal(pts), lss * env.frame.scale,
+                           check=False)
+    return table, D.structures(env.internal, table, len(pts))
+
+
+def test_structure_rows_compare_as_frozensets():
+    """Every pair of sampled points: rows equal iff structures equal, both for rows built from
+    the arc table and from the structure objects (shared or not)."""
+    for env, lss in ((GENERIC, 2.5), (load_map(example_path("gallery")), 2.0),
+                     (floor_plan(30, seed=1), 0.6)):
+        inner = env.internal
+        table, st = _points_and_structures(env, lss, 300, seed=4)
+        rows = D._table_rows(inner, table, len(st))
+        base = 2 * inner.n + 1
+        copies = [frozenset(s) if isinstance(s, frozenset) else s for s in st]  # not shared
+        sets, of = D._set_rows(copies, base)
+        shared, of_shared = D._set_rows(st, base)
+        i, j = (a.ravel() for a in np.meshgrid(np.arange(len(st)), np.arange(len(st))))
+        want = np.array([st[a] == st[b] for a, b in zip(i.tolist(), j.tolist(), strict=True)])
+        assert want.sum() > len(st) and not want.all()  # some equal, some not
+        assert np.array_equal(D._rows_equal(rows, i, rows, j), want)
+        assert np.array_equal(D._rows_equal(rows, i, sets, of[j]), want)
+        assert np.array_equal(D._rows_equal(shared, of_shared[i], rows, j), want)
+        assert len(shared.kind) == len({id(s) for s in st})
+
+
+def test_structure_rows_of_empty_and_full():
+    inner = GENERIC.internal
+    sets, of = D._set_rows(["EMPTY", "FULL", "FULL", frozenset({(1, 2)})], 2 * inner.n + 1)
+    i = np.arange(4)
+    eq = D._rows_equal(sets, of[np.repeat(i, 4)], sets, of[np.tile(i, 4)]).reshape(4, 4)
+    assert np.array_equal(eq, [[1, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 1]])
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0.01, 0.5))
+def test_staged_clearance_equals_brute_force(seed, reach):
+    """The clearance searched within growing radii equals the nearest other-owner segment's
+    distance over all segments (capped at ``reach``), bit for bit."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(0, 1, (300, 2))
+    b = a + rng.normal(0, 0.05, (300, 2))
+    sowner = rng.integers(0, 40, 300)
+    k = rng.integers(0, 300, 200)
+    pts = 0.5 * (a[k] + b[k])
+    got = D._clearance(pts, sowner[k], a, b, sowner, D._segment_tree(a, b), reach)
+    d = D._point_segment_distance(np.repeat(pts, 300, axis=0), np.tile(a, (200, 1)),
+                                  np.tile(b, (200, 1))).reshape(200, 300)
+    d[sowner[k][:, None] == sowner[None, :]] = np.inf
+    assert np.array_equal(got, np.minimum(d.min(axis=1), reach))
