@@ -1097,7 +1097,7 @@ CLEARANCE_BATCH = 20_000
 
 #: The clearance search's radii, as fractions of its reach: a point is searched again within
 #: the next radius only if nothing of another part was found within the previous one.
-CLEARANCE_STAGES = (1 / 16, 1 / 4, 1.0)
+CLEARANCE_STAGES = (1 / 4, 1.0)
 
 
 def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
