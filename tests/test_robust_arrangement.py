@@ -116,7 +116,7 @@ def test_geos_failure_is_one_line_tether_error(monkeypatch, capsys, tmp_path):
     def fail(*args, **kwargs):
         raise GEOSException("TopologyException: side location conflict at 1 2\nmore")
 
-    monkeypatch.setattr(shapely, "polygonize", fail)
+    monkeypatch.setattr(shapely, "point_on_surface", fail)  # every decomposition calls it
     env = load_map(example_path("rectangle"))
     with pytest.raises(ArrangementError) as info:
         decompose(env, 1.0)

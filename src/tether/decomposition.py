@@ -20,7 +20,7 @@ import itertools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
@@ -32,6 +32,9 @@ from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
+
+if TYPE_CHECKING:
+    from tether.userframe import UserFrame
 
 
 class ArrangementError(TetherError):
@@ -391,6 +394,7 @@ class _Arrangement:
     source_ptr: np.ndarray
     source_ids: np.ndarray
     faces: np.ndarray  # polygons
+    grid: float = 0.0  # the snap-rounding grid of the noding (map units), 0: exact
 
     @property
     def part_sources(self) -> list[tuple[int, ...]]:
@@ -471,25 +475,14 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
     parts = parts[shapely.length(parts) > 0]
-    faces = shapely.get_parts(shapely.polygonize(parts))
-    # which faces lie on the two sides of each part: match the part's longest segment with the
-    # faces' ring segments (polygonize keeps the noded coordinates exactly)
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
     longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
-    fa, fb, fowner = _ring_segments(faces)
-    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
-    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
-    part_faces = np.full((len(parts), 2), -1)
-    # the first two faces (in face order) having each part's longest segment in their ring
-    order = np.argsort(face_ids, kind="stable")
-    sorted_ids, owner_sorted = face_ids[order], fowner[order]
-    pos = np.searchsorted(sorted_ids, part_ids)
-    for slot in (0, 1):
-        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
-        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
-            sorted_ids) else np.zeros(len(part_ids), bool)
-        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
+    traced = _trace_faces(parts)
+    if traced is not None:
+        faces, part_faces = traced
+    else:
+        faces, part_faces = _polygonize_faces(parts, pa, pb, powner, longest)
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment tree: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(lines)
@@ -503,7 +496,237 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
-    return _Arrangement(parts, part_faces, ptr, src - 1, faces)
+    return _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+
+
+def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
+                      longest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_trace_faces` by ``shapely.polygonize`` (the fallback): the faces, and which
+    faces lie on the two sides of each part, by matching the part's longest segment
+    (``longest``: its index in the parts' segments ``pa-pb`` of owner ``powner``) with the
+    faces' ring segments (polygonize keeps the noded coordinates exactly)."""
+    faces = shapely.get_parts(shapely.polygonize(parts))
+    fa, fb, fowner = _ring_segments(faces)
+    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
+    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
+    part_faces = np.full((len(parts), 2), -1)
+    # the first two faces (in face order) having each part's longest segment in their ring
+    order = np.argsort(face_ids, kind="stable")
+    sorted_ids, owner_sorted = face_ids[order], fowner[order]
+    pos = np.searchsorted(sorted_ids, part_ids)
+    for slot in (0, 1):
+        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
+        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
+            sorted_ids) else np.zeros(len(part_ids), bool)
+        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
+    return faces, part_faces
+
+
+def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The faces of the noded ``parts`` (polygons) and the faces on the two sides of every
+    part (``(nparts, 2)``, the smaller face id first, -1 for none), traced on the planar
+    graph of the parts' half-edges in numpy instead of ``shapely.polygonize`` and matching
+    rings back to parts (several times slower). As polygonize: dangles and cut edges bound
+    no face (their parts get ``(-1, -1)``), rings touching themselves at a node are split
+    into simple rings, counter-clockwise rings are shells, clockwise rings holes of the
+    smallest shell containing them, the unbounded face is none. Returns None where the
+    tracing cannot decide (two half-edges leaving a node in exactly the same direction,
+    which noding rules out, or a hole touching its shell at all its nodes): the caller
+    polygonizes then."""
+    n = len(parts)
+    coords, idx = shapely.get_coordinates(parts, return_index=True)
+    count = np.bincount(idx, minlength=n)
+    start = np.cumsum(count) - count
+    last = start + count - 1
+    ends = _point_ids(np.vstack((coords[start], coords[last])))
+    origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
+    origin[0::2], origin[1::2] = ends[:n], ends[n:]
+    nodes = int(ends.max(initial=-1)) + 1
+    alive = _drop_dangles(origin, nodes)
+    step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
+    step[0::2] = coords[start + 1] - coords[start]
+    step[1::2] = coords[last - 1] - coords[last]
+    angle = np.arctan2(step[:, 1], step[:, 0])
+    label = None
+    for _ in range(2):  # the second pass without the cut edges
+        nxt = _next_half_edges(origin, angle, alive)
+        if nxt is None:
+            return None
+        label = _cycle_labels(nxt, alive)
+        cut = alive[0::2] & (label[0::2] == label[1::2])  # one face on both sides
+        if not cut.any():
+            break
+        alive[0::2] &= ~cut
+        alive[1::2] &= ~cut
+    seq = _cycle_order(nxt, label, alive)  # alive half-edges, cycle after cycle, in order
+    at = np.where(np.arange(2 * n) % 2 == 0, np.repeat(start, 2), np.repeat(last, 2))
+    inner = np.where(np.repeat(count, 2) > 2, np.repeat(start + 1, 2), -1)
+    loop = _split_pinched(seq, label[seq], origin, at, inner)
+    if loop is None:
+        return None
+    ring_of, test_pt = loop
+    # each ring's coordinates: every half-edge's points but its last, then the first again
+    fwd = seq % 2 == 0
+    k = seq // 2
+    m = count[k] - 1
+    pos = ragged_arange(np.zeros(len(seq), np.int64), m)
+    he_rep = np.repeat(np.arange(len(seq)), m)
+    ci = np.where(fwd[he_rep], start[k][he_rep] + pos, last[k][he_rep] - pos)
+    ring_pt = ring_of[he_rep]
+    order = np.argsort(ring_pt, kind="stable")
+    ci, ring_pt = ci[order], ring_pt[order]
+    nring = int(ring_of.max(initial=-1)) + 1
+    first = np.searchsorted(ring_pt, np.arange(nring))
+    ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
+    ring_idx = np.repeat(np.arange(nring), np.bincount(ring_pt, minlength=nring) + 1)
+    rings = shapely.linearrings(coords[ci], indices=ring_idx)
+    ccw = shapely.is_ccw(rings)
+    shell = np.flatnonzero(ccw)
+    hole = np.flatnonzero(~ccw)
+    face_of_ring = np.full(nring, -1)
+    face_of_ring[shell] = np.arange(len(shell))
+    shells = shapely.polygons(rings[shell])
+    # holes: in the smallest shell whose interior holds a node of theirs off every pinch
+    pts = shapely.points(coords[test_pt[hole]])
+    hi, si = shapely.STRtree(shells).query(pts, predicate="within")
+    area = shapely.area(shells)
+    pick = np.lexsort((area[si], hi))
+    hi, si = hi[pick], si[pick]
+    head = np.r_[True, hi[1:] != hi[:-1]] if len(hi) else np.zeros(0, bool)
+    face_of_ring[hole[hi[head]]] = si[head]
+    # the faces: each shell then its holes
+    inner = hole[face_of_ring[hole] >= 0]
+    rows = np.concatenate((shell, inner))
+    owner = face_of_ring[rows]
+    o = np.argsort(owner, kind="stable")
+    faces = shapely.polygons(rings[rows[o]], indices=owner[o])
+    side = np.full(2 * n, -1)
+    side[seq] = face_of_ring[ring_of]
+    pf = np.sort(side.reshape(n, 2), axis=1)
+    one = pf[:, 0] < 0  # -1 (none) goes second
+    pf[one] = pf[one][:, ::-1]
+    pf[pf[:, 0] == pf[:, 1]] = -1
+    return np.asarray(faces, dtype=object), pf
+
+
+def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
+    """Which half-edges (``origin``: each one's start node, twins ``2k``, ``2k + 1``) remain
+    once dangles are removed: parts with an end of degree 1, repeatedly."""
+    alive = np.ones(len(origin), bool)
+    deg = np.bincount(origin, minlength=nodes)
+    order = np.argsort(origin, kind="stable")
+    ptr = np.searchsorted(origin[order], np.arange(nodes + 1))
+    tip = np.flatnonzero(deg == 1)
+    while len(tip):
+        he = order[ragged_arange(ptr[tip], ptr[tip + 1] - ptr[tip])]
+        he = he[alive[he]]
+        part = np.unique(he // 2)
+        alive[2 * part] = alive[2 * part + 1] = False
+        end = origin[np.concatenate((2 * part, 2 * part + 1))]
+        np.subtract.at(deg, end, 1)
+        tip = np.unique(end[deg[end] == 1])
+    return alive
+
+
+def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
+                     ) -> np.ndarray | None:
+    """The next half-edge of each alive one along its face (the face on its left): at its end
+    node, the outgoing half-edge just clockwise of its twin. None if two half-edges leave a
+    node in exactly the same direction."""
+    live = np.flatnonzero(alive)
+    order = live[np.lexsort((angle[live], origin[live]))]
+    o, a = origin[order], angle[order]
+    if np.any((o[1:] == o[:-1]) & (a[1:] == a[:-1])):
+        return None
+    pos = np.empty(len(origin), np.int64)
+    pos[order] = np.arange(len(order))
+    new = np.r_[True, o[1:] != o[:-1]]
+    gstart = np.flatnonzero(new)
+    gid = np.cumsum(new) - 1
+    gend = np.r_[gstart[1:], len(order)]
+    tp = pos[live ^ 1]  # each half-edge's twin, in the sorted order
+    prev = np.where(tp > gstart[gid[tp]], tp - 1, gend[gid[tp]] - 1)
+    nxt = np.full(len(origin), -1)
+    nxt[live] = order[prev]
+    return nxt
+
+
+def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """The smallest half-edge of each alive half-edge's cycle under ``nxt`` (dead ones: their
+    own index)."""
+    live = np.flatnonzero(alive)
+    return _components(len(nxt), live, nxt[live])
+
+
+def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """The alive half-edges cycle after cycle (by smallest half-edge), each cycle from its
+    smallest half-edge along ``nxt`` (list ranking by pointer doubling)."""
+    live = np.flatnonzero(alive)
+    succ = nxt.copy()
+    tail = np.zeros(len(nxt), bool)
+    tail[live] = nxt[live] == label[live]  # the last half-edge of its cycle
+    succ[~alive | tail] = np.flatnonzero(~alive | tail)
+    dist = np.where(alive & ~tail, 1, 0)  # steps to the cycle's last half-edge
+    while True:
+        s2 = succ[succ]
+        if np.array_equal(s2, succ):
+            break
+        dist = dist + dist[succ]
+        succ = s2
+    return live[np.lexsort((-dist[live], label[live]))]
+
+
+def _split_pinched(seq: np.ndarray, lab: np.ndarray, origin: np.ndarray, at: np.ndarray,
+                   inner: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Simple rings from the cycles ``seq`` (half-edges cycle after cycle, in order; ``lab``:
+    their cycle): a cycle passing a node twice is cut there into rings (rare: a Python loop
+    over those cycles only). Returns the ring of every position of ``seq`` and, per ring, the
+    coordinate index of a point of it on no other ring of its cycle (a node passed once, or
+    an inner point of a part: ``at`` and ``inner`` per half-edge, -1 for none), None if a
+    ring has none."""
+    new = np.r_[True, lab[1:] != lab[:-1]] if len(lab) else np.zeros(0, bool)
+    ring = np.cumsum(new) - 1
+    test = at[seq[new]]
+    key = ring * (int(origin.max(initial=0)) + 1) + origin[seq]
+    srt = np.sort(key)
+    dup = srt[1:][srt[1:] == srt[:-1]]
+    pinched = np.unique(dup // (int(origin.max(initial=0)) + 1))
+    if len(pinched) == 0:
+        return ring, test
+    ring = ring.copy()
+    tests = test.tolist()
+    starts = np.flatnonzero(new)
+    stops = np.r_[starts[1:], len(seq)]
+    for c in pinched.tolist():
+        a, b = int(starts[c]), int(stops[c])
+        nodes = origin[seq[a:b]].tolist()
+        seen: dict[int, int] = {}
+        for v in nodes:
+            seen[v] = seen.get(v, 0) + 1
+        loops: list[list[int]] = []
+        stack: list[int] = []  # positions in seq
+        where: dict[int, int] = {}
+        for p, v in zip(range(a, b), nodes, strict=True):
+            if v in where:
+                i = where[v]
+                loops.append(stack[i:])
+                for q in stack[i:]:
+                    del where[int(origin[seq[q]])]
+                del stack[i:]
+            where[v] = len(stack)
+            stack.append(p)
+        loops.append(stack)
+        for j, lp in enumerate(loops):
+            free = [int(at[seq[q]]) for q in lp if seen[int(origin[seq[q]])] == 1]
+            free += [int(inner[seq[q]]) for q in lp if inner[seq[q]] >= 0]
+            if not free:
+                return None
+            r = c if j == 0 else len(tests)
+            if j:
+                tests.append(0)
+            ring[lp] = r
+            tests[r] = free[0]
+    return ring, np.asarray(tests, dtype=np.int64)
 
 
 def _first_max_per_group(value: np.ndarray, group: np.ndarray) -> np.ndarray:
@@ -600,11 +823,22 @@ def _geos_message(exc: BaseException | None) -> str:
     return str(exc).splitlines()[0] if exc is not None else "unknown error"
 
 
-def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """A point well inside each face and its distance to the face's boundary."""
+def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """A point well inside each face and its distance to the face's boundary (map units).
+
+    ``point_on_surface`` first; faces where it lies closer than ``4 tol`` to the boundary get
+    the centre of their maximum inscribed circle instead if that is farther. The circle (the
+    costly step) is skipped where it cannot change a result: faces that cannot be resolved
+    (:data:`MIC_MIN_BOUND`; :func:`_decompose` only compares clearances with ``2 tol`` and,
+    among resolved faces, with each other) whose point is clear of the boundary by more than
+    rounding and the noding ``grid`` (whether the face is in the free space is then the same
+    at either point; specks of ~1e-16 map units, where it is not, get their circle: cheap)."""
     pts = shapely.get_coordinates(shapely.point_on_surface(faces))
     clear = shapely.distance(shapely.boundary(faces), shapely.points(pts))
     thin = np.flatnonzero(clear < 4 * tol)
+    speck = clear[thin] < 1e-6 * tol + 2 * grid
+    thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
     if len(thin):
         circ = shapely.maximum_inscribed_circle(faces[thin], tolerance=0.1 * tol)
         c = shapely.get_coordinates(circ)[::2]
@@ -613,6 +847,24 @@ def _face_points(faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]
         pts[thin[better]] = c[better]
         clear[thin[better]] = r[better]
     return pts, clear
+
+
+#: Faces whose inradius bound (:func:`_inradius_bound`) is below this many curve tolerances
+#: get no inscribed circle: their inradius is below ``2 tol`` with a margin of 4 (the bound
+#: holds up to rounding, which only faces of ~1e-16 map units exceed, by at most 2x).
+MIC_MIN_BOUND = 0.5
+
+
+def _inradius_bound(polys: np.ndarray) -> np.ndarray:
+    """An upper bound of each polygon's inradius (map units): ``2 area / perimeter`` of its
+    convex hull (a convex set containing a disc of radius ``r`` has area at least
+    ``r * perimeter / 2``; the polygon's disc lies in its hull). Vectorized, cheap."""
+    if len(polys) == 0:
+        return np.zeros(0)
+    hull = shapely.convex_hull(polys)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bound = 2 * shapely.area(hull) / shapely.length(hull)
+    return np.nan_to_num(bound, nan=0.0)
 
 
 def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
@@ -642,22 +894,21 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         If the geometry engine fails even with snap rounding (one line, no traceback).
     """
     lss = check_lss(lss, env)
+    out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
-        from tether.userframe import decomposition_to_user
+        from tether.userframe import UserFrame
 
-        with gc_paused():
-            inner = decompose(env.internal, lss * env.frame.scale, rel_tol, progress)
-            release_memory()  # the arrangement, freed
-            dec = decomposition_to_user(inner, env, lss)
-        del inner
-        release_memory()  # the internal frame's geometries, freed
-        return dec
+        out = UserFrame(env, lss)
+        inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused():
-            return _decompose(env, lss, rel_tol, progress)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{_geos_message(exc)}") from exc
+    if out is not None:
+        release_memory()  # the arrangement and the internal frame's geometries, freed
+    return dec
 
 
 def release_memory() -> None:
@@ -689,17 +940,29 @@ def gc_paused() -> Iterator[None]:
     """Pause Python's cyclic garbage collector for a block. A decomposition creates millions of
     small objects that live on (cells, names, geometries) and none in reference cycles: each
     collection would walk them all again (a fifth of the time at 400 vertices) to free
-    nothing. Reference counting still frees everything else at once."""
+    nothing. Reference counting still frees everything else at once.
+
+    On leaving the outermost pause, the objects still alive (the results) go straight to the
+    oldest generation (``gc.freeze`` then ``gc.unfreeze``, both constant time): re-enabled as
+    they were, the collector's next young collection would walk every one of them (1.2 s at
+    1,000 map vertices) and the one after that again. They stay collectable by a full
+    collection; nothing is left frozen (skipped if the caller froze objects itself)."""
     was = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
         if was:
+            if gc.get_freeze_count() == 0:
+                gc.freeze()
+                gc.unfreeze()
             gc.enable()
 
 
-def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> Decomposition:
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
+               out: UserFrame | None = None) -> Decomposition:
+    """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
+    reported as is, or in the user's frame of ``out`` (the result objects made once)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -708,9 +971,12 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     arr = _arrangement(env, curves, tol)
     release_memory()  # the noder's and the polygonizer's temporaries
     report("face structures", 0.5)
-    pts, clear = _face_points(arr.faces, tol)
+    pts, clear = _face_points(arr.faces, tol, arr.grid)
     inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
-    inside &= np.asarray(env.boundary_distance(pts[:, 0], pts[:, 1]) > 0)
+    # and not on a wall: walls are arrangement parts (moved at most 0.71 grid by snapping),
+    # so a point farther than tol + grid from its face's boundary is off every wall
+    near = np.flatnonzero(inside & (clear < tol + arr.grid))
+    inside[near] = np.asarray(env.boundary_distance(pts[near, 0], pts[near, 1]) > 0)
     # a face belongs to the free space iff its interior point does (faces inside holes, or
     # between an overshooting curve end and an obstacle, are dropped)
     keep = np.flatnonzero(inside)
@@ -751,7 +1017,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
         touched[chains.pair[cands.count > 0].ravel()] = True
         isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct)
+            regions = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -769,20 +1035,36 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any) -> D
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
+    cells = _make_cells(env, regions, out)
+    report("done", 1.0)
+    if out is None:
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                            unresolved_pieces)
+    else:  # the regions' polygons and structures and the pieces to the user's frame
+        del arr, chains, cands  # the arrangement, freed first
+        out.regions(regions)
+        out.pieces(pieces)
+        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+                            tuple(pieces), tol / out.scale, unresolved_pieces)
+        arcs = out.crossing_arcs(arcs)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    return dec
+
+
+def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
+                ) -> tuple[Cell, ...]:
+    """Every region's cells, region by region (named after the file's features with
+    ``out``; the regions' structures still in the internal feature codes)."""
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
     cells = []
     for r in regions:
         got = names.get(id(r.structure))
         if got is None:
-            got = names[id(r.structure)] = structure_names(env, r.structure)
+            got = structure_names(env, r.structure)
+            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
         rid = r.id
         cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    cells = tuple(cells)
-    report("done", 1.0)
-    dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                        unresolved_pieces)
-    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
-    return dec
+    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -905,9 +1187,13 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
-                  face_struct: dict[int, Structure]) -> list[Region]:
+                  face_struct: dict[int, Structure], out: UserFrame | None = None
+                  ) -> list[Region]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells."""
+    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    cell names are the user's (converted before the regions are made); the polygon and the
+    structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
+    compare the structures with internal ones)."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
     rank = numbering["rank"].tolist()
     # the regions' polygons: single faces as they are, unions of several one by one
@@ -915,6 +1201,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     for rid, g in enumerate(rank):
         if len(lists[g]) > 1:
             polys[rid] = shapely.union_all(arr.faces[lists[g]])
+    if out is not None:  # all at once, before any region is made (polygons: see below)
+        area = area / (out.scale * out.scale)
+        point = out.points(point)
     best_l = best.tolist()
     area_l = area.tolist()
     point_l = point.tolist()
@@ -924,11 +1213,13 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
-            got = names[id(st)] = structure_names(env, st)
+            got = structure_names(env, st)
+            got = names[id(st)] = got if out is None else out.feature_pairs(got)
         cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
         pt = point_l[g]
         regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
-    shapely.prepare(polys)
+    if out is None:  # else converted and prepared once the pieces are made (no two copies
+        shapely.prepare(polys)  # of every polygon while the pieces stage runs)
     return regions
 
 

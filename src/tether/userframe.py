@@ -1,73 +1,123 @@
-"""Reporting in the user's frame: a decomposition computed on :attr:`Environment.internal`
-(normalized frame, no straight vertices) converted back to the map's coordinates and feature
-names (file numbering). Angles are unchanged by the frame; lengths scale by a power of two."""
+"""Reporting in the user's frame: a decomposition is computed on :attr:`Environment.internal`
+(normalized frame, no straight vertices) and reported in the map's coordinates and feature
+names (file numbering). Angles are unchanged by the frame; lengths scale by a power of two.
+
+The result objects are made once: the regions' areas, points and cell names are converted
+(vectorized) before the regions are made, cells are named after the file when made; the
+geometries (polygons and pieces' lines, one vectorized call each) and the pieces' samples are
+converted once the pieces are made (the pieces stage works in the internal frame), rewritten in
+the objects, which nothing else holds yet. Where the map keeps its internal numbering (no
+straight vertex), names, cells and structures are left as they are."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 import shapely
 
 from tether.arcs import ArcTable
-from tether.decomposition import FREE, Cell, Decomposition, Piece, Region
+from tether.decomposition import FREE
 from tether.environment import Environment
 
 
-def decomposition_to_user(inner: Decomposition, env: Environment, lss: float) -> Decomposition:
-    """The decomposition ``inner`` of ``env.internal`` as a decomposition of ``env`` for rod
-    length ``lss`` (map units): regions, pieces and curves in map coordinates, features and
-    cells named after the file, structures in the file's feature codes."""
-    frame = env.frame
-    names = env.feature_names_map()
-    names[FREE] = FREE
-    code_map = env.code_map
-    k2 = frame.scale * frame.scale
+class UserFrame:
+    """How results computed on ``env.internal`` are reported for ``env``: coordinates (map
+    units), lengths (divided by the frame's scale), areas (by its square), feature names
+    (``"E3"`` -> the file's ``"E5"``) and structures (internal feature codes -> the file's).
+    """
 
-    # the map's features keep their internal numbering (no straight vertex, same order): the
-    # names, cells and structures carry over as they are
-    same = len(code_map) == 2 * env.internal.n and bool(
-        np.array_equal(code_map, np.arange(len(code_map))))
-    ids: list[str] = []
-    first: list[int] = []
-    if not same:  # every cell renamed at once (cells are listed region by region, in order)
-        ids = [f"(R{c.region},{names[c.start_feature]},{names[c.end_feature]})"
-               for c in inner.cells]
-        first = np.concatenate(([0], np.cumsum([len(r.cells) for r in inner.regions]))
-                               ).tolist()
+    def __init__(self, env: Environment, lss: float) -> None:
+        self.env = env
+        self.lss = lss  # rod length, map units
+        self.frame = env.frame
+        self.scale = float(self.frame.scale)
+        self.code_map = env.code_map
+        # the map's features keep their internal numbering (no straight vertex, same order)
+        self.same = len(self.code_map) == 2 * env.internal.n and bool(
+            np.array_equal(self.code_map, np.arange(len(self.code_map))))
+        self.names = env.feature_names_map()
+        self.names[FREE] = FREE
+        self._structures: dict = {}  # many regions share a structure: remap each once
 
-    structures: dict = {}  # many regions share a structure: remap each once
+    def geometries(self, geoms: Any) -> np.ndarray:
+        """Shapely geometries (an object array; None stays None) in map coordinates, all at
+        once."""
+        return self.frame.geometry_to_user(np.asarray(geoms, dtype=object))
 
-    def structure(st):
-        if isinstance(st, str) or same:
+    def points(self, pts: Any) -> np.ndarray:
+        """Points (m, 2) in map coordinates."""
+        return self.frame.to_user(np.asarray(pts, dtype=float).reshape(-1, 2))
+
+    def structure(self, st: Any) -> Any:
+        """A structure (``"FULL"``, ``"EMPTY"`` or a frozenset of internal feature-code pairs)
+        in the file's feature codes."""
+        if isinstance(st, str) or self.same:
             return st
-        got = structures.get(st)
+        got = self._structures.get(st)
         if got is None:
-            got = structures[st] = frozenset((int(code_map[a]), int(code_map[b]))
-                                             for a, b in st)
+            cm = self.code_map
+            got = self._structures[st] = frozenset((int(cm[a]), int(cm[b])) for a, b in st)
         return got
 
-    # all geometries transformed at once (one vectorized call, not one per region)
-    polys = frame.geometry_to_user(np.array([r.polygon for r in inner.regions], dtype=object))
-    shapely.prepare(polys)
-    pts = frame.to_user(np.array([r.point for r in inner.regions]).reshape(-1, 2)).tolist()
-    regions = [Region(r.id, poly, r.area / k2, (pt[0], pt[1]), structure(r.structure),
-                      r.cells if same else tuple(ids[first[i]:first[i + 1]]))
-               for i, (r, poly, pt) in enumerate(zip(inner.regions, polys, pts, strict=True))]
-    cells = inner.cells if same else tuple(
-        Cell(cid, c.region, names[c.start_feature], names[c.end_feature])
-        for cid, c in zip(ids, inner.cells, strict=True))
-    lines = frame.geometry_to_user(np.array([p.geometry for p in inner.pieces], dtype=object))
-    qs = frame.to_user(np.array([p.sample for p in inner.pieces]).reshape(-1, 2)).tolist()
-    pieces = [Piece(p.id, p.regions, p.curves, p.kind,
-                    p.features if same else tuple(names.get(f, f) for f in p.features),
-                    line, (q[0], q[1]),
-                    p.normal, p.eps / frame.scale, p.verified)
-              for p, line, q in zip(inner.pieces, lines, qs, strict=True)]
-    curves = tuple(c.to_user(frame, names) for c in inner.curves)
-    dec = Decomposition(env, lss, curves, tuple(regions), cells, tuple(pieces),
-                        inner.curve_tol / frame.scale, inner.unresolved_pieces)
-    arcs = inner.__dict__.get("_crossing_arcs")
-    if arcs is not None:  # angles are those of the map's frame: only the codes change
-        dec.__dict__["_crossing_arcs"] = ArcTable(
-            arcs.point, arcs.start, arcs.end, code_map[arcs.start_code],
-            code_map[arcs.end_code], arcs.full)
-    return dec
+    def feature_pairs(self, pairs: list[tuple[str, str]]) -> list[tuple[str, str]]:
+        """``(start, end)`` internal feature names renamed after the file (order kept)."""
+        if self.same:
+            return pairs
+        names = self.names
+        return [(names[s], names[e]) for s, e in pairs]
+
+    def features(self, feats: tuple[str, ...]) -> tuple[str, ...]:
+        """Internal feature names renamed after the file."""
+        if self.same:
+            return feats
+        return tuple(self.names.get(f, f) for f in feats)
+
+    def curves(self, curves: list) -> tuple:
+        """The critical curves reported in map coordinates and file names."""
+        names = self.names
+        return tuple(c.to_user(self.frame, names) for c in curves)
+
+    def pieces(self, pieces: list) -> None:
+        """Rewrite the pieces' geometry, sample, offset and features in the user's frame, in
+        place: they were just made in the internal frame and nothing else holds them (as the
+        frozen dataclass's own ``__init__`` does, through ``object.__setattr__``); a second
+        generation of pieces would cost their making and freeing again."""
+        if not pieces:
+            return
+        lines = self.geometries([p.geometry for p in pieces])
+        qs = self.points([p.sample for p in pieces]).tolist()
+        eps = (np.array([p.eps for p in pieces], dtype=float) / self.scale).tolist()
+        put = object.__setattr__
+        for p, line, q, e in zip(pieces, lines.tolist(), qs, eps, strict=True):
+            put(p, "geometry", line)
+            put(p, "sample", (q[0], q[1]))
+            put(p, "eps", e)
+        if not self.same:
+            for p in pieces:
+                put(p, "features", self.features(p.features))
+
+    def regions(self, regions: list) -> None:
+        """Rewrite the regions' polygons (all at once) and structures (in the file's feature
+        codes) in the user's frame, in place (see :meth:`pieces`); their area, point and cell
+        names are the user's already (``_make_regions``). The polygons are prepared."""
+        if not regions:
+            return
+        polys = self.geometries([r.polygon for r in regions])
+        shapely.prepare(polys)
+        put = object.__setattr__
+        for r, poly in zip(regions, polys.tolist(), strict=True):
+            put(r, "polygon", poly)
+        if not self.same:
+            for r in regions:
+                put(r, "structure", self.structure(r.structure))
+
+    def crossing_arcs(self, arcs: ArcTable) -> ArcTable:
+        """The crossings' arc table with the file's feature codes (angles are those of the
+        map's frame already)."""
+        if self.same:
+            return arcs
+        cm = self.code_map
+        return ArcTable(arcs.point, arcs.start, arcs.end, cm[arcs.start_code],
+                        cm[arcs.end_code], arcs.full)
+

@@ -1,0 +1,94 @@
+"""The arrangement's faces traced from half-edges (``_trace_faces``) against
+``shapely.polygonize`` (``_polygonize_faces``, the fallback and the previous method): the same
+polygons (as sets of points: normalized geometries) and the same faces on both sides of every
+part, on random segment arrangements and on the awkward cases (dangles, cut edges, islands
+touching their face at a point, holes in holes, a bay closed at a point)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+from tether.decomposition import (
+    _first_max_per_group,
+    _polygonize_faces,
+    _ring_segments,
+    _trace_faces,
+)
+
+
+def _both(lines: list) -> tuple:
+    noded = shapely.node(shapely.multilinestrings([shapely.linestrings(c) for c in lines]))
+    parts = shapely.get_parts(noded)
+    parts = parts[shapely.length(parts) > 0]
+    pa, pb, powner = _ring_segments(parts)
+    longest = _first_max_per_group(np.hypot(*(pb - pa).T), powner)
+    traced = _trace_faces(parts)
+    assert traced is not None
+    return traced, _polygonize_faces(parts, pa, pb, powner, longest)
+
+
+def _assert_same(lines: list) -> int:
+    (faces, pf), (ref, ref_pf) = _both(lines)
+    key = {shapely.to_wkb(g): i for i, g in enumerate(shapely.normalize(ref))}
+    assert len(faces) == len(ref) == len(key)
+    to_ref = np.array([key[shapely.to_wkb(g)] for g in shapely.normalize(faces)] + [-1])
+    assert np.array_equal(np.sort(to_ref[pf], axis=1), np.sort(ref_pf, axis=1))
+    assert shapely.is_valid(faces).all()
+    return len(faces)
+
+
+def _square(x0, y0, s):
+    return [(x0, y0), (x0 + s, y0), (x0 + s, y0 + s), (x0, y0 + s), (x0, y0)]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_segments_match_polygonize(seed):
+    rng = np.random.default_rng(seed)
+    lines = [_square(0, 0, 10)]
+    for _ in range(int(rng.integers(3, 25))):
+        a, b = rng.uniform(-1, 11, 2), rng.uniform(-1, 11, 2)
+        lines.append([tuple(a), tuple(b)])
+    # some polylines, and segments on a coarse grid (shared end points, collinear overlaps)
+    for _ in range(5):
+        pts = rng.integers(0, 6, (int(rng.integers(2, 5)), 2)) * 2.0
+        lines.append([tuple(p) for p in pts])
+    _assert_same(lines)
+
+
+def test_island_touching_its_face_at_a_point():
+    # a triangle hanging from the square's corner-to-corner diagonal's middle, and a closed
+    # ring (one part) touching the boundary at one node
+    lines = [_square(0, 0, 10), [(5, 0), (4, 2), (6, 2), (5, 0)],
+             [(10, 5), (8, 4), (8, 6), (10, 5)]]
+    assert _assert_same(lines) == 3
+
+
+def test_figure_eight_hole_bay_and_holes_in_holes():
+    lines = [_square(0, 0, 20),
+             _square(2, 2, 3), _square(5, 5, 3),  # two squares touching at (5, 5)
+             # a C whose tips touch: the bay closed at (15, 15) is a face of its own
+             [(15, 15), (12, 15), (12, 12), (18, 12), (18, 15), (15, 15)],
+             [(15, 15), (15, 14), (16, 14), (16, 15)],
+             _square(2, 12, 6), _square(3, 13, 4), _square(4, 14, 2)]  # nested
+    _assert_same(lines)
+
+
+def test_dangles_and_cut_edges_bound_no_face():
+    lines = [_square(0, 0, 10), [(2, 2), (3, 3)],  # floating segment
+             [(0, 5), (4, 5)],  # dangle from the wall
+             _square(6, 6, 2), [(10, 7), (8, 7)],  # a hole bridged to the wall
+             [(7, 0), (7, 1), (7.5, 1.5)]]  # dangling polyline
+    (faces, pf), _ = _both(lines)
+    _assert_same(lines)
+    assert len(faces) == 2  # the square with its hole, the hole
+    none = np.flatnonzero(pf[:, 0] < 0)  # the floating segment, two dangles, the bridge
+    assert len(none) == 4 and (pf[none, 1] < 0).all()
+
+
+def test_exactly_overlapping_directions_fall_back():
+    # two parts leaving a node along the same direction: never after noding, but refused
+    parts = [shapely.linestrings(c) for c in ([(0, 0), (1, 0), (1, 1)],
+                                              [(0, 0), (2, 0), (2, 1)], [(1, 1), (2, 1)])]
+    assert _trace_faces(np.asarray(parts, dtype=object)) is None
