@@ -1351,6 +1351,11 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     sptr, ssrc = arr.chain_sources(chains)
     got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
     kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
+    # the pieces' arcs first, the rounds' tables freed before the pieces are made: a lower
+    # peak (at 1,000 map vertices each table is ~100 MB, the pieces ~150 MB)
+    arcs = _crossing_table(tables, got["at"][kept])
+    del tables
+    release_memory()
     geoms = _chain_geometries(arr, chains, kept)
     flat, ptr = ssrc.tolist(), sptr.tolist()
     pieces = []
@@ -1367,7 +1372,7 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
             desc = described[key] = (kinds, feats)
         pieces.append(Piece(pid, (ra, rb), key, desc[0], desc[1], geom, (qx, qy), (nx, ny),
                             eps, verified))
-    return pieces, len(chains) - len(kept), _crossing_table(tables, got["at"][kept])
+    return pieces, len(chains) - len(kept), arcs
 
 
 def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
@@ -1428,7 +1433,7 @@ CLEARANCE_BATCH = 20_000
 
 #: The clearance search's radii, as fractions of its reach: a point is searched again within
 #: the next radius only if nothing of another part was found within the previous one.
-CLEARANCE_STAGES = (1 / 16, 1 / 4, 1.0)
+CLEARANCE_STAGES = (1 / 4, 1.0)
 
 
 def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
@@ -1518,6 +1523,7 @@ def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
     while len(pending):
         row = cands.ptr[pending] + rnd
         q, n = _project_on_sources(curves, chain_srcs, pending, cands.q[row])
+        release_memory()  # the projection's temporaries, before the arcs allocate theirs
         eps = cands.eps[row]
         k = len(pending)
         j = np.arange(k)
@@ -1633,27 +1639,25 @@ def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     piece's ``(round, row of the +n side, row of the other)``, shape (m, 3)."""
     m = len(at)
     at_arr = np.asarray(at, dtype=np.int64).reshape(-1, 3)
-    parts = []
+    rnd = np.concatenate((at_arr[:, 0], at_arr[:, 0]))  # per output point
+    src = np.concatenate((at_arr[:, 1], at_arr[:, 2]))
     full = np.zeros(2 * m, bool)
+    first = np.zeros(2 * m, np.int64)  # first row in the tables' rows one after the other
+    count = np.zeros(2 * m, np.int64)
+    offset = 0
     for r, table in enumerate(tables):
-        k = np.flatnonzero(at_arr[:, 0] == r)
-        if len(k) == 0:
-            continue
-        src = np.concatenate((at_arr[k, 1], at_arr[k, 2]))
-        dst = np.concatenate((k, k + m))
-        full[dst] = table.full[src]
-        lo = np.searchsorted(table.point, src, side="left")
-        hi = np.searchsorted(table.point, src, side="right")
-        rows = ragged_arange(lo, hi - lo)
-        parts.append((np.repeat(dst, hi - lo), table, rows))
-    if not parts:
-        z, zi = np.zeros(0), np.zeros(0, dtype=np.int64)
-        return ArcTable(zi, z, z, zi, zi, full)
-    point = np.concatenate([p for p, _, _ in parts])
-    order = np.argsort(point, kind="stable")  # each point's rows come from one source point
-    cols = [np.concatenate([getattr(t, f)[rows] for _, t, rows in parts])[order]
-            for f in ("start", "end", "start_code", "end_code")]
-    return ArcTable(point[order], *cols, full)
+        k = np.flatnonzero(rnd == r)
+        full[k] = table.full[src[k]]
+        lo = np.searchsorted(table.point, src[k], side="left")
+        first[k] = offset + lo
+        count[k] = np.searchsorted(table.point, src[k], side="right") - lo
+        offset += len(table.point)
+    rows = ragged_arange(first, count)  # output points in order, no sort
+    cols = [(getattr(tables[0], f) if len(tables) == 1 else
+             np.concatenate([getattr(t, f) for t in tables]))[rows]
+            for f in ("start", "end", "start_code", "end_code")] if tables else \
+        [np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64)]
+    return ArcTable(np.repeat(np.arange(2 * m), count), *cols, full)
 
 
 def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray],
