@@ -66,3 +66,25 @@ def test_staged_clearance_equals_brute_force(seed, reach):
                                   np.tile(b, (200, 1))).reshape(200, 300)
     d[sowner[k][:, None] == sowner[None, :]] = np.inf
     assert np.array_equal(got, np.minimum(d.min(axis=1), reach))
+
+
+def test_crossing_table_gathers_each_points_rows():
+    """The gathered table has, for output point ``d``, exactly the rows of its source point in
+    its round's table, in order (several rounds, sides swapped)."""
+    env = load_map(example_path("gallery"))
+    inner = env.internal
+    rng = np.random.default_rng(5)
+    tables = [free_arcs_many(inner, env.frame.to_internal(interior_points(env, k, seed=k)),
+                             2.0 * env.frame.scale, check=False) for k in (40, 30, 20)]
+    m = 25
+    rnd = rng.integers(0, 3, m)
+    size = np.array([40, 30, 20])[rnd]
+    at = np.column_stack((rnd, rng.integers(0, size), rng.integers(0, size)))
+    got = D._crossing_table(tables, at)
+    for d in range(2 * m):
+        r, s = at[d % m, 0], at[d % m, 1 + d // m]
+        want, have = tables[r].rows_of(int(s)), got.rows_of(d)
+        assert got.full[d] == tables[r].full[s]
+        for f in ("start", "end", "start_code", "end_code"):
+            assert np.array_equal(getattr(got, f)[have], getattr(tables[r], f)[want])
+    assert np.array_equal(got.point, np.sort(got.point))

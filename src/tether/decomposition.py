@@ -112,7 +112,7 @@ def _feature_names(env: Environment) -> list[str]:
     return got
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
 class Cell:
     """A connected component of free rod orientations above a region: ``(R, start, end)``."""
 
@@ -126,7 +126,7 @@ class Cell:
                 "start_feature": self.start_feature, "end_feature": self.end_feature}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Region:
     """A noncritical region: polygon, area, a representative interior point, its structure."""
 
@@ -146,7 +146,7 @@ class Region:
                 "cells": list(self.cells)}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Piece:
     """A maximal stretch of critical curve separating two regions (``math.md`` §8).
 
@@ -1083,7 +1083,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         touched[chains.pair[cands.count > 0].ravel()] = True
         isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct, out)
+            regions, cells = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -1101,7 +1101,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
-    cells = _make_cells(env, regions, out)
     report("done", 1.0)
     if out is None:
         dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
@@ -1115,22 +1114,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         arcs = out.crossing_arcs(arcs)
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     return dec
-
-
-def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
-                ) -> tuple[Cell, ...]:
-    """Every region's cells, region by region (named after the file's features with
-    ``out``; the regions' structures still in the internal feature codes)."""
-    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    cells = []
-    for r in regions:
-        got = names.get(id(r.structure))
-        if got is None:
-            got = structure_names(env, r.structure)
-            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
-        rid = r.id
-        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -1254,9 +1237,10 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_struct: dict[int, Structure], out: UserFrame | None = None
-                  ) -> list[Region]:
+                  ) -> tuple[list[Region], tuple[Cell, ...]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    union of the faces), area, point, structure and cells; and the :class:`Cell` objects,
+    region by region (each region's structure named once for both). With ``out``, area, point and
     cell names are the user's (converted before the regions are made); the polygon and the
     structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
     compare the structures with internal ones)."""
@@ -1274,19 +1258,20 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     area_l = area.tolist()
     point_l = point.tolist()
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    regions = []
+    regions, cells = [], []
     for rid, g in enumerate(rank):
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
             got = structure_names(env, st)
             got = names[id(st)] = got if out is None else out.feature_pairs(got)
-        cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        ids = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(ids, got, strict=True)]
         pt = point_l[g]
-        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
+        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, ids))
     if out is None:  # else converted and prepared once the pieces are made (no two copies
         shapely.prepare(polys)  # of every polygon while the pieces stage runs)
-    return regions
+    return regions, tuple(cells)
 
 
 @dataclass
@@ -1377,6 +1362,11 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     sptr, ssrc = arr.chain_sources(chains)
     got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
     kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
+    # the pieces' arcs first, the rounds' tables freed before the pieces are made: a lower
+    # peak (at 1,000 map vertices each table is ~100 MB, the pieces ~150 MB)
+    arcs = _crossing_table(tables, got["at"][kept])
+    del tables
+    release_memory()
     geoms = _chain_geometries(arr, chains, kept)
     flat, ptr = ssrc.tolist(), sptr.tolist()
     pieces = []
@@ -1393,7 +1383,7 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
             desc = described[key] = (kinds, feats)
         pieces.append(Piece(pid, (ra, rb), key, desc[0], desc[1], geom, (qx, qy), (nx, ny),
                             eps, verified))
-    return pieces, len(chains) - len(kept), _crossing_table(tables, got["at"][kept])
+    return pieces, len(chains) - len(kept), arcs
 
 
 def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
@@ -1454,7 +1444,7 @@ CLEARANCE_BATCH = 20_000
 
 #: The clearance search's radii, as fractions of its reach: a point is searched again within
 #: the next radius only if nothing of another part was found within the previous one.
-CLEARANCE_STAGES = (1 / 16, 1 / 4, 1.0)
+CLEARANCE_STAGES = (1 / 4, 1.0)
 
 
 def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
@@ -1544,6 +1534,7 @@ def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
     while len(pending):
         row = cands.ptr[pending] + rnd
         q, n = _project_on_sources(curves, chain_srcs, pending, cands.q[row])
+        release_memory()  # the projection's temporaries, before the arcs allocate theirs
         eps = cands.eps[row]
         k = len(pending)
         j = np.arange(k)
@@ -1659,27 +1650,25 @@ def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     piece's ``(round, row of the +n side, row of the other)``, shape (m, 3)."""
     m = len(at)
     at_arr = np.asarray(at, dtype=np.int64).reshape(-1, 3)
-    parts = []
+    rnd = np.concatenate((at_arr[:, 0], at_arr[:, 0]))  # per output point
+    src = np.concatenate((at_arr[:, 1], at_arr[:, 2]))
     full = np.zeros(2 * m, bool)
+    first = np.zeros(2 * m, np.int64)  # first row in the tables' rows one after the other
+    count = np.zeros(2 * m, np.int64)
+    offset = 0
     for r, table in enumerate(tables):
-        k = np.flatnonzero(at_arr[:, 0] == r)
-        if len(k) == 0:
-            continue
-        src = np.concatenate((at_arr[k, 1], at_arr[k, 2]))
-        dst = np.concatenate((k, k + m))
-        full[dst] = table.full[src]
-        lo = np.searchsorted(table.point, src, side="left")
-        hi = np.searchsorted(table.point, src, side="right")
-        rows = ragged_arange(lo, hi - lo)
-        parts.append((np.repeat(dst, hi - lo), table, rows))
-    if not parts:
-        z, zi = np.zeros(0), np.zeros(0, dtype=np.int64)
-        return ArcTable(zi, z, z, zi, zi, full)
-    point = np.concatenate([p for p, _, _ in parts])
-    order = np.argsort(point, kind="stable")  # each point's rows come from one source point
-    cols = [np.concatenate([getattr(t, f)[rows] for _, t, rows in parts])[order]
-            for f in ("start", "end", "start_code", "end_code")]
-    return ArcTable(point[order], *cols, full)
+        k = np.flatnonzero(rnd == r)
+        full[k] = table.full[src[k]]
+        lo = np.searchsorted(table.point, src[k], side="left")
+        first[k] = offset + lo
+        count[k] = np.searchsorted(table.point, src[k], side="right") - lo
+        offset += len(table.point)
+    rows = ragged_arange(first, count)  # output points in order, no sort
+    cols = [(getattr(tables[0], f) if len(tables) == 1 else
+             np.concatenate([getattr(t, f) for t in tables]))[rows]
+            for f in ("start", "end", "start_code", "end_code")] if tables else \
+        [np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64)]
+    return ArcTable(np.repeat(np.arange(2 * m), count), *cols, full)
 
 
 def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray],
