@@ -87,6 +87,15 @@ def test_dangles_and_cut_edges_bound_no_face():
     assert len(none) == 4 and (pf[none, 1] < 0).all()
 
 
+def test_repeated_points_take_the_first_step_that_moves():
+    parts = [shapely.linestrings(c) for c in ([(0, 0), (0, 0), (2, 0), (2, 2), (2, 2)],
+                                              [(2, 2), (0, 2), (0, 2), (0, 0)],
+                                              [(0, 0), (1, 1), (2, 2)])]
+    faces, pf = _trace_faces(np.asarray(parts, dtype=object))
+    assert len(faces) == 2 and sorted(shapely.area(faces)) == [2.0, 2.0]
+    assert pf.tolist() == [[0, -1], [1, -1], [0, 1]] or pf.tolist() == [[1, -1], [0, -1], [0, 1]]
+
+
 def test_exactly_overlapping_directions_fall_back():
     # two parts leaving a node along the same direction: never after noding, but refused
     parts = [shapely.linestrings(c) for c in ([(0, 0), (1, 0), (1, 1)],

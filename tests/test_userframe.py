@@ -91,3 +91,47 @@ def test_user_frame_results_equal_the_direct_computation_in_an_identity_frame():
     ang = np.linspace(0, 6, 200)
     assert mine.region_at(pts).tolist() == direct.region_at(pts).tolist()
     assert mine.cell_at(pts, ang) == direct.cell_at(pts, ang)
+
+
+def test_renumbered_map_reports_the_direct_computation_renamed():
+    """A straight vertex renumbers the features: the user-frame results are the internal
+    map's, features renamed through ``feature_names_map`` and codes through ``code_map``
+    (the frame is the identity here, so coordinates are equal)."""
+    import numpy as np
+    import shapely
+
+    from tether import Environment
+    from tether.decomposition import FREE, decompose
+
+    env = Environment([[-0.3, -0.3], [0.0, -0.3], [0.3, -0.3], [0.3, 0.3], [0.05, 0.3],
+                       [0.0, 0.1], [-0.3, 0.3]],
+                      ([[-0.12, -0.12], [-0.12, 0.0], [0.0, 0.0]],), "straight")
+    assert env.frame.scale == 1.0 and not np.any(env.frame.origin)
+    assert env.internal.n == env.n - 1  # the vertex (0, -0.3) is straight
+    mine, direct = decompose(env, 0.2), decompose(env.internal, 0.2)
+    names = {**env.feature_names_map(), FREE: FREE}
+    cm = env.code_map
+
+    def cell(cid: str) -> str:
+        r, s, e = cid[1:-1].split(",")
+        return f"({r},{names[s]},{names[e]})"
+
+    assert len(mine.regions) == len(direct.regions) > 5
+    for a, b in zip(mine.regions, direct.regions, strict=True):
+        assert shapely.to_wkb(a.polygon) == shapely.to_wkb(b.polygon)
+        assert (a.area, a.point) == (b.area, b.point)
+        assert a.cells == tuple(cell(c) for c in b.cells)
+        assert a.structure == (b.structure if isinstance(b.structure, str) else
+                               frozenset((int(cm[x]), int(cm[y])) for x, y in b.structure))
+    assert [(c.id, c.region, c.start_feature, c.end_feature) for c in mine.cells] == [
+        (cell(c.id), c.region, names[c.start_feature], names[c.end_feature])
+        for c in direct.cells]
+    for p, q in zip(mine.pieces, direct.pieces, strict=True):
+        assert shapely.to_wkb(p.geometry) == shapely.to_wkb(q.geometry)
+        assert (p.sample, p.normal, p.eps, p.regions, p.curves, p.kind) == (
+            q.sample, q.normal, q.eps, q.regions, q.curves, q.kind)
+        assert p.features == tuple(names.get(f, f) for f in q.features)
+    arcs, inner = mine.crossing_arcs(), direct.crossing_arcs()
+    assert np.array_equal(arcs.start_code, cm[inner.start_code])
+    assert np.array_equal(arcs.end_code, cm[inner.end_code])
+    assert np.array_equal(arcs.start, inner.start) and np.array_equal(arcs.end, inner.end)

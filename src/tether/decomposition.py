@@ -2,10 +2,10 @@
 
 Regions are the maximal connected open sets of target positions over which the labelled
 free-arc structure stays the same. They are computed from the arrangement of the critical
-curves, never from a grid: the curves' polylines and the map's rings are noded and polygonized
-(shapely) into faces; each face's structure is evaluated exactly at a point well inside it;
-faces adjacent across a curve piece with equal structure are merged. Sampling is how
-:func:`check` verifies the result.
+curves, never from a grid: the curves' polylines and the map's rings are noded (shapely) and
+the faces of the noded lines traced from their half-edges; each face's structure is evaluated
+exactly at a point well inside it; faces adjacent across a curve piece with equal structure
+are merged. Sampling is how :func:`check` verifies the result.
 
 Tolerances: curves are drawn within ``curve_tol = REL_CURVE_TOL * diameter`` of their exact
 shape. A face whose inscribed circle is smaller than ``2 * curve_tol`` is below that resolution:
@@ -112,7 +112,7 @@ def _feature_names(env: Environment) -> list[str]:
     return got
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
 class Cell:
     """A connected component of free rod orientations above a region: ``(R, start, end)``."""
 
@@ -126,7 +126,7 @@ class Cell:
                 "start_feature": self.start_feature, "end_feature": self.end_feature}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Region:
     """A noncritical region: polygon, area, a representative interior point, its structure."""
 
@@ -146,7 +146,7 @@ class Region:
                 "cells": list(self.cells)}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, slots=True)
 class Piece:
     """A maximal stretch of critical curve separating two regions (``math.md`` §8).
 
@@ -417,11 +417,7 @@ class _Arrangement:
         built once."""
         got = self.__dict__.get("_end_ids")
         if got is None:
-            coords, idx = shapely.get_coordinates(self.parts, return_index=True)
-            count = np.bincount(idx, minlength=len(self.parts))
-            start = np.cumsum(count) - count  # parts have 2 or more points
-            ends = np.vstack((coords[start], coords[start + count - 1]))
-            ids = _point_ids(ends)
+            ids = _part_ends(self.parts)[4]
             got = self.__dict__["_end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
         return got
 
@@ -478,7 +474,8 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     pa, pb, powner = _ring_segments(parts)
     seg_len = np.hypot(*(pb - pa).T)
     longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
-    traced = _trace_faces(parts)
+    ends = _part_ends(parts)
+    traced = _trace_faces(parts, ends)
     if traced is not None:
         faces, part_faces = traced
     else:
@@ -496,7 +493,9 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # np.unique hashes: slow
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
-    return _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+    arr = _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
+    arr.__dict__["_end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
+    return arr
 
 
 def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
@@ -522,7 +521,19 @@ def _polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner:
     return faces, part_faces
 
 
-def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The parts' coordinates, each part's number of points, index of its first and of its
+    last point there, and an id per end point (first points, then last points), equal for
+    equal coordinates."""
+    coords, idx = shapely.get_coordinates(parts, return_index=True)
+    count = np.bincount(idx, minlength=len(parts))
+    start = np.cumsum(count) - count  # parts have 2 or more points
+    last = start + count - 1
+    return coords, count, start, last, _point_ids(np.vstack((coords[start], coords[last])))
+
+
+def _trace_faces(parts: np.ndarray, ends: tuple | None = None
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The faces of the noded ``parts`` (polygons) and the faces on the two sides of every
     part (``(nparts, 2)``, the smaller face id first, -1 for none), traced on the planar
     graph of the parts' half-edges in numpy instead of ``shapely.polygonize`` and matching
@@ -531,14 +542,10 @@ def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     into simple rings, counter-clockwise rings are shells, clockwise rings holes of the
     smallest shell containing them, the unbounded face is none. Returns None where the
     tracing cannot decide (two half-edges leaving a node in exactly the same direction,
-    which noding rules out, or a hole touching its shell at all its nodes): the caller
-    polygonizes then."""
+    which noding rules out, or a ring with no point off its cycle's other rings): the caller
+    polygonizes then. ``ends``: :func:`_part_ends` of the parts, if already computed."""
     n = len(parts)
-    coords, idx = shapely.get_coordinates(parts, return_index=True)
-    count = np.bincount(idx, minlength=n)
-    start = np.cumsum(count) - count
-    last = start + count - 1
-    ends = _point_ids(np.vstack((coords[start], coords[last])))
+    coords, count, start, last, ends = ends if ends is not None else _part_ends(parts)
     origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
     origin[0::2], origin[1::2] = ends[:n], ends[n:]
     nodes = int(ends.max(initial=-1)) + 1
@@ -546,6 +553,13 @@ def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
     step[0::2] = coords[start + 1] - coords[start]
     step[1::2] = coords[last - 1] - coords[last]
+    for h in np.flatnonzero(~step.any(axis=1)).tolist():  # a repeated point (none seen)
+        k, sign = h // 2, 1 - 2 * (h % 2)
+        at = start[k] if sign > 0 else last[k]
+        j = at + sign
+        while not (coords[j] != coords[at]).any():  # parts have length > 0
+            j += sign
+        step[h] = coords[j] - coords[at]
     angle = np.arctan2(step[:, 1], step[:, 0])
     label = None
     for _ in range(2):  # the second pass without the cut edges
@@ -578,35 +592,74 @@ def _trace_faces(parts: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     nring = int(ring_of.max(initial=-1)) + 1
     first = np.searchsorted(ring_pt, np.arange(nring))
     ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
-    ring_idx = np.repeat(np.arange(nring), np.bincount(ring_pt, minlength=nring) + 1)
-    rings = shapely.linearrings(coords[ci], indices=ring_idx)
-    ccw = shapely.is_ccw(rings)
+    xy = coords[ci]
+    size = np.bincount(ring_pt, minlength=nring) + 1
+    ring_ptr = np.r_[0, np.cumsum(size)]
+    ccw = _rings_ccw(xy, ring_ptr)
     shell = np.flatnonzero(ccw)
     hole = np.flatnonzero(~ccw)
     face_of_ring = np.full(nring, -1)
     face_of_ring[shell] = np.arange(len(shell))
-    shells = shapely.polygons(rings[shell])
-    # holes: in the smallest shell whose interior holds a node of theirs off every pinch
+    faces = _ragged_polygons(xy, ring_ptr, shell, np.ones(len(shell), np.int64))
+    # holes: in the smallest shell whose interior holds a point of theirs off every pinch
+    # (the faces have no holes yet: their polygons are their shells)
     pts = shapely.points(coords[test_pt[hole]])
-    hi, si = shapely.STRtree(shells).query(pts, predicate="within")
-    area = shapely.area(shells)
+    hi, si = shapely.STRtree(faces).query(pts, predicate="within")
+    area = shapely.area(faces)
     pick = np.lexsort((area[si], hi))
     hi, si = hi[pick], si[pick]
     head = np.r_[True, hi[1:] != hi[:-1]] if len(hi) else np.zeros(0, bool)
     face_of_ring[hole[hi[head]]] = si[head]
-    # the faces: each shell then its holes
+    # the faces with holes again: each shell then its holes
     inner = hole[face_of_ring[hole] >= 0]
-    rows = np.concatenate((shell, inner))
-    owner = face_of_ring[rows]
-    o = np.argsort(owner, kind="stable")
-    faces = shapely.polygons(rings[rows[o]], indices=owner[o])
+    if len(inner):
+        with_holes = np.unique(face_of_ring[inner])
+        rows = np.concatenate((shell[with_holes], inner))
+        o = np.argsort(face_of_ring[rows], kind="stable")
+        faces[with_holes] = _ragged_polygons(xy, ring_ptr, rows[o], np.bincount(
+            face_of_ring[rows], minlength=len(shell))[with_holes])
     side = np.full(2 * n, -1)
     side[seq] = face_of_ring[ring_of]
     pf = np.sort(side.reshape(n, 2), axis=1)
     one = pf[:, 0] < 0  # -1 (none) goes second
     pf[one] = pf[one][:, ::-1]
     pf[pf[:, 0] == pf[:, 1]] = -1
-    return np.asarray(faces, dtype=object), pf
+    return faces, pf
+
+
+def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """Whether each closed ring ``xy[ptr[r]:ptr[r + 1]]`` runs counter-clockwise: the sign of
+    its shoelace sum about its first point where that exceeds the sum's rounding bound
+    (nearly all), GEOS's robust ``is_ccw`` for the others (specks of ~1e-16 map units)."""
+    nring = len(ptr) - 1
+    ring = np.repeat(np.arange(nring), np.diff(ptr))
+    d = xy - xy[ptr[:-1]][ring]
+    a = d[:-1, 0] * d[1:, 1]
+    b = d[1:, 0] * d[:-1, 1]
+    row = ring[:-1]
+    ok = ring[1:] == row  # pairs of consecutive points of one ring
+    total = np.bincount(row[ok], weights=(a - b)[ok], minlength=nring)
+    bound = np.bincount(row[ok], weights=(np.abs(a) + np.abs(b))[ok], minlength=nring)
+    ccw = total > 0
+    unsure = np.flatnonzero(np.abs(total) <= 8 * np.diff(ptr) * np.finfo(float).eps * bound)
+    if len(unsure):
+        idx = ragged_arange(ptr[unsure], ptr[unsure + 1] - ptr[unsure])
+        rings = shapely.linearrings(xy[idx], indices=np.repeat(np.arange(len(unsure)),
+                                                                np.diff(ptr)[unsure]))
+        ccw[unsure] = shapely.is_ccw(rings)
+    return ccw
+
+
+def _ragged_polygons(xy: np.ndarray, ptr: np.ndarray, rings: np.ndarray,
+                     per_polygon: np.ndarray) -> np.ndarray:
+    """Polygons from closed rings ``xy[ptr[r]:ptr[r + 1]]``: ``rings`` in order, the first
+    ``per_polygon[0]`` of them the first polygon (shell, then holes), and so on; built in one
+    call, without intermediate ring objects."""
+    size = ptr[rings + 1] - ptr[rings]
+    idx = ragged_arange(ptr[rings], size)
+    offsets = (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_polygon)])
+    return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy[idx],
+                                                offsets), dtype=object)
 
 
 def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
@@ -667,12 +720,12 @@ def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.nd
     tail[live] = nxt[live] == label[live]  # the last half-edge of its cycle
     succ[~alive | tail] = np.flatnonzero(~alive | tail)
     dist = np.where(alive & ~tail, 1, 0)  # steps to the cycle's last half-edge
-    while True:
-        s2 = succ[succ]
-        if np.array_equal(s2, succ):
-            break
-        dist = dist + dist[succ]
-        succ = s2
+    act = np.flatnonzero(succ[succ] != succ)  # not yet pointing at their cycle's last
+    while len(act):  # pointer doubling on the half-edges still jumping (long cycles)
+        s = succ[act]
+        dist[act] += dist[s]
+        succ[act] = succ[s]
+        act = act[succ[succ[act]] != succ[act]]
     return live[np.lexsort((-dist[live], label[live]))]
 
 
@@ -834,8 +887,9 @@ def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
     among resolved faces, with each other) whose point is clear of the boundary by more than
     rounding and the noding ``grid`` (whether the face is in the free space is then the same
     at either point; specks of ~1e-16 map units, where it is not, get their circle: cheap)."""
-    pts = shapely.get_coordinates(shapely.point_on_surface(faces))
-    clear = shapely.distance(shapely.boundary(faces), shapely.points(pts))
+    inside = shapely.point_on_surface(faces)
+    pts = shapely.get_coordinates(inside)
+    clear = shapely.distance(shapely.boundary(faces), inside)
     thin = np.flatnonzero(clear < 4 * tol)
     speck = clear[thin] < 1e-6 * tol + 2 * grid
     thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
@@ -850,9 +904,10 @@ def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
 
 
 #: Faces whose inradius bound (:func:`_inradius_bound`) is below this many curve tolerances
-#: get no inscribed circle: their inradius is below ``2 tol`` with a margin of 4 (the bound
-#: holds up to rounding, which only faces of ~1e-16 map units exceed, by at most 2x).
-MIC_MIN_BOUND = 0.5
+#: get no inscribed circle: their inradius is below ``2 tol`` with a margin of 4/3 (the bound
+#: holds up to rounding: measured within 4e-8 relative on faces clear of specks, the faces
+#: that get the circle anyway; specks of ~1e-16 map units exceed it by up to 2x).
+MIC_MIN_BOUND = 1.5
 
 
 def _inradius_bound(polys: np.ndarray) -> np.ndarray:
@@ -969,7 +1024,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     curves = critical_curves(env, lss, rel_tol)
     report("arrangement", 0.3)
     arr = _arrangement(env, curves, tol)
-    release_memory()  # the noder's and the polygonizer's temporaries
+    release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     pts, clear = _face_points(arr.faces, tol, arr.grid)
     inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
@@ -1017,7 +1072,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         touched[chains.pair[cands.count > 0].ravel()] = True
         isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
         if not isolated or attempt == 3:  # these are the regions: build them
-            regions = _make_regions(env, arr, numbering, face_struct, out)
+            regions, cells = _make_regions(env, arr, numbering, face_struct, out)
         if not isolated:
             break
         specks: dict[int, list[int]] = {}
@@ -1035,7 +1090,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
-    cells = _make_cells(env, regions, out)
     report("done", 1.0)
     if out is None:
         dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
@@ -1049,22 +1103,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         arcs = out.crossing_arcs(arcs)
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     return dec
-
-
-def _make_cells(env: Environment, regions: list[Region], out: UserFrame | None
-                ) -> tuple[Cell, ...]:
-    """Every region's cells, region by region (named after the file's features with
-    ``out``; the regions' structures still in the internal feature codes)."""
-    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    cells = []
-    for r in regions:
-        got = names.get(id(r.structure))
-        if got is None:
-            got = structure_names(env, r.structure)
-            got = names[id(r.structure)] = got if out is None else out.feature_pairs(got)
-        rid = r.id
-        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(r.cells, got, strict=True)]
-    return tuple(cells)
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -1188,9 +1226,10 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_struct: dict[int, Structure], out: UserFrame | None = None
-                  ) -> list[Region]:
+                  ) -> tuple[list[Region], tuple[Cell, ...]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells. With ``out``, area, point and
+    union of the faces), area, point, structure and cells; and the :class:`Cell` objects,
+    region by region (each region's structure named once for both). With ``out``, area, point and
     cell names are the user's (converted before the regions are made); the polygon and the
     structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
     compare the structures with internal ones)."""
@@ -1208,19 +1247,20 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     area_l = area.tolist()
     point_l = point.tolist()
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    regions = []
+    regions, cells = [], []
     for rid, g in enumerate(rank):
         st = face_struct[best_l[g]]
         got = names.get(id(st))
         if got is None:
             got = structure_names(env, st)
             got = names[id(st)] = got if out is None else out.feature_pairs(got)
-        cells = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        ids = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
+        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(ids, got, strict=True)]
         pt = point_l[g]
-        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, cells))
+        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, ids))
     if out is None:  # else converted and prepared once the pieces are made (no two copies
         shapely.prepare(polys)  # of every polygon while the pieces stage runs)
-    return regions
+    return regions, tuple(cells)
 
 
 @dataclass

@@ -43,7 +43,9 @@ class UserFrame:
     def geometries(self, geoms: Any) -> np.ndarray:
         """Shapely geometries (an object array; None stays None) in map coordinates, all at
         once."""
-        return self.frame.geometry_to_user(np.asarray(geoms, dtype=object))
+        if isinstance(geoms, list):  # np.asarray inspects each geometry: much slower
+            geoms = np.fromiter(geoms, dtype=object, count=len(geoms))
+        return self.frame.geometry_to_user(geoms)
 
     def points(self, pts: Any) -> np.ndarray:
         """Points (m, 2) in map coordinates."""
