@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tether.arrays import ragged_arange
+
 #: Upper bound on the number of grid cells (memory guard for tiny reaches on large maps).
 MAX_CELLS = 4_000_000
 
@@ -39,21 +41,21 @@ class EdgeIndex:
         cell = max(reach / 2.0, math.sqrt(span[0] * span[1] / MAX_CELLS), 1e-300)
         nx = max(1, math.ceil(span[0] / cell))
         ny = max(1, math.ceil(span[1] / cell))
-        cells_of, edges_of = [], []
         half_diag = cell * math.sqrt(0.5)
-        for i in range(len(a)):
-            e_lo = (np.minimum(a[i], b[i]) - reach - lo) / cell
-            e_hi = (np.maximum(a[i], b[i]) + reach - lo) / cell
-            ix = np.arange(max(0, int(e_lo[0])), min(nx, int(e_hi[0]) + 1))
-            iy = np.arange(max(0, int(e_lo[1])), min(ny, int(e_hi[1]) + 1))
-            gx, gy = np.meshgrid(ix, iy, indexing="ij")
-            centers = lo + (np.column_stack((gx.ravel(), gy.ravel())) + 0.5) * cell
-            keep = _segment_distance(centers, a[i], b[i]) <= reach + half_diag
-            cid = (gx.ravel() * ny + gy.ravel())[keep]
-            cells_of.append(cid)
-            edges_of.append(np.full(len(cid), i))
-        cid = np.concatenate(cells_of) if cells_of else np.zeros(0, int)
-        eid = np.concatenate(edges_of) if edges_of else np.zeros(0, int)
+        # every (edge, grid cell) pair of the edge's padded box, edges in order (all at once)
+        e_lo = (np.minimum(a, b) - reach - lo) / cell
+        e_hi = (np.maximum(a, b) + reach - lo) / cell
+        x0 = np.maximum(0, e_lo[:, 0].astype(np.int64))
+        y0 = np.maximum(0, e_lo[:, 1].astype(np.int64))
+        nxe = np.maximum(0, np.minimum(nx, e_hi[:, 0].astype(np.int64) + 1) - x0)
+        nye = np.maximum(0, np.minimum(ny, e_hi[:, 1].astype(np.int64) + 1) - y0)
+        eid = np.repeat(np.arange(len(a)), nxe * nye)
+        k = ragged_arange(np.zeros(len(a), np.int64), nxe * nye)
+        gx = x0[eid] + k // nye[eid]
+        gy = y0[eid] + k % nye[eid]
+        centers = lo + (np.column_stack((gx, gy)) + 0.5) * cell
+        keep = _segment_distance_many(centers, a[eid], b[eid]) <= reach + half_diag
+        cid, eid = (gx * ny + gy)[keep], eid[keep]
         order = np.argsort(cid, kind="stable")
         counts = np.bincount(cid, minlength=nx * ny)
         start = np.concatenate(([0], np.cumsum(counts)))
@@ -83,9 +85,13 @@ class EdgeIndex:
         return pidx, eidx
 
 
-def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance from points ``p`` (m, 2) to the segment ``a-b``."""
+def _segment_distance_many(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from each point ``p[k]`` to the segment ``a[k]-b[k]`` (all (m, 2), map units;
+    a point segment gives the distance to its point)."""
     d = b - a
-    dd = float(d @ d)
-    t = np.zeros(len(p)) if dd == 0 else np.clip((p - a) @ d / dd, 0.0, 1.0)
+    dd = (d[:, None, :] @ d[:, :, None])[:, 0, 0]  # the bits of d @ d
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(dd == 0, 0.0,
+                     np.clip(((p - a)[:, None, :] @ d[:, :, None])[:, 0, 0] / dd, 0.0, 1.0))
     return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
+
