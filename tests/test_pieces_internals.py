@@ -12,6 +12,7 @@ import tether.decomposition as D
 from tether import free_arcs_many, load_map
 from tether.cli import example_path
 from tether.floorplan import floor_plan
+from tether.tolerances import REL_CURVE_TOL
 
 
 def _points_and_structures(env, lss, n, seed):
@@ -88,3 +89,23 @@ def test_crossing_table_gathers_each_points_rows():
         for f in ("start", "end", "start_code", "end_code"):
             assert np.array_equal(getattr(got, f)[have], getattr(tables[r], f)[want])
     assert np.array_equal(got.point, np.sort(got.point))
+
+
+def test_part_candidates_cached_in_batches_equal_one_pass():
+    """Candidates asked for some parts, then for more (cached, two batches), equal those of
+    all the parts at once, in (part, rank) order."""
+    env = floor_plan(30, seed=1).internal
+    lss = 0.15 * (env.bounds[2] - env.bounds[0])
+    tol = REL_CURVE_TOL * env.diameter
+    curves = D.critical_curves(env, lss, REL_CURVE_TOL)
+    arr = D._arrangement(env, curves, tol)
+    rng = np.random.default_rng(2)
+    first = rng.random(len(arr.parts)) < 0.5
+    both = first | (rng.random(len(arr.parts)) < 0.5)
+    D._part_candidates(arr, first, tol, lss)
+    got = D._part_candidates(arr, both, tol, lss)
+    fresh = D._arrangement(env, curves, tol)
+    want = D._part_candidates(fresh, both, tol, lss)
+    assert len(want[0]) > 100
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w)

@@ -1491,7 +1491,9 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         ln = np.hypot(*(b - a).T)
         order = np.lexsort((-ln, part))
         part_o = part[order]
-        rank = np.arange(len(order)) - np.searchsorted(part_o, part_o)
+        head = np.flatnonzero(np.r_[True, part_o[1:] != part_o[:-1]]) if len(part_o) else \
+            np.zeros(0, np.int64)
+        rank = np.arange(len(order)) - np.repeat(head, np.diff(np.r_[head, len(order)]))
         keep = (rank < 6) & (ln[order] > 0)
         take = order[keep]
         Q = 0.5 * (a[take] + b[take])
@@ -1503,7 +1505,9 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         cache["clear"] = np.concatenate((cache["clear"], clear))
         cache["done"] |= todo
     rows = np.flatnonzero(need[cache["part"]])
-    rows = rows[np.lexsort((cache["rank"][rows], cache["part"][rows]))]
+    key = cache["part"][rows] * 6 + cache["rank"][rows]  # ranks are 0..5
+    if np.any(key[1:] <= key[:-1]):  # rows of several batches: in (part, rank) order
+        rows = rows[np.argsort(key, kind="stable")]
     return cache["Q"][rows], cache["part"][rows], cache["clear"][rows]
 
 
