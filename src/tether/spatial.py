@@ -1,8 +1,11 @@
 """A uniform-grid index of the map's edges, for "which edges are within reach of these points".
 
 Every query in tether is of one shape: many points, one reach (the rod length). A grid whose
-cells are about half the reach, with each edge registered in every cell within reach of it,
-answers that query for a million points with a few numpy operations and no Python loop.
+cells are a quarter of the reach, with each edge registered in every cell within reach of it,
+answers that query for a million points with a few numpy operations and no Python loop. A
+point's candidates are the edges within ``reach + cell / sqrt(2)`` of its cell's centre
+(``1.18 reach``): on the floor plans 32 per point at 1,000 vertices, against 41 with cells of
+half the reach, for a grid still of a few thousand cells.
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ class EdgeIndex:
         lo = np.minimum(a, b).min(axis=0) - reach
         hi = np.maximum(a, b).max(axis=0) + reach
         span = hi - lo
-        cell = max(reach / 2.0, math.sqrt(span[0] * span[1] / MAX_CELLS), 1e-300)
+        cell = max(reach / 4.0, math.sqrt(span[0] * span[1] / MAX_CELLS), 1e-300)
         nx = max(1, math.ceil(span[0] / cell))
         ny = max(1, math.ceil(span[1] / cell))
         half_diag = cell * math.sqrt(0.5)
