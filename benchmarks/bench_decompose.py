@@ -5,7 +5,8 @@ Each size runs in a fresh process (peak resident memory is that process's ``ru_m
 ``--src`` points the child processes at another checkout's ``src`` (e.g. the code before a
 change) to print a before/after table. Goals (issue 8): 400 vertices under 3 s, 1,000
 vertices under 10 s and under 1 GB, decompose + analyze. The machine is shared: times are
-noisy (run twice, compare the smaller).
+noisy and its speed drifts over minutes: ``--repeat 3`` keeps each size's run of least CPU
+time, ``--base OLD/src`` runs the old code interleaved with the new and prints the ratio.
 
 Columns: vertices, pairs (vertex, edge) within lss, lss, stage CPU times in seconds (critical
 curves, arrangement, face structures, regions, pieces, the conversion back to the map's frame
@@ -116,13 +117,30 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 200, 400, 800, 1000])
     ap.add_argument("--src", help="run another checkout's src directory (before/after)")
+    ap.add_argument("--base", help="also run this checkout's src directory, interleaved with "
+                    "the code under test (the machine's speed drifts: compare neighbours), "
+                    "and print the CPU ratio")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs per size (and code), the one of least CPU time printed")
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per size")
     args = ap.parse_args()
-    print("".join(f"{h:>{w}}" for _, h, w, _ in COLUMNS), flush=True)
+    label = "code  " if args.base else ""
+    print(label + "".join(f"{h:>{w}}" for _, h, w, _ in COLUMNS), flush=True)
     for n in args.sizes:
-        r = run_size(n, args.src, args.timeout)
-        if r is not None:
-            print("".join(f"{r[k]:>{w}{f}}" for k, _, w, f in COLUMNS), flush=True)
+        codes = ((args.base, "base  "), (args.src, "now   ")) if args.base else ((args.src, ""),)
+        runs: list[list[dict | None]] = [[] for _ in codes]
+        for _ in range(args.repeat):  # interleaved: base, new, base, new, ...
+            for k, (src, _) in enumerate(codes):
+                runs[k].append(run_size(n, src, args.timeout))
+        rows = []
+        for got, (_, name) in zip(runs, codes, strict=True):
+            if all(r is not None for r in got):
+                r = min(got, key=lambda r: r["cpu_s"])  # the least disturbed run
+                rows.append(r)
+                print(name + "".join(f"{r[k]:>{w}{f}}" for k, _, w, f in COLUMNS), flush=True)
+        if args.base and len(rows) == 2:
+            print(f"ratio  {rows[1]['cpu_s'] / rows[0]['cpu_s']:.2f} of the base's CPU time, "
+                  f"peak {rows[1]['peak_mb']:.0f} / {rows[0]['peak_mb']:.0f} MB", flush=True)
 
 
 if __name__ == "__main__":
