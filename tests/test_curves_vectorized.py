@@ -86,3 +86,11 @@ def test_pruned_conchoid_projection_equals_the_full_search(monkeypatch):
     full = C._project_conchoids(curves, cid, q)
     for x, y in zip(pruned, full, strict=True):
         assert np.array_equal(x, y)
+
+
+def test_row_norms_are_the_scalar_norms_bit_for_bit():
+    from tether.curves import _norms
+
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(20_000, 2)) * rng.uniform(1e-6, 1e6, size=(20_000, 1))
+    assert np.array_equal(_norms(v), np.array([np.linalg.norm(x) for x in v]))

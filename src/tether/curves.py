@@ -752,13 +752,13 @@ def _overshoot_family(fam: Family, intervals: list[list[tuple[float, float]]], m
 def _overshoot_conchoids(fam: Family, c: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                          margin: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_overshoot` of conchoid intervals ``(lo, hi)`` of curves ``c``, vectorized (the
-    same numbers; the few one-vector norms stay numpy's scalar ones, whose rounding differs
-    from the row-wise norm's)."""
+    same numbers: one-vector norms as :func:`_norms`, not the row-wise norm, whose rounding
+    differs)."""
     dlo, dhi = fam.lo[c], fam.hi[c]
     width = np.maximum(dhi - dlo, 1e-300)
     speed = fam.length_scale(c) / width
     q = fam.points(np.concatenate((c, c)), np.concatenate((dlo, dhi)))
-    chord = np.array([np.linalg.norm(v) for v in q[len(c):] - q[: len(c)]]).reshape(-1)
+    chord = _norms(q[len(c):] - q[: len(c)])
     speed = np.maximum(speed, chord / width)
     dt = margin / np.maximum(speed, 1e-300)
     keep_lo = (lo <= dlo) & _pole_ends(fam, c, dlo)
@@ -771,11 +771,17 @@ def _overshoot_conchoids(fam: Family, c: np.ndarray, lo: np.ndarray, hi: np.ndar
     return out_lo, out_hi
 
 
+def _norms(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm`` of each row of ``v`` (k, 2), bit for bit: it is ``sqrt(x @ x)``,
+    and a batched matmul gives the bits of ``x @ x`` (``np.linalg.norm(v, axis=1)`` does not)."""
+    return np.sqrt((v[:, None, :] @ v[:, :, None])[:, 0, 0]).reshape(-1)
+
+
 def _pole_ends(fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
     """:func:`_pole_end` for many (curve, parameter) pairs."""
     Q = fam.w[c] + t[:, None] * fam.d[c]
     r = fam.p[c] - Q
-    dist = np.array([np.linalg.norm(v) for v in r]).reshape(-1)
+    dist = _norms(r)
     return np.abs(dist - fam.lss) <= 1e-9 * fam.lss
 
 
