@@ -233,3 +233,23 @@ def test_lazy_geometries_pickle_and_locate_as_the_converted_ones():
         assert shapely.to_wkb(a.polygon) == shapely.to_wkb(b.polygon)
     assert repr(copy.regions[0]) == repr(dec.regions[0])
     assert repr(copy.pieces[0]) == repr(dec.pieces[0])
+
+
+def test_self_check_converts_only_the_regions_it_samples():
+    """The self-check's few regions are converted alone (the batch stays as made) and sampled
+    exactly as from the converted batch."""
+    import shapely
+
+    from tether.decomposition import _polygons, decompose, sample_in_regions, self_check
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    few = [dec.regions[i] for i in (1, 4)]
+    lone = _polygons(few)
+    assert self_check(dec, regions=3).ok
+    a = sample_in_regions(dec, 5, seed=3, regions=[1, 4])
+    assert _converted(dec) == (False, False)
+    assert [shapely.to_wkb(p) for p in lone] == [shapely.to_wkb(r.polygon) for r in few]
+    assert _converted(dec) == (True, False)
+    b = sample_in_regions(dec, 5, seed=3, regions=[1, 4])
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])

@@ -7,8 +7,8 @@ The result objects are made once: the regions' areas, points and cell names are 
 pieces' samples are converted once the pieces are made (the pieces stage works in the internal
 frame), rewritten in the objects, which nothing else holds yet. The geometries (polygons and
 pieces' lines) stay in the internal frame, one shared holder each, converted all at once (one
-vectorized call) on their first read: G and the analysis never read them. Where the map keeps its internal numbering (no
-straight vertex), names, cells and structures are left as they are."""
+vectorized call) on their first read: G and the analysis never read them. Where the map keeps
+its internal numbering (no straight vertex), names, cells and structures are left as they are."""
 
 from __future__ import annotations
 
