@@ -135,3 +135,99 @@ def test_renumbered_map_reports_the_direct_computation_renamed():
     assert np.array_equal(arcs.start_code, cm[inner.start_code])
     assert np.array_equal(arcs.end_code, cm[inner.end_code])
     assert np.array_equal(arcs.start, inner.start) and np.array_equal(arcs.end, inner.end)
+
+
+def _scaled_map():
+    """A map whose internal frame is not the identity (offset, scaled) and renumbered (a
+    straight vertex)."""
+    from tether import Environment
+
+    k, o = 7.0, np.array([120.0, -35.0])
+    ring = np.array([[-0.3, -0.3], [0.0, -0.3], [0.3, -0.3], [0.3, 0.3], [0.05, 0.3],
+                     [0.0, 0.1], [-0.3, 0.3]]) * k + o
+    hole = np.array([[-0.12, -0.12], [-0.12, 0.0], [0.0, 0.0]]) * k + o
+    env = Environment(ring, (hole,), "scaled")
+    assert env.frame.scale != 1.0 and np.any(env.frame.origin)
+    return env, 0.2 * k
+
+
+def _converted(dec) -> tuple[bool, bool]:
+    """Whether the regions' polygons and the pieces' lines are in the map's frame yet."""
+    return dec.regions[0]._polygon.converted, dec.pieces[0]._geometry.converted
+
+
+def test_geometries_are_converted_lazily_all_at_once_and_equal_the_eager_conversion():
+    """The polygons and lines are kept in the internal frame until first read, then all
+    converted at once: bit for bit (WKB) the eager conversion of the internal decomposition's
+    geometries; building G and analyzing (without the self-check) convert nothing."""
+    import shapely
+
+    from tether.decomposition import decompose
+    from tether.escape import analyze
+    from tether.graph import build_graph
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    inner = decompose(env.internal, lss * env.frame.scale)
+    assert len(dec.regions) > 5 and len(dec.pieces) > 5
+    assert _converted(dec) == (False, False)
+    analyze(dec, build_graph(dec), self_check=False)
+    assert _converted(dec) == (False, False)
+    eager = env.frame.geometry_to_user(np.array([r.polygon for r in inner.regions]))
+    assert dec.regions[3].polygon.equals(eager[3])  # one read converts the batch
+    assert _converted(dec) == (True, False)
+    assert all(shapely.is_prepared(r.polygon) for r in dec.regions)
+    assert [shapely.to_wkb(r.polygon) for r in dec.regions] == shapely.to_wkb(eager).tolist()
+    eager = env.frame.geometry_to_user(np.array([p.geometry for p in inner.pieces]))
+    assert [shapely.to_wkb(p.geometry) for p in dec.pieces] == shapely.to_wkb(eager).tolist()
+    assert _converted(dec) == (True, True)
+    # the holder is shared: one array, read by id
+    assert len({id(r._polygon) for r in dec.regions}) == 1
+    assert dec.regions[2].polygon is dec.regions[2].polygon
+
+
+def test_lazy_geometries_pickle_and_locate_as_the_converted_ones():
+    """Pickling before the first read keeps the internal geometries and the frame: the copy
+    converts to the same bits; point location and the full dictionary are unchanged."""
+    import pickle
+
+    import shapely
+
+    from tether.decomposition import decompose
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    copy = pickle.loads(pickle.dumps(dec))
+    assert _converted(copy) == (False, False)
+    pts = np.random.default_rng(1).uniform(env.vertices.min(0), env.vertices.max(0),
+                                           size=(300, 2))
+    got = copy.region_at(pts)  # converts the copy's polygons
+    assert (got >= 0).sum() > 100
+    assert got.tolist() == dec.region_at(pts).tolist()
+    assert copy.to_dict(geometry=True) == dec.to_dict(geometry=True)
+    again = pickle.loads(pickle.dumps(dec))  # pickled converted
+    assert _converted(again) == (True, True)
+    for a, b in zip(again.regions, dec.regions, strict=True):
+        assert shapely.to_wkb(a.polygon) == shapely.to_wkb(b.polygon)
+    assert repr(copy.regions[0]) == repr(dec.regions[0])
+    assert repr(copy.pieces[0]) == repr(dec.pieces[0])
+
+
+def test_self_check_converts_only_the_regions_it_samples():
+    """The self-check's few regions are converted alone (the batch stays as made) and sampled
+    exactly as from the converted batch."""
+    import shapely
+
+    from tether.decomposition import _polygons, decompose, sample_in_regions, self_check
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    few = [dec.regions[i] for i in (1, 4)]
+    lone = _polygons(few)
+    assert self_check(dec, regions=3).ok
+    a = sample_in_regions(dec, 5, seed=3, regions=[1, 4])
+    assert _converted(dec) == (False, False)
+    assert [shapely.to_wkb(p) for p in lone] == [shapely.to_wkb(r.polygon) for r in few]
+    assert _converted(dec) == (True, False)
+    b = sample_in_regions(dec, 5, seed=3, regions=[1, 4])
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])

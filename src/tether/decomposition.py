@@ -126,12 +126,60 @@ class Cell:
                 "start_feature": self.start_feature, "end_feature": self.end_feature}
 
 
+class _Shapes:
+    """The geometries of a decomposition's regions (or of its pieces), shared by them: item
+    ``i`` is the geometry of the object whose ``id`` is ``i``. Kept as made, in the internal
+    frame, and converted to the map's frame all at once on the first read (one vectorized
+    ``shapely.transform``, the very numbers an eager conversion gives, then cached; the
+    internal ones are dropped): building the graph and analyzing read no geometry and never
+    pay for it, and reading one region's polygon converts the batch once, never one by one.
+    ``frame`` None: the geometries are the map's already."""
+
+    __slots__ = ("_geoms", "_frame", "_prepare")
+
+    def __init__(self, geoms: np.ndarray, frame: Any = None, prepare: bool = False) -> None:
+        self._geoms = geoms  # object array of shapely geometries (None stays None)
+        self._frame = frame  # tether.environment frame: internal -> map coordinates
+        self._prepare = prepare  # shapely.prepare the converted geometries
+
+    @property
+    def converted(self) -> bool:
+        """Whether the geometries are in the map's frame already (read or made so)."""
+        return self._frame is None
+
+    def all(self) -> np.ndarray:
+        """Every geometry in map coordinates (an object array; converted on the first call)."""
+        if self._frame is not None:
+            geoms = self._frame.geometry_to_user(self._geoms)
+            if self._prepare:
+                shapely.prepare(geoms)
+            self._geoms, self._frame = geoms, None
+        return self._geoms
+
+    def __getitem__(self, i: int) -> Any:
+        return self.all()[i]
+
+    def some(self, ids: Any) -> np.ndarray:
+        """The geometries ``ids`` in map coordinates, converting only those if the batch is
+        not converted yet (not cached: the same numbers, the transform is pointwise; not
+        prepared): a few reads need not convert them all."""
+        if self._frame is None:
+            return self._geoms[ids]
+        return self._frame.geometry_to_user(self._geoms[ids])
+
+    def __len__(self) -> int:
+        return len(self._geoms)
+
+
 @dataclass(frozen=True, eq=False, slots=True)
 class Region:
-    """A noncritical region: polygon, area, a representative interior point, its structure."""
+    """A noncritical region: polygon, area, a representative interior point, its structure.
+
+    ``_polygon`` is the polygon, or the decomposition's :class:`_Shapes` holding it (item
+    ``id``, converted to the map's frame on the first read of any region's polygon)."""
 
     id: int
-    polygon: Any = field(repr=False)
+    _polygon: Any = field(repr=False)
     area: float
     point: tuple[float, float]
     structure: Structure = field(repr=False)
@@ -140,6 +188,12 @@ class Region:
     @property
     def name(self) -> str:
         return f"R{self.id}"
+
+    @property
+    def polygon(self) -> Any:
+        """The region's polygon (a shapely Polygon or MultiPolygon, map units, prepared)."""
+        g = self._polygon
+        return g[self.id] if type(g) is _Shapes else g
 
     def to_dict(self) -> dict:
         return {"id": self.name, "area": self.area, "point": list(self.point),
@@ -160,7 +214,7 @@ class Piece:
     curves: tuple[int, ...]
     kind: str
     features: tuple[str, ...]
-    geometry: Any = field(repr=False)
+    _geometry: Any = field(repr=False)  # the line, or a _Shapes holding it (item ``id``)
     sample: tuple[float, float]
     normal: tuple[float, float]
     eps: float
@@ -171,6 +225,12 @@ class Piece:
     @property
     def name(self) -> str:
         return f"P{self.id}"
+
+    @property
+    def geometry(self) -> Any:
+        """The piece's line (a shapely LineString or MultiLineString, map units)."""
+        g = self._geometry
+        return g[self.id] if type(g) is _Shapes else g
 
     @property
     def length(self) -> float:
@@ -1741,8 +1801,8 @@ def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
     margin = 10 * dec.curve_tol if margin is None else margin
     pts, owner = [], []
     chosen = dec.regions if regions is None else [dec.regions[int(i)] for i in regions]
-    for r in chosen:
-        inner = r.polygon.buffer(-margin)
+    for r, poly in zip(chosen, _polygons(chosen), strict=True):
+        inner = poly.buffer(-margin)
         if inner.is_empty:
             continue
         x0, y0, x1, y1 = inner.bounds
@@ -1759,6 +1819,17 @@ def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
     if not pts:
         return np.zeros((0, 2)), np.zeros(0, dtype=int)
     return np.vstack(pts), np.concatenate(owner)
+
+
+def _polygons(regions: Any) -> list:
+    """The polygons of some regions of a decomposition: of a few regions whose polygons are
+    not converted to the map's frame yet, only theirs converted (the self-check reads 200 of
+    100k), else read as usual (all converted at once on the first read)."""
+    shapes = regions[0]._polygon if len(regions) else None
+    if (type(shapes) is not _Shapes or shapes.converted or 4 * len(regions) > len(shapes)
+            or any(r._polygon is not shapes for r in regions)):
+        return [r.polygon for r in regions]
+    return shapes.some([r.id for r in regions]).tolist()
 
 
 def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckReport:

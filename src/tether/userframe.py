@@ -4,20 +4,20 @@ names (file numbering). Angles are unchanged by the frame; lengths scale by a po
 
 The result objects are made once: the regions' areas, points and cell names are converted
 (vectorized) before the regions are made, cells are named after the file when made; the
-geometries (polygons and pieces' lines, one vectorized call each) and the pieces' samples are
-converted once the pieces are made (the pieces stage works in the internal frame), rewritten in
-the objects, which nothing else holds yet. Where the map keeps its internal numbering (no
-straight vertex), names, cells and structures are left as they are."""
+pieces' samples are converted once the pieces are made (the pieces stage works in the internal
+frame), rewritten in the objects, which nothing else holds yet. The geometries (polygons and
+pieces' lines) stay in the internal frame, one shared holder each, converted all at once (one
+vectorized call) on their first read: G and the analysis never read them. Where the map keeps
+its internal numbering (no straight vertex), names, cells and structures are left as they are."""
 
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
-import shapely
 
 from tether.arcs import ArcTable
-from tether.decomposition import FREE
+from tether.decomposition import FREE, _Shapes
 from tether.environment import Environment
 
 
@@ -81,18 +81,20 @@ class UserFrame:
         return tuple(c.to_user(self.frame, names) for c in curves)
 
     def pieces(self, pieces: list) -> None:
-        """Rewrite the pieces' geometry, sample, offset and features in the user's frame, in
-        place: they were just made in the internal frame and nothing else holds them (as the
-        frozen dataclass's own ``__init__`` does, through ``object.__setattr__``); a second
-        generation of pieces would cost their making and freeing again."""
+        """Rewrite the pieces' sample, offset and features in the user's frame, in place: they
+        were just made in the internal frame and nothing else holds them (as the frozen
+        dataclass's own ``__init__`` does, through ``object.__setattr__``); a second
+        generation of pieces would cost their making and freeing again. Their lines are kept
+        as made, in one shared holder converted all at once on the first read
+        (:class:`~tether.decomposition._Shapes`)."""
         if not pieces:
             return
-        lines = self.geometries([p.geometry for p in pieces])
+        shapes = self.shapes([p._geometry for p in pieces])
         qs = self.points([p.sample for p in pieces]).tolist()
         eps = (np.array([p.eps for p in pieces], dtype=float) / self.scale).tolist()
         put = object.__setattr__
-        for p, line, q, e in zip(pieces, lines.tolist(), qs, eps, strict=True):
-            put(p, "geometry", line)
+        for p, q, e in zip(pieces, qs, eps, strict=True):
+            put(p, "_geometry", shapes)
             put(p, "sample", (q[0], q[1]))
             put(p, "eps", e)
         if not self.same:
@@ -100,19 +102,26 @@ class UserFrame:
                 put(p, "features", self.features(p.features))
 
     def regions(self, regions: list) -> None:
-        """Rewrite the regions' polygons (all at once) and structures (in the file's feature
-        codes) in the user's frame, in place (see :meth:`pieces`); their area, point and cell
-        names are the user's already (``_make_regions``). The polygons are prepared."""
+        """Rewrite the regions' structures in the file's feature codes, in place (see
+        :meth:`pieces`); their area, point and cell names are the user's already
+        (``_make_regions``). Their polygons are kept as made, in one shared holder converted
+        (and prepared) all at once on the first read of any of them."""
         if not regions:
             return
-        polys = self.geometries([r.polygon for r in regions])
-        shapely.prepare(polys)
+        shapes = self.shapes([r._polygon for r in regions], prepare=True)
         put = object.__setattr__
-        for r, poly in zip(regions, polys.tolist(), strict=True):
-            put(r, "polygon", poly)
+        for r in regions:
+            put(r, "_polygon", shapes)
         if not self.same:
             for r in regions:
                 put(r, "structure", self.structure(r.structure))
+
+    def shapes(self, geoms: list, prepare: bool = False) -> _Shapes:
+        """The internal-frame ``geoms`` of regions or pieces in a holder converting them to
+        the map's frame (and preparing them) on the first read. Item ``i`` is read by the
+        object of id ``i``: regions and pieces are numbered in order as made."""
+        arr = np.fromiter(geoms, dtype=object, count=len(geoms))
+        return _Shapes(arr, self.frame, prepare)
 
     def crossing_arcs(self, arcs: ArcTable) -> ArcTable:
         """The crossings' arc table with the file's feature codes (angles are those of the
