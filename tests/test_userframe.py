@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import gc
 
-import numpy as np
-
 from tether.decomposition import gc_paused
 
 
@@ -137,23 +135,3 @@ def test_renumbered_map_reports_the_direct_computation_renamed():
     assert np.array_equal(arcs.start_code, cm[inner.start_code])
     assert np.array_equal(arcs.end_code, cm[inner.end_code])
     assert np.array_equal(arcs.start, inner.start) and np.array_equal(arcs.end, inner.end)
-
-
-def test_curves_converted_at_once_equal_one_by_one():
-    """The batched conversion of the critical curves gives the very numbers of each curve's
-    own ``to_user`` (a moved, scaled map: origin and scale both at work)."""
-    from tether.curves import Curve, critical_curves
-    from tether.floorplan import floor_plan
-
-    env = floor_plan(60, seed=2)
-    inner = critical_curves(env.internal, 2.0 * env.frame.scale)
-    names = env.feature_names_map()
-    many = Curve.many_to_user(inner, env.frame, names)
-    assert len(many) == len(inner) > 0
-    for a, c in zip(many, inner, strict=True):
-        b = c.to_user(env.frame, names)
-        assert (a.id, a.kind, a.features, a.domain, a.intervals) == \
-               (b.id, b.kind, b.features, b.domain, b.intervals)
-        assert all(np.array_equal(x, y) for x, y in zip(a.polylines, b.polylines, strict=True))
-        assert all(np.array_equal(x, y) for x, y in zip(a.params, b.params, strict=True))
-        assert len(a.polylines) == len(b.polylines) and len(a.params) == len(b.params)

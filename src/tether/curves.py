@@ -210,30 +210,6 @@ class Curve:
                      tuple(frame.to_user(p) for p in self.polylines),
                      tuple(t / k for t in self.params), self.family, self.index, frame)
 
-    @staticmethod
-    def many_to_user(curves: list[Curve], frame: Any, names: dict[str, str]) -> list[Curve]:
-        """:meth:`to_user` of every curve, the polylines and parameters converted in one
-        vectorized call each (the same elementwise arithmetic: the same numbers)."""
-        polys = [p for c in curves for p in c.polylines]
-        params = [t for c in curves for t in c.params]
-        if not polys:
-            return [c.to_user(frame, names) for c in curves]
-        cut = np.cumsum([len(p) for p in polys])[:-1]
-        pts = np.split(frame.to_user(np.concatenate(polys)), cut)
-        k = np.concatenate([np.full(len(t), frame.scale if c.kind in "CD" else 1.0)
-                            for c in curves for t in c.params])
-        ts = np.split(np.concatenate(params) / k, cut)
-        out, i = [], 0
-        for c in curves:
-            j = i + len(c.polylines)
-            kk = frame.scale if c.kind in "CD" else 1.0
-            out.append(Curve(c.id, c.kind, tuple(names.get(f, f) for f in c.features),
-                             (c.domain[0] / kk, c.domain[1] / kk),
-                             tuple((a / kk, b / kk) for a, b in c.intervals),
-                             tuple(pts[i:j]), tuple(ts[i:j]), c.family, c.index, frame))
-            i = j
-        return out
-
     def _project(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         fam, c = self.family, self.index
         if self.kind in "ACD":  # a straight line: q(t) = p + t d
@@ -1033,8 +1009,8 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()
-        return Curve.many_to_user(critical_curves(env.internal, lss * env.frame.scale, rel_tol),
-                                  env.frame, names)
+        return [c.to_user(env.frame, names)
+                for c in critical_curves(env.internal, lss * env.frame.scale, rel_tol)]
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []

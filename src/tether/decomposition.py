@@ -1113,9 +1113,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         touched = np.zeros(nreg, bool)
         touched[chains.pair[cands.count > 0].ravel()] = True
         isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
-        if not isolated or attempt == 3:  # these are the regions: build them
-            regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
-        if not isolated:
+        if not isolated or attempt == 3:  # these are the regions (made below)
             break
         specks: dict[int, list[int]] = {}
         faces_in = np.flatnonzero(np.isin(face_region, list(isolated)))
@@ -1129,6 +1127,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     arr.__dict__.pop("_segments", None)
     arr.__dict__.pop("_part_candidates", None)
     release_memory()
+    # the regions made after that: their polygons and cells do not add to the tree's peak
+    regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)

@@ -17,7 +17,6 @@ import numpy as np
 import shapely
 
 from tether.arcs import ArcTable
-from tether.curves import Curve
 from tether.decomposition import FREE
 from tether.environment import Environment
 
@@ -78,7 +77,8 @@ class UserFrame:
 
     def curves(self, curves: list) -> tuple:
         """The critical curves reported in map coordinates and file names."""
-        return tuple(Curve.many_to_user(curves, self.frame, self.names))
+        names = self.names
+        return tuple(c.to_user(self.frame, names) for c in curves)
 
     def pieces(self, pieces: list) -> None:
         """Rewrite the pieces' geometry, sample, offset and features in the user's frame, in
