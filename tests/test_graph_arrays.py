@@ -214,3 +214,69 @@ def test_crossing_arcs_equal_fresh_evaluation(name, frac):
     for f in ("start", "end"):
         d = np.abs(getattr(kept, f) - getattr(fresh, f))
         assert np.all(np.minimum(d, 2 * np.pi - d) < 1e-9), f
+
+
+def _with_straight_vertex(env):
+    """``env`` with a straight vertex inserted in its first wall: every later feature is
+    renumbered (internal ``E9`` is the file's ``E10``: names sort differently)."""
+    from tether import Environment
+
+    b = np.asarray(env.boundary, dtype=float)
+    mid = (b[0] + b[1]) / 2
+    return Environment(np.vstack((b[:1], mid, b[1:])), tuple(env.holes), env.name + "+straight")
+
+
+def _moved(env, shift=(1000.0, -37.5), scale=3.0):
+    from tether import Environment
+
+    return Environment(np.asarray(env.boundary) * scale + shift,
+                       tuple(np.asarray(h) * scale + shift for h in env.holes), env.name + "+moved")
+
+
+def _codes_from_cells(dec):
+    """The cells' (region, start code, end code) read back from the Cell objects' names."""
+    from tether.arcs import feature_name
+    from tether.decomposition import FREE
+
+    code = {feature_name(dec.env, c): c for c in range(2 * dec.env.n)}
+    code[FREE] = -1
+    return (np.array([c.region for c in dec.cells], dtype=np.int64),
+            np.array([code[c.start_feature] for c in dec.cells], dtype=np.int64),
+            np.array([code[c.end_feature] for c in dec.cells], dtype=np.int64))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("make", ["plain", "straight", "moved", "straight+moved"])
+def test_recorded_cell_codes_agree_with_the_cells(make):
+    """The integer columns recorded when the cells are made equal the codes named by the Cell
+    objects (renumbered and moved maps included), the elimination's rank sorts the cells by
+    (region, start name, end name) as strings, and G and the verdict built on the recorded
+    columns equal those built on columns read back from the objects."""
+    from tether.escape import cell_rank
+
+    env = floor_plan(40, seed=1)
+    if "straight" in make:
+        env = _with_straight_vertex(env)
+        assert env.internal.n == env.n - 1
+    if "moved" in make:
+        env = _moved(env)
+    lss = (env.bounds[2] - env.bounds[0]) / 6
+    dec = decompose(env, lss)
+    assert "_cell_codes" in dec.__dict__  # recorded by decompose
+    got, ref = dec.cell_codes(), _codes_from_cells(dec)
+    for a, b in zip(got, ref, strict=True):
+        assert a.dtype == np.int64 and np.array_equal(a, b)
+    assert np.any(got[1] == -1) == any(r.structure == "FULL" for r in dec.regions)
+    rank = cell_rank(dec)
+    by_name = sorted(range(len(dec.cells)), key=lambda i: (
+        dec.cells[i].region, dec.cells[i].start_feature, dec.cells[i].end_feature))
+    assert rank[by_name].tolist() == list(range(len(dec.cells)))
+    if "straight" in make:  # cells are listed in internal name order: the file's differs
+        assert not np.array_equal(np.argsort(rank), np.arange(len(rank)))
+    v = analyze(dec, self_check=False)
+    fresh = decompose(env, lss)
+    for key in ("_cell_codes", "_cell_keys"):
+        fresh.__dict__.pop(key, None)
+    w = analyze(fresh, self_check=False)
+    assert v.surviving == w.surviving and tuple(v.eliminated) == tuple(w.eliminated)
+    assert v.graph.edge_list == w.graph.edge_list

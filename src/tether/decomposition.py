@@ -104,6 +104,22 @@ def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
     return list(got)
 
 
+def structure_codes(env: Environment, s: Structure) -> np.ndarray:
+    """The cells' ``(start, end)`` feature codes of a structure as a ``(k, 2)`` int array, in
+    the order of :func:`structure_names` (by name); a FULL structure's cell is ``(-1, -1)``."""
+    if s == "FULL":
+        return np.full((1, 2), -1, dtype=np.int64)
+    if s == "EMPTY":
+        return np.zeros((0, 2), dtype=np.int64)
+    memo = env.__dict__.setdefault("_structure_codes", {})
+    got = memo.get(s)
+    if got is None:
+        names = _feature_names(env)
+        pairs = sorted(s, key=lambda p: (names[p[0]], names[p[1]]))
+        got = memo[s] = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    return got
+
+
 def _feature_names(env: Environment) -> list[str]:
     """Every feature code's name (``feature_name``), computed once per map."""
     got = env.__dict__.get("_feature_names")
@@ -268,6 +284,21 @@ class Decomposition:
     def cell(self, cell_id: str) -> Cell:
         """The cell named ``cell_id`` (e.g. ``"(R1,E1,E2)"``)."""
         return self._cell_by_id[cell_id]
+
+    def cell_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The cells' ``(region, start code, end code)`` as three int arrays in the order of
+        :attr:`cells` (feature codes in :attr:`env`'s numbering, -1 for both ends of a FULL
+        region's cell), cached: recorded by :func:`decompose`, else read from the cells."""
+        got = self.__dict__.get("_cell_codes")
+        if got is None:
+            code = {feature_name(self.env, c): c for c in range(2 * self.env.n)}
+            code[FREE] = -1
+            n = len(self.cells)
+            got = (np.fromiter((c.region for c in self.cells), np.int64, n),
+                   np.fromiter((code[c.start_feature] for c in self.cells), np.int64, n),
+                   np.fromiter((code[c.end_feature] for c in self.cells), np.int64, n))
+            self.__dict__["_cell_codes"] = got
+        return got
 
     @property
     def _cell_by_id(self) -> dict[str, Cell]:
@@ -1157,7 +1188,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     arr.__dict__.pop("_part_candidates", None)
     release_memory()
     # the regions made after that: their polygons and cells do not add to the tree's peak
-    regions, cells = _make_regions(env, arr, numbering, face_struct, out)
+    regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
@@ -1173,6 +1204,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                             tuple(pieces), tol / out.scale, unresolved_pieces)
         arcs = out.crossing_arcs(arcs)
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    dec.__dict__["_cell_codes"] = codes  # known when the cells were made
     return dec
 
 
@@ -1297,13 +1329,15 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_struct: dict[int, Structure], out: UserFrame | None = None
-                  ) -> tuple[list[Region], tuple[Cell, ...]]:
+                  ) -> tuple[list[Region], tuple[Cell, ...],
+                             tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells; and the :class:`Cell` objects,
-    region by region (each region's structure named once for both). With ``out``, area, point and
-    cell names are the user's (converted before the regions are made); the polygon and the
-    structure are converted once the pieces are made (:meth:`UserFrame.regions`: the pieces
-    compare the structures with internal ones)."""
+    union of the faces), area, point, structure and cells; the :class:`Cell` objects,
+    region by region (each region's structure named once for both); and the cells' ``(region,
+    start code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). With
+    ``out``, area, point and cell names are the user's (converted before the regions are
+    made); the polygon and the structure are converted once the pieces are made
+    (:meth:`UserFrame.regions`: the pieces compare the structures with internal ones)."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
     rank = numbering["rank"].tolist()
     # the regions' polygons: single faces as they are, unions of several one by one
@@ -1318,6 +1352,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     area_l = area.tolist()
     point_l = point.tolist()
     names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
+    kinds: dict[int, int] = {}  # structure object -> index in ``codes``
+    codes: list[np.ndarray] = []  # each distinct structure's cell codes, in ``names`` order
+    region_kind = np.empty(len(rank), dtype=np.int64)
     regions, cells = [], []
     for rid, g in enumerate(rank):
         st = face_struct[best_l[g]]
@@ -1325,13 +1362,34 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
         if got is None:
             got = structure_names(env, st)
             got = names[id(st)] = got if out is None else out.feature_pairs(got)
+            kinds[id(st)] = len(codes)
+            codes.append(structure_codes(env, st))
+        region_kind[rid] = kinds[id(st)]
         ids = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
         cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(ids, got, strict=True)]
         pt = point_l[g]
         regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, ids))
     if out is None:  # else converted and prepared once the pieces are made (no two copies
         shapely.prepare(polys)  # of every polygon while the pieces stage runs)
-    return regions, tuple(cells)
+    return regions, tuple(cells), _cell_codes(region_kind, codes,
+                                              None if out is None else out.code_map)
+
+
+def _cell_codes(region_kind: np.ndarray, codes: list[np.ndarray], code_map: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The cells' ``(region, start code, end code)`` int columns, in cell order: region ``r``'s
+    cells are the rows of ``codes[region_kind[r]]``; codes renumbered by ``code_map`` (internal
+    to the file's; -1, a FULL region's free end, stays)."""
+    count = np.array([len(c) for c in codes], dtype=np.int64)
+    first = np.cumsum(count) - count
+    table = np.concatenate(codes) if codes else np.zeros((0, 2), dtype=np.int64)
+    if code_map is not None and len(table):
+        cm = np.append(np.asarray(code_map, dtype=np.int64), -1)  # index -1: stays -1
+        table = cm[table]
+    n = count[region_kind]
+    rows = ragged_arange(first[region_kind], n)
+    region = np.repeat(np.arange(len(region_kind), dtype=np.int64), n)
+    return region, table[rows, 0].copy(), table[rows, 1].copy()
 
 
 @dataclass

@@ -17,8 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from tether.arcs import feature_name
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, gc_paused
+from tether.decomposition import FREE, Decomposition, gc_paused
+from tether.environment import Environment
 from tether.graph import ConnectivityGraph, build_graph, cell_regions
 
 
@@ -184,15 +186,25 @@ def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
     return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
 
 
+def feature_name_rank(env: Environment) -> np.ndarray:
+    """``rank[code + 1]``: the position of feature ``code``'s name (``FREE`` for -1) among all
+    of them sorted as strings, cached per map."""
+    got = env.__dict__.get("_feature_name_rank")
+    if got is None:
+        names = [FREE] + [feature_name(env, c) for c in range(2 * env.n)]
+        got = np.empty(len(names), dtype=np.int64)
+        got[sorted(range(len(names)), key=names.__getitem__)] = np.arange(len(names))
+        env.__dict__["_feature_name_rank"] = got
+    return got
+
+
 def cell_rank(dec: Decomposition) -> np.ndarray:
     """The rank of every cell in the elimination's processing order: by region, then start
     feature name, then end feature name (as strings; the order of :func:`_cell_key`)."""
-    names = sorted({c.start_feature for c in dec.cells} | {c.end_feature for c in dec.cells})
-    code = {nm: i for i, nm in enumerate(names)}
-    n = len(dec.cells)
-    start = np.fromiter((code[c.start_feature] for c in dec.cells), np.int64, n)
-    end = np.fromiter((code[c.end_feature] for c in dec.cells), np.int64, n)
-    order = np.lexsort((end, start, cell_regions(dec)))
+    region, start, end = dec.cell_codes()
+    name_rank = feature_name_rank(dec.env)
+    order = np.lexsort((name_rank[end + 1], name_rank[start + 1], region))
+    n = len(region)
     rank = np.empty(n, dtype=np.int64)
     rank[order] = np.arange(n)
     return rank

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tether.arcs import TWO_PI, feature_name, free_arcs_many
+from tether.arcs import TWO_PI, free_arcs_many
 from tether.arrays import ragged_arange
-from tether.decomposition import FREE, Decomposition, gc_paused
+from tether.decomposition import Decomposition, gc_paused
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -136,18 +136,14 @@ def cell_ids(dec: Decomposition) -> list[str]:
 
 def cell_regions(dec: Decomposition) -> np.ndarray:
     """The region of every cell of ``dec.cells`` (int array), cached."""
-    got = dec.__dict__.get("_cell_region_array")
-    if got is None:
-        got = np.fromiter((c.region for c in dec.cells), dtype=np.int64, count=len(dec.cells))
-        dec.__dict__["_cell_region_array"] = got
-    return got
+    return dec.cell_codes()[0]
 
 
 def cell_first(dec: Decomposition) -> np.ndarray:
     """``first[r]:first[r + 1]`` are the indices of region ``r``'s cells in ``dec.cells``
     (cells are listed region by region)."""
-    counts = np.array([len(r.cells) for r in dec.regions], dtype=np.int64)
-    return np.concatenate(([0], np.cumsum(counts)))
+    counts = np.bincount(cell_regions(dec), minlength=len(dec.regions))
+    return np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
 
 
 def _overlap(s1: Any, e1: Any, s2: Any, e2: Any, full1: Any = False, full2: Any = False
@@ -215,11 +211,8 @@ def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     if got is not None:
         return got
     base = 2 * dec.env.n + 1
-    code = {feature_name(dec.env, c): c for c in range(2 * dec.env.n)}
-    code[FREE] = -1
-    start = np.fromiter((code[c.start_feature] for c in dec.cells), np.int64, len(dec.cells))
-    end = np.fromiter((code[c.end_feature] for c in dec.cells), np.int64, len(dec.cells))
-    keys = (cell_regions(dec) * base + start + 1) * base + end + 1
+    region, start, end = dec.cell_codes()
+    keys = (region * base + start + 1) * base + end + 1
     order = np.argsort(keys, kind="stable")
     got = (keys[order], order)
     dec.__dict__["_cell_keys"] = got
