@@ -413,29 +413,29 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
         frame = env.frame
         return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)
     tol = env.length_tol
-    free = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool).copy()
     A, B, tag_a, _ = env.oriented_edges
+    ax, ay, dx, dy, _, elen_all, _, _ = _edge_columns(env)
     ux, uy = np.cos(ang), np.sin(ang)
     # the rod lies in the disc of radius lss/2 about its midpoint: only edges within that
     # reach of the midpoint can touch it (a quarter of the candidates of a query at the target)
-    mid = pts + (0.5 * lss) * np.column_stack((ux, uy))
-    pidx, eidx = env.edge_index(0.5 * lss).query(mid)
+    half = 0.5 * lss
+    mid = np.column_stack((pts[:, 0] + half * ux, pts[:, 1] + half * uy))
+    pidx, eidx = env.edge_index(half).query(mid)
     # cheap rejection first: an edge with both ends strictly on one side of the rod's line can
-    # neither cross it nor put its start vertex on it
+    # neither cross it nor put its start vertex on it. Coordinate columns throughout (no (k, 2)
+    # temporaries): the very numbers of the row-wise forms (x0*y0 + x1*y1 is einsum's sum)
     ux, uy = ux[pidx], uy[pidx]
-    px, py = pts[pidx, 0], pts[pidx, 1]
-    wx, wy = A[eidx, 0] - px, A[eidx, 1] - py
+    px, py = pts[:, 0][pidx], pts[:, 1][pidx]
+    wx, wy = ax[eidx] - px, ay[eidx] - py
     ca = ux * wy - uy * wx
-    cb = ux * (B[eidx, 1] - py) - uy * (B[eidx, 0] - px)
+    cb = ux * (B[:, 1][eidx] - py) - uy * (B[:, 0][eidx] - px)
     k = np.flatnonzero(~(((ca > tol) & (cb > tol)) | ((ca < -tol) & (cb < -tol))))
-    pidx, eidx, ca = pidx[k], eidx[k], ca[k]
-    u = np.column_stack((ux[k], uy[k]))
-    w = np.column_stack((wx[k], wy[k]))
-    e = B[eidx] - A[eidx]
+    pidx, eidx, ca, ux, uy, wx, wy = (x[k] for x in (pidx, eidx, ca, ux, uy, wx, wy))
+    ex, ey = dx[eidx], dy[eidx]  # B - A
     # 1. transversal crossing of the open edge strictly before the tip
-    den = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
-    s_num = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]  # distance along the rod = s_num / den
-    elen = np.sqrt(np.einsum("ij,ij->i", e, e))
+    den = ux * ey - uy * ex
+    s_num = wx * ey - wy * ex  # distance along the rod = s_num / den
+    elen = elen_all[eidx]
     with np.errstate(divide="ignore", invalid="ignore"):
         s = s_num / den
         t = -ca / den  # position on the edge
@@ -447,16 +447,21 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     at_start = (np.abs(s) <= tol) & (den > 0)
     cross = inside_edge & (((s > tol) & (s < lss - tol)) | at_start)
     # 2. the rod through (or ending at) vertex A = start of this oriented edge
-    along = np.einsum("ij,ij->i", w, u)
+    along = wx * ux + wy * uy
     at_v = (np.abs(ca) <= tol) & (along > tol) & (along <= lss + tol)
     through = at_v & (along < lss - tol)
-    blocked = cross.copy()
+    blocked = cross
     hit = np.flatnonzero(at_v)  # only the few rods that meet the vertex need its cone
     if len(hit):
         v = tag_a[eidx[hit]]
-        bad = ~_in_cone(env, v, -u[hit]) | (through[hit] & ~_in_cone(env, v, u[hit]))
+        u = np.column_stack((ux[hit], uy[hit]))
+        bad = ~_in_cone(env, v, -u) | (through[hit] & ~_in_cone(env, v, u))
         blocked[hit] |= bad
+    # the point-in-map test only for the rods not blocked already (the same booleans)
+    free = np.ones(len(pts), dtype=bool)
     free[pidx[blocked]] = False
+    k = np.flatnonzero(free)
+    free[k] = np.asarray(env.contains(pts[k, 0], pts[k, 1]), dtype=bool)
     return free
 
 
