@@ -31,6 +31,7 @@ from tether.arrays import ragged_arange
 from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
+from tether.spatial import SegmentGrid
 from tether.tolerances import REL_CURVE_TOL
 
 if TYPE_CHECKING:
@@ -494,12 +495,13 @@ class _Arrangement:
         ptr = self.source_ptr.tolist()
         return [tuple(flat[a:b]) for a, b in zip(ptr[:-1], ptr[1:], strict=True)]
 
-    def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, shapely.STRtree]:
-        """All segments of the parts (a, b, part index) and their STRtree, built once."""
+    def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, SegmentGrid]:
+        """All segments of the parts (a, b, part index) and their grid (for
+        :func:`_segments_near`), built once."""
         got = self.__dict__.get("_segments")
         if got is None:
             a, b, owner = _ring_segments(self.parts)
-            got = (a, b, owner, _segment_tree(a, b))
+            got = (a, b, owner, SegmentGrid(a, b))
             self.__dict__["_segments"] = got
         return got
 
@@ -903,11 +905,15 @@ def _segment_tree(a: np.ndarray, b: np.ndarray) -> shapely.STRtree:
 
 
 def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
-                   tree: shapely.STRtree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   tree: shapely.STRtree | SegmentGrid
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs (point, segment) closer than ``reach`` (map units) for points (m, 2) and
-    segments ``a[k]-b[k]`` indexed by ``tree``: point indices, segment indices, distances."""
+    segments ``a[k]-b[k]`` indexed by ``tree`` (an STRtree or, faster, a
+    :class:`SegmentGrid`; the same pairs): point indices, segment indices, distances."""
     if len(pts) == 0 or len(a) == 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    if isinstance(tree, SegmentGrid):
+        return _grid_segments_near(pts, reach, tree)
     lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
                      pts[:, 1] + reach)
     qi, si = tree.query(lo)  # envelopes only; exact distances below
@@ -915,6 +921,44 @@ def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
                                    b[:, 0][si], b[:, 1][si])
     near = np.flatnonzero(d <= reach)
     return qi[near], si[near], d[near]
+
+
+def _grid_segments_near(pts: np.ndarray, reach: float, grid: SegmentGrid
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_segments_near` on a grid: of its candidates, those whose bounding box meets the
+    point's box (the STRtree's candidates, to the last rounding) closer than ``reach``."""
+    qi, si = grid.candidates(pts, reach)
+    lo, hi = pts - reach, pts + reach
+    meet = np.flatnonzero((grid.x0[si] <= hi[:, 0][qi]) & (grid.x1[si] >= lo[:, 0][qi])
+                          & (grid.y0[si] <= hi[:, 1][qi]) & (grid.y1[si] >= lo[:, 1][qi]))
+    qi, si = qi[meet], si[meet]
+    d = _pair_distances(pts[:, 0][qi], pts[:, 1][qi], grid, si)
+    near = np.flatnonzero(d <= reach)
+    return qi[near], si[near].astype(np.int64), d[near]
+
+
+def _pair_distances(px: np.ndarray, py: np.ndarray, grid: SegmentGrid, si: np.ndarray
+                    ) -> np.ndarray:
+    """:func:`_point_segment_distance_xy` from points ``(px[k], py[k])`` to the grid's
+    segments ``si[k]`` (the same numbers: the segments' directions and squared lengths are
+    the grid's, computed alike once per segment), in place on few temporaries."""
+    ax, ay, ex, ey, den = grid.ax[si], grid.ay[si], grid.ex[si], grid.ey[si], grid.den[si]
+    u = px - ax
+    u *= ex
+    t = py - ay
+    t *= ey
+    u += t
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u /= den
+    u[~(den > 0)] = 0.0
+    np.clip(u, 0.0, 1.0, out=u)
+    np.multiply(u, ey, out=t)
+    t += ay
+    t -= py
+    u *= ex
+    u += ax
+    u -= px
+    return np.hypot(u, t, out=u)
 
 
 def _point_segment_distance_xy(px: np.ndarray, py: np.ndarray, ax: np.ndarray,

@@ -98,3 +98,121 @@ def _segment_distance_many(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
                      np.clip(((p - a)[:, None, :] @ d[:, :, None])[:, 0, 0] / dd, 0.0, 1.0))
     return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
 
+
+
+#: Upper bound on a segment grid's registrations per segment, on average (memory guard: the
+#: cells grow until the segments' blocks fit).
+MAX_BLOCKS_PER_SEGMENT = 16
+
+
+class SegmentGrid:
+    """Segments ``a[k]-b[k]`` bucketed for "which segments may be within ``r`` of these
+    points", many points and one ``r`` at a time.
+
+    For a radius ``r`` the plane is cut into square cells of side ``c >= 2 r / m`` and every
+    segment is registered once in each block of ``(m + 1) x (m + 1)`` cells its bounding box
+    meets. A point's box ``[p - r, p + r]`` spans at most ``m + 1`` cells a side: one block
+    holds every segment whose bounding box meets it, so a query is one lookup per point (no
+    duplicates, no merge). The blocks of a radius are built on its first query and kept.
+    """
+
+    def __init__(self, a: np.ndarray, b: np.ndarray) -> None:
+        self.ax, self.ay = np.ascontiguousarray(a[:, 0]), np.ascontiguousarray(a[:, 1])
+        bx, by = b[:, 0], b[:, 1]
+        #: bounding boxes
+        self.x0, self.x1 = np.minimum(self.ax, bx), np.maximum(self.ax, bx)
+        self.y0, self.y1 = np.minimum(self.ay, by), np.maximum(self.ay, by)
+        #: directions ``b - a`` and squared lengths, as a point-segment distance computes them
+        self.ex, self.ey = bx - self.ax, by - self.ay
+        self.den = self.ex * self.ex + self.ey * self.ey
+        self._blocks: dict[float, _Blocks] = {}
+
+    def __len__(self) -> int:
+        return len(self.ax)
+
+    def candidates(self, pts: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (point index, segment index), grouped by point in increasing order: every
+        segment whose bounding box meets the point's box ``[p - r, p + r]`` (as computed in
+        floating point) is among its point's candidates, each once."""
+        if len(pts) == 0 or len(self) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        blocks = self._blocks.get(r)
+        if blocks is None:
+            blocks = self._blocks[r] = _Blocks.build(self, r)
+        return blocks.query(pts, r)
+
+
+@dataclass(frozen=True, eq=False)
+class _Blocks:
+    """One radius's blocks of a :class:`SegmentGrid` (CSR): block ``(i, j)`` covers cells
+    ``i - m .. i`` by ``j - m .. j`` (cells counted from the segments' lower left corner
+    ``origin``, of side ``cell``, map units); its segments are ``seg[start[k]:start[k + 1]]``,
+    ``k = i * shape[1] + j``, increasing."""
+
+    origin: tuple[float, float]
+    cell: float
+    m: int
+    shape: tuple[int, int]
+    start: np.ndarray
+    seg: np.ndarray
+
+    @classmethod
+    def build(cls, grid: SegmentGrid, r: float, m: int = 1) -> _Blocks:
+        ox, oy = float(grid.x0.min()), float(grid.y0.min())
+        span_x, span_y = float(grid.x1.max()) - ox, float(grid.y1.max()) - oy
+        # px +- r is rounded to the coordinates' precision: the cells cover that too
+        ulp = 4 * np.finfo(float).eps * max(abs(ox), abs(oy), abs(ox + span_x),
+                                            abs(oy + span_y), 1e-300)
+        cell = max(1.01 * (2 * r + 2 * ulp) / m, math.sqrt(span_x * span_y / MAX_CELLS),
+                   max(span_x, span_y) / MAX_CELLS, 1e-300)
+        while True:
+            gx0 = ((grid.x0 - ox) / cell).astype(np.int64)
+            gy0 = ((grid.y0 - oy) / cell).astype(np.int64)
+            nbx = ((grid.x1 - ox) / cell).astype(np.int64) - gx0 + 1 + m  # blocks a side
+            nby = ((grid.y1 - oy) / cell).astype(np.int64) - gy0 + 1 + m
+            count = nbx * nby
+            if int(count.sum()) <= MAX_BLOCKS_PER_SEGMENT * len(count) + 1_000_000:
+                break
+            cell *= 2
+        shape = (int(span_x / cell) + 1 + m, int(span_y / cell) + 1 + m)
+        key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1])
+        key.sort()  # (block, segment) as one integer: a sort of values, fast
+        nseg = len(gx0)
+        start = np.searchsorted(key, np.arange(shape[0] * shape[1] + 1) * nseg)
+        seg = (key % nseg).astype(np.int32)
+        return cls((ox, oy), cell, m, shape, start, seg)
+
+    def query(self, pts: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
+        """The segments of each point's block: (point index, segment index)."""
+        (ox, oy), c, m = self.origin, self.cell, self.m
+        cx0 = np.floor((pts[:, 0] - r - ox) / c)  # the box's first cell a side
+        cy0 = np.floor((pts[:, 1] - r - oy) / c)
+        if np.any(np.floor((pts[:, 0] + r - ox) / c) - cx0 > m) or \
+                np.any(np.floor((pts[:, 1] + r - oy) / c) - cy0 > m):
+            raise ArithmeticError("a point's box spans more cells than a block")
+        bi = np.clip(cx0 + m, 0, self.shape[0] - 1).astype(np.int64)
+        bj = np.clip(cy0 + m, 0, self.shape[1] - 1).astype(np.int64)
+        b = bi * self.shape[1] + bj
+        first = self.start[b]
+        n = self.start[b + 1] - first
+        return np.repeat(np.arange(len(pts)), n), self.seg[ragged_arange(first, n)]
+
+
+def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
+                ) -> np.ndarray:
+    """Every (block, segment) pair as the integer ``block * n + segment`` (``n`` segments):
+    segment ``k``'s blocks are ``first[k] + i * stride + j`` for ``i < nbx[k]``, ``j <
+    nby[k]``. Segments of one shape ``(nbx, nby)`` at a time (a few shapes hold nearly all
+    segments)."""
+    n = len(first)
+    base = first * n + np.arange(n)
+    code = nbx * (int(nby.max()) + 1) + nby
+    order = np.argsort(code, kind="stable")
+    run = np.flatnonzero(np.r_[True, code[order][1:] != code[order][:-1], True])
+    keys = []
+    for lo, hi in zip(run[:-1].tolist(), run[1:].tolist(), strict=True):
+        segs = order[lo:hi]
+        p, q = int(nbx[segs[0]]), int(nby[segs[0]])
+        offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() * n
+        keys.append((base[segs][:, None] + offs).ravel())
+    return np.concatenate(keys)

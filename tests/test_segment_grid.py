@@ -1,0 +1,137 @@
+"""The segment grid (``tether.spatial.SegmentGrid``) against brute force and against the
+STRtree it replaces in ``_segments_near``: the same (point, segment) pairs, the same
+distances, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tether import decomposition as D
+from tether.spatial import SegmentGrid, _Blocks
+
+
+def _segments(rng, k, scale=1.0, offset=0.0):
+    """Random segments, mostly short, some long, some of zero length, a few axis-aligned."""
+    a = offset + scale * rng.random((k, 2))
+    step = scale * rng.normal(0, 0.004, (k, 2)) * np.where(rng.random(k) < 0.05, 40, 1)[:, None]
+    step[rng.random(k) < 0.03] = 0.0
+    step[rng.random(k) < 0.05, 1] = 0.0
+    return a, a + step
+
+
+def _envelope_pairs(pts, a, b, r):
+    """Brute force: every (point, segment) whose bounding box meets the point's box."""
+    lo, hi = pts - r, pts + r
+    x0, x1 = np.minimum(a[:, 0], b[:, 0]), np.maximum(a[:, 0], b[:, 0])
+    y0, y1 = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1])
+    meet = ((x0[None] <= hi[:, :1]) & (x1[None] >= lo[:, :1]) & (y0[None] <= hi[:, 1:])
+            & (y1[None] >= lo[:, 1:]))
+    return {(int(i), int(j)) for i, j in np.argwhere(meet)}
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1e-6, 1e-3, 0.01, 0.05, 0.3, 3.0]),
+       st.sampled_from([(1.0, 0.0), (1e-3, 0.0), (1.0, 1e6)]))
+def test_candidates_cover_the_envelope_pairs_once(seed, r, frame):
+    scale, offset = frame
+    rng = np.random.default_rng(seed)
+    a, b = _segments(rng, 400, scale, offset)
+    # points near the segments, anywhere in and around their box, on segment ends
+    pts = np.concatenate((0.5 * (a[:100] + b[:100]), a[100:130],
+                          offset + scale * rng.uniform(-0.2, 1.2, (100, 2))))
+    r = r * scale
+    grid = SegmentGrid(a, b)
+    qi, si = grid.candidates(pts, r)
+    got = list(zip(qi.tolist(), si.tolist(), strict=True))
+    assert len(set(got)) == len(got)  # each pair once
+    assert np.all(np.diff(qi) >= 0)  # grouped by point, increasing
+    assert _envelope_pairs(pts, a, b, r) <= set(got)
+    assert grid.candidates(pts, r)[1].tolist() == si.tolist()  # the kept blocks answer alike
+
+
+def test_blocks_hold_every_segment_of_their_cells():
+    """Block (i, j) holds exactly the segments whose cells meet cells i-m..i by j-m..j
+    (loops over the segments' cells, as a reference)."""
+    rng = np.random.default_rng(3)
+    a, b = _segments(rng, 1500)
+    grid = SegmentGrid(a, b)
+    for r, m in ((0.004, 1), (0.02, 1), (0.01, 2)):
+        blk = _Blocks.build(grid, r, m)
+        (ox, oy), c = blk.origin, blk.cell
+        gx0, gx1 = ((grid.x0 - ox) / c).astype(int), ((grid.x1 - ox) / c).astype(int)
+        gy0, gy1 = ((grid.y0 - oy) / c).astype(int), ((grid.y1 - oy) / c).astype(int)
+        want = [[] for _ in range(blk.shape[0] * blk.shape[1])]
+        for k in range(len(gx0)):
+            for i in range(gx0[k], gx1[k] + m + 1):
+                for j in range(gy0[k], gy1[k] + m + 1):
+                    want[i * blk.shape[1] + j].append(k)
+        assert blk.seg.tolist() == [k for w in want for k in w]
+        assert blk.start.tolist() == np.cumsum([0] + [len(w) for w in want]).tolist()
+
+
+def test_blocks_guard_many_long_segments():
+    """Long diagonal segments and a tiny radius: the cells grow until the registrations fit."""
+    rng = np.random.default_rng(4)
+    a = rng.random((300, 2))
+    b = a + 0.5
+    grid = SegmentGrid(a, b)
+    blk = _Blocks.build(grid, 1e-7)
+    assert len(blk.seg) <= 16 * 300 + 1_000_000
+    pts = 0.5 * (a + b)
+    qi, si = grid.candidates(pts, 1e-7)
+    assert _envelope_pairs(pts, a, b, 1e-7) <= set(zip(qi.tolist(), si.tolist(), strict=True))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("r", [1e-4, 0.003, 0.02])
+def test_segments_near_grid_equals_strtree(seed, r):
+    """``_segments_near`` on a grid gives the STRtree's pairs and distances, bit for bit."""
+    rng = np.random.default_rng(seed)
+    a, b = _segments(rng, 3000)
+    take = rng.integers(0, 3000, 2000)
+    pts = np.concatenate((0.5 * (a[take] + b[take]), rng.uniform(-0.1, 1.1, (500, 2))))
+    want = D._segments_near(pts, a, b, r, D._segment_tree(a, b))
+    got = D._segments_near(pts, a, b, r, SegmentGrid(a, b))
+    assert len(want[0]) > 100
+    assert sorted(zip(*(x.tolist() for x in got), strict=True)) == \
+        sorted(zip(*(x.tolist() for x in want), strict=True))
+    assert got[0].dtype == got[1].dtype == np.int64
+
+
+def test_pair_distances_equal_the_column_formula():
+    rng = np.random.default_rng(7)
+    a, b = _segments(rng, 2000)
+    grid = SegmentGrid(a, b)
+    si = rng.integers(0, 2000, 50_000)
+    p = rng.uniform(-0.1, 1.1, (50_000, 2))
+    p[:1000] = a[si[:1000]]  # on a segment's end
+    got = D._pair_distances(p[:, 0], p[:, 1], grid, si)
+    want = D._point_segment_distance_xy(p[:, 0], p[:, 1], a[si, 0], a[si, 1], b[si, 0],
+                                        b[si, 1])
+    assert np.array_equal(got, want)
+
+
+def test_clearance_on_grid_equals_strtree():
+    """The parts' clearance (staged search) is the same on the grid as on the STRtree."""
+    rng = np.random.default_rng(9)
+    a, b = _segments(rng, 4000)
+    sowner = rng.integers(0, 500, 4000)
+    take = rng.integers(0, 4000, 3000)
+    pts, owner = 0.5 * (a[take] + b[take]), sowner[take]
+    want = D._clearance(pts, owner, a, b, sowner, D._segment_tree(a, b), 0.02)
+    got = D._clearance(pts, owner, a, b, sowner, SegmentGrid(a, b), 0.02)
+    assert np.array_equal(got, want)
+    assert (got < 0.02).any() and (got == 0.02).any()
+
+
+def test_empty_inputs():
+    grid = SegmentGrid(np.zeros((0, 2)), np.zeros((0, 2)))
+    assert [len(x) for x in grid.candidates(np.zeros((3, 2)), 0.1)] == [0, 0]
+    a = np.array([[0.0, 0.0]])
+    grid = SegmentGrid(a, a + 1.0)
+    assert [len(x) for x in grid.candidates(np.zeros((0, 2)), 0.1)] == [0, 0]
+    qi, si, d = D._segments_near(np.array([[0.5, 0.6]]), a, a + 1.0, 0.1, grid)
+    assert qi.tolist() == [0] and si.tolist() == [0] and d[0] == pytest.approx(0.1 / 2**0.5)
