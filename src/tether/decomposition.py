@@ -1474,11 +1474,11 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> _Chains:
     end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
                                  np.repeat(end_id[len(parts):], nsrc)))
     src_row = np.tile(src, 2)
-    k = parts[local]
-    # rows of one (region pair, end point, source) group are linked to one of them (any: the
-    # components, labelled by their smallest part, do not depend on which)
-    group, first = _row_ids(np.column_stack((lo[k], hi[k], end_of_row, src_row)))
-    comp = _components(len(parts), local, local[first][group])
+    # rows of one (region pair, end point, source) group are linked (any links connecting
+    # the group: the components, labelled by their smallest part, do not depend on which)
+    pair = np.unique(lo[parts] * (int(hi.max()) + 1) + hi[parts], return_inverse=True)[1]
+    u, v = _equal_row_links((pair.ravel()[local], end_of_row, src_row + 1))
+    comp = _components(len(parts), local[u], local[v])
     # chains sorted by (region pair, first part): parts in increasing order within each
     order = np.lexsort((parts, comp))
     comp_o, parts_o = comp[order], parts[order]
@@ -1490,6 +1490,26 @@ def _chains(arr: _Arrangement, face_region: np.ndarray) -> _Chains:
     size = (stops - starts)[rank]
     return _Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
                    parts_o[ragged_arange(starts[rank], size)])
+
+
+def _equal_row_links(cols: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Links ``(u[k], v[k])`` between rows (of the columns ``cols``, non-negative integers)
+    connecting every group of equal rows: rows next to each other in sorted order. The
+    columns are packed into one integer per row (one sort) when their ranges allow it, else
+    each row is linked to its group's first (:func:`_row_ids`, hashed rows)."""
+    n = len(cols[0])
+    key = np.zeros(n, np.int64)
+    size = 1
+    for c in cols:
+        span = int(c.max(initial=0)) + 1
+        size *= span
+        if size >= 2**62:
+            group, first = _row_ids(np.column_stack(cols))
+            return np.arange(n), first[group]
+        key = key * span + c
+    order = np.argsort(key)
+    same = np.flatnonzero(key[order[1:]] == key[order[:-1]])
+    return order[same], order[same + 1]
 
 
 def _components(n: int, u: np.ndarray, v: np.ndarray) -> np.ndarray:

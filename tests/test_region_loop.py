@@ -1,0 +1,83 @@
+"""The region loop of ``_decompose`` (regions, chains, crossing candidates) against the
+implementations it replaced, kept here as references: the same arrays, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tether import decomposition as D
+from tether.arrays import ragged_arange
+from tether.floorplan import floor_plan
+from tether.tolerances import REL_CURVE_TOL
+
+
+def _chains_reference(arr, face_region):
+    """``_chains`` as it was: rows grouped by hashing (``_row_ids``), each row linked to its
+    group's first."""
+    fr = np.append(face_region, -1)
+    ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
+    parts = np.flatnonzero((ra >= 0) & (rb >= 0) & (ra != rb))
+    if len(parts) == 0:
+        return D._Chains(np.zeros((0, 2), np.int64), np.zeros(1, np.int64),
+                         np.zeros(0, np.int64))
+    lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+    first_id, last_id = arr.end_ids()
+    end_id = np.concatenate((first_id[parts], last_id[parts]))
+    sptr, sflat = arr.sources()
+    nsrc = sptr[parts + 1] - sptr[parts]
+    src = sflat[ragged_arange(sptr[parts], nsrc)]
+    local = np.tile(np.repeat(np.arange(len(parts)), nsrc), 2)
+    end_of_row = np.concatenate((np.repeat(end_id[: len(parts)], nsrc),
+                                 np.repeat(end_id[len(parts):], nsrc)))
+    src_row = np.tile(src, 2)
+    k = parts[local]
+    group, first = D._row_ids(np.column_stack((lo[k], hi[k], end_of_row, src_row)))
+    comp = D._components(len(parts), local, local[first][group])
+    order = np.lexsort((parts, comp))
+    comp_o, parts_o = comp[order], parts[order]
+    starts = np.flatnonzero(np.r_[True, comp_o[1:] != comp_o[:-1]])
+    stops = np.r_[starts[1:], len(parts_o)]
+    head = parts_o[starts]
+    rank = np.lexsort((head, hi[head], lo[head]))
+    h = head[rank]
+    size = (stops - starts)[rank]
+    return D._Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
+                     parts_o[ragged_arange(starts[rank], size)])
+
+
+@pytest.fixture(scope="module")
+def arrangement():
+    env = floor_plan(60, seed=3).internal
+    lss = 0.1 * (env.bounds[2] - env.bounds[0])
+    tol = REL_CURVE_TOL * env.diameter
+    return D._arrangement(env, D.critical_curves(env, lss, REL_CURVE_TOL), tol)
+
+
+@pytest.mark.parametrize("nreg", [1, 3, 40, 10**6])
+def test_chains_equal_reference(arrangement, nreg):
+    """Random regions over the faces (some faces in none): the same chains."""
+    rng = np.random.default_rng(nreg)
+    nf = len(arrangement.faces)
+    for _ in range(3):
+        face_region = rng.integers(0, min(nreg, nf), nf)
+        face_region[rng.random(nf) < 0.1] = -1
+        got, want = D._chains(arrangement, face_region), _chains_reference(arrangement,
+                                                                            face_region)
+        assert len(want) > 0 or nreg == 1
+        for g, w in ((got.pair, want.pair), (got.ptr, want.ptr), (got.parts, want.parts)):
+            assert np.array_equal(g, w)
+
+
+def test_equal_row_links_connect_exactly_the_equal_rows():
+    rng = np.random.default_rng(1)
+    for spans in ((5, 3, 7), (2**40, 2**30, 4)):  # packed, then hashed (too wide to pack)
+        cols = tuple(rng.integers(0, min(s, 6), 3000) * (s // 6 + 1) for s in spans)
+        u, v = D._equal_row_links(cols)
+        rows = np.column_stack(cols)
+        assert np.all(rows[u] == rows[v])
+        comp = D._components(len(rows), u, v)
+        _, want = np.unique(rows, axis=0, return_inverse=True)
+        # the same partition: equal rows together, different rows apart
+        pairs = {(int(a), int(b)) for a, b in zip(comp, want.ravel(), strict=True)}
+        assert len(pairs) == len(set(comp.tolist())) == len(set(want.ravel().tolist()))
