@@ -81,3 +81,57 @@ def test_equal_row_links_connect_exactly_the_equal_rows():
         # the same partition: equal rows together, different rows apart
         pairs = {(int(a), int(b)) for a, b in zip(comp, want.ravel(), strict=True)}
         assert len(pairs) == len(set(comp.tolist())) == len(set(want.ravel().tolist()))
+
+
+def _number_regions_reference(arr, flat, size, pts, clear):
+    """``_number_regions`` as it was (face lists first, a lexsort for the best faces)."""
+    face_area = D.shapely.area(arr.faces)
+    starts = (np.cumsum(size) - size).tolist()
+    flat_list = flat.tolist()
+    lists = [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
+    group = np.repeat(np.arange(len(lists)), size)
+    order = np.lexsort((-clear[flat], group))
+    head = np.r_[True, group[order][1:] != group[order][:-1]]
+    best = flat[order[head]]
+    area = np.bincount(group, weights=face_area[flat], minlength=len(lists))
+    for g in np.flatnonzero(size >= 8).tolist():
+        area[g] = face_area[lists[g]].sum()
+    point = np.round(pts[best], 9)
+    rank = np.lexsort((point[:, 1], point[:, 0]))
+    face_region = np.full(len(arr.faces), -1, dtype=np.int64)
+    region_of_group = np.empty(len(lists), np.int64)
+    region_of_group[rank] = np.arange(len(lists))
+    face_region[flat] = region_of_group[group]
+    return {"lists": lists, "best": best, "area": area, "point": point, "rank": rank,
+            "face_region": face_region}
+
+
+def test_number_regions_equal_reference(arrangement):
+    """Random groups of faces (some of 8 or more), clearances with ties: the same numbering
+    and, from ``_group_lists``, the same face lists."""
+    rng = np.random.default_rng(5)
+    nf = len(arrangement.faces)
+    pts, clear = D._face_points(arrangement.faces, 1e-9)
+    clear = np.round(clear, 3)  # ties
+    faces = rng.permutation(nf)[: nf - 10]
+    size = rng.integers(1, 12, nf)
+    size = size[np.cumsum(size) <= len(faces)]
+    flat = faces[: size.sum()]
+    got = D._number_regions(arrangement, flat, size, pts, clear)
+    got["lists"] = D._group_lists(flat, size)
+    want = _number_regions_reference(arrangement, flat, size, pts, clear)
+    assert (size >= 8).any() and len(size) > 10
+    assert got["lists"] == want["lists"]
+    for k in ("best", "area", "point", "rank", "face_region"):
+        assert np.array_equal(got[k], want[k]), k
+
+
+def test_best_per_group_is_the_lexsort_head():
+    rng = np.random.default_rng(6)
+    group = np.sort(rng.integers(0, 300, 3000))
+    group = np.unique(group, return_inverse=True)[1].ravel()
+    value = rng.integers(0, 4, 3000).astype(float)  # many ties
+    for v in (value, np.where(rng.random(3000) < 0.05, np.nan, value)):
+        order = np.lexsort((-v, group))
+        want = order[np.r_[True, group[order][1:] != group[order][:-1]]]
+        assert np.array_equal(D._best_per_group(v, group), want)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -33,9 +34,9 @@ def _envelope_pairs(pts, a, b, r):
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.sampled_from([1e-6, 1e-3, 0.01, 0.05, 0.3, 3.0]),
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-6, 1e-3, 0.01, 0.05, 0.3, 3.0]),
        st.sampled_from([(1.0, 0.0), (1e-3, 0.0), (1.0, 1e6)]))
-def test_candidates_cover_the_envelope_pairs_once(seed, r, frame):
+def test_meeting_pairs_are_the_envelope_pairs(seed, r, frame):
     scale, offset = frame
     rng = np.random.default_rng(seed)
     a, b = _segments(rng, 400, scale, offset)
@@ -44,12 +45,29 @@ def test_candidates_cover_the_envelope_pairs_once(seed, r, frame):
                           offset + scale * rng.uniform(-0.2, 1.2, (100, 2))))
     r = r * scale
     grid = SegmentGrid(a, b)
-    qi, si = grid.candidates(pts, r)
+    qi, si = grid.meeting(pts - r, pts + r)
     got = list(zip(qi.tolist(), si.tolist(), strict=True))
     assert len(set(got)) == len(got)  # each pair once
-    assert np.all(np.diff(qi) >= 0)  # grouped by point, increasing
-    assert _envelope_pairs(pts, a, b, r) <= set(got)
-    assert grid.candidates(pts, r)[1].tolist() == si.tolist()  # the kept blocks answer alike
+    assert np.all(np.diff(qi) >= 0)  # grouped by box, increasing
+    assert set(got) == _envelope_pairs(pts, a, b, r)
+    assert grid.meeting(pts - r, pts + r)[1].tolist() == si.tolist()  # kept blocks alike
+
+
+def test_query_is_strtree_query_on_rectangles():
+    """``SegmentGrid.query`` answers as an STRtree of the segments does, for boxes of
+    several sizes (one block set per size)."""
+    rng = np.random.default_rng(11)
+    a, b = _segments(rng, 2000)
+    grid, tree = SegmentGrid(a, b), D._segment_tree(a, b)
+    for r in (0.001, 0.01, 0.01, 0.04):
+        c = rng.uniform(-0.1, 1.1, (700, 2))
+        w = r * rng.uniform(0.5, 1.0, (700, 2))
+        boxes = shapely.box(c[:, 0] - w[:, 0], c[:, 1] - w[:, 1], c[:, 0] + w[:, 0],
+                            c[:, 1] + w[:, 1])
+        got, want = grid.query(boxes), tree.query(boxes)
+        assert got.shape[0] == 2 and want.shape[1] > 100
+        assert sorted(map(tuple, got.T.tolist())) == sorted(map(tuple, want.T.tolist()))
+    assert len(grid._blocks) == 3
 
 
 def test_blocks_hold_every_segment_of_their_cells():
@@ -81,8 +99,8 @@ def test_blocks_guard_many_long_segments():
     blk = _Blocks.build(grid, 1e-7)
     assert len(blk.seg) <= 16 * 300 + 1_000_000
     pts = 0.5 * (a + b)
-    qi, si = grid.candidates(pts, 1e-7)
-    assert _envelope_pairs(pts, a, b, 1e-7) <= set(zip(qi.tolist(), si.tolist(), strict=True))
+    qi, si = grid.meeting(pts - 1e-7, pts + 1e-7)
+    assert _envelope_pairs(pts, a, b, 1e-7) == set(zip(qi.tolist(), si.tolist(), strict=True))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -129,9 +147,9 @@ def test_clearance_on_grid_equals_strtree():
 
 def test_empty_inputs():
     grid = SegmentGrid(np.zeros((0, 2)), np.zeros((0, 2)))
-    assert [len(x) for x in grid.candidates(np.zeros((3, 2)), 0.1)] == [0, 0]
+    assert [len(x) for x in grid.meeting(np.zeros((3, 2)), np.ones((3, 2)))] == [0, 0]
     a = np.array([[0.0, 0.0]])
     grid = SegmentGrid(a, a + 1.0)
-    assert [len(x) for x in grid.candidates(np.zeros((0, 2)), 0.1)] == [0, 0]
+    assert [len(x) for x in grid.meeting(np.zeros((0, 2)), np.zeros((0, 2)))] == [0, 0]
     qi, si, d = D._segments_near(np.array([[0.5, 0.6]]), a, a + 1.0, 0.1, grid)
     assert qi.tolist() == [0] and si.tolist() == [0] and d[0] == pytest.approx(0.1 / 2**0.5)

@@ -925,16 +925,12 @@ def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
 
 def _grid_segments_near(pts: np.ndarray, reach: float, grid: SegmentGrid
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_segments_near` on a grid: of its candidates, those whose bounding box meets the
-    point's box (the STRtree's candidates, to the last rounding) closer than ``reach``."""
-    qi, si = grid.candidates(pts, reach)
-    lo, hi = pts - reach, pts + reach
-    meet = np.flatnonzero((grid.x0[si] <= hi[:, 0][qi]) & (grid.x1[si] >= lo[:, 0][qi])
-                          & (grid.y0[si] <= hi[:, 1][qi]) & (grid.y1[si] >= lo[:, 1][qi]))
-    qi, si = qi[meet], si[meet]
+    """:func:`_segments_near` on a grid: the segments whose bounding box meets the point's
+    box (the STRtree's candidates) closer than ``reach``."""
+    qi, si = grid.meeting(pts - reach, pts + reach)
     d = _pair_distances(pts[:, 0][qi], pts[:, 1][qi], grid, si)
     near = np.flatnonzero(d <= reach)
-    return qi[near], si[near].astype(np.int64), d[near]
+    return qi[near], si[near], d[near]
 
 
 def _pair_distances(px: np.ndarray, py: np.ndarray, grid: SegmentGrid, si: np.ndarray
@@ -1189,6 +1185,43 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                                                                     strict=True)}
     release_memory()
     report("regions", 0.7)
+    numbering, chains, cands = _face_regions(arr, keep, resolved, ok, sid, face_struct, pts,
+                                             clear, tol, lss)
+    # the segments' grid and the candidates cache are no longer needed: freed before the
+    # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
+    arr.__dict__.pop("_segments", None)
+    arr.__dict__.pop("_part_candidates", None)
+    release_memory()
+    # the regions made after that: their polygons and cells do not add to the grid's peak
+    regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
+    report("pieces", 0.85)
+    pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
+                                                    lss)
+    report("done", 1.0)
+    if out is None:
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
+                            unresolved_pieces)
+    else:  # the regions' polygons and structures and the pieces to the user's frame
+        del arr, chains, cands  # the arrangement, freed first
+        out.regions(regions)
+        out.pieces(pieces)
+        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+                            tuple(pieces), tol / out.scale, unresolved_pieces)
+        arcs = out.crossing_arcs(arcs)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    dec.__dict__["_cell_codes"] = codes  # known when the cells were made
+    return dec
+
+
+def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok: np.ndarray,
+                  sid: np.ndarray, face_struct: dict[int, Structure], pts: np.ndarray,
+                  clear: np.ndarray, tol: float, lss: float
+                  ) -> tuple[dict[str, Any], _Chains, _Candidates]:
+    """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure,
+    ``ok = keep[resolved]``, of structure ids ``sid`` and structures ``face_struct``, points
+    ``pts`` and clearances ``clear``) grouped into numbered regions, with the chains between
+    regions and their crossing candidates. Sub-resolution faces, then speck regions no
+    chain of which has a candidate, join neighbours (``face_struct`` is updated)."""
     nf = len(arr.faces)
     kept = np.zeros(nf, bool)
     kept[keep] = True
@@ -1209,7 +1242,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     for attempt in range(4):
         flat, size = _groups(uf, keep, face_struct)
         numbering = _number_regions(arr, flat, size, pts, clear)
-        face_region, nreg = numbering["face_region"], len(numbering["lists"])
+        face_region, nreg = numbering["face_region"], len(size)
         chains = _chains(arr, face_region)
         cands = _crossing_candidates(arr, chains, tol, lss)
         # a region none of whose boundary is resolved (a speck at a tangency) would never
@@ -1217,7 +1250,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         touched = np.zeros(nreg, bool)
         touched[chains.pair[cands.count > 0].ravel()] = True
         isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
-        if not isolated or attempt == 3:  # these are the regions (made below)
+        if not isolated or attempt == 3:  # these are the regions
             break
         specks: dict[int, list[int]] = {}
         faces_in = np.flatnonzero(np.isin(face_region, list(isolated)))
@@ -1226,30 +1259,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
             specks.setdefault(r, []).append(f)
             del face_struct[f]
         _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
-    # the segments' tree and the candidates cache are no longer needed: freed before the
-    # pieces allocate theirs (at 1,000 map vertices the tree alone is ~160 MB)
-    arr.__dict__.pop("_segments", None)
-    arr.__dict__.pop("_part_candidates", None)
-    release_memory()
-    # the regions made after that: their polygons and cells do not add to the tree's peak
-    regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
-    report("pieces", 0.85)
-    pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
-                                                    lss)
-    report("done", 1.0)
-    if out is None:
-        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                            unresolved_pieces)
-    else:  # the regions' polygons and structures and the pieces to the user's frame
-        del arr, chains, cands  # the arrangement, freed first
-        out.regions(regions)
-        out.pieces(pieces)
-        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
-                            tuple(pieces), tol / out.scale, unresolved_pieces)
-        arcs = out.crossing_arcs(arcs)
-    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
-    dec.__dict__["_cell_codes"] = codes  # known when the cells were made
-    return dec
+    numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
+    return numbering, chains, cands
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
@@ -1343,32 +1354,45 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
                     clear: np.ndarray) -> dict[str, Any]:
     """Regions from groups of faces (``flat``: the faces group after group, ``size``: each
     group's count), numbered by representative point (x, then y): the point of the group's
-    face farthest from its boundary. Returns the groups' face lists, best faces, areas and
-    points, the group of each region id (``rank``) and the region of every face (-1: none)."""
+    face farthest from its boundary. Returns the groups' best faces, areas and points, the
+    group of each region id (``rank``) and the region of every face (-1: none); the groups'
+    face lists (``lists``, for the regions made) are added by :func:`_group_lists`."""
     face_area = arr.__dict__.get("_face_area")
     if face_area is None:
         face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
-    starts = (np.cumsum(size) - size).tolist()
-    flat_list = flat.tolist()
-    lists = [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
-    group = np.repeat(np.arange(len(lists)), size)
-    # the face of largest clearance of each group (the first one among equals)
-    order = np.lexsort((-clear[flat], group))
-    head = np.r_[True, group[order][1:] != group[order][:-1]] if len(order) else \
-        np.zeros(0, bool)
-    best = flat[order[head]]
+    group = np.repeat(np.arange(len(size)), size)
+    best = flat[_best_per_group(clear[flat], group)]
     # numpy sums 8 or more values pairwise: those few groups are summed as before, bit for bit
-    area = np.bincount(group, weights=face_area[flat], minlength=len(lists))
+    area = np.bincount(group, weights=face_area[flat], minlength=len(size))
+    starts = np.cumsum(size) - size
     for g in np.flatnonzero(size >= 8).tolist():
-        area[g] = face_area[lists[g]].sum()
+        area[g] = face_area[flat[starts[g]:starts[g] + size[g]]].sum()
     point = np.round(pts[best], 9)
     rank = np.lexsort((point[:, 1], point[:, 0]))  # stable: ties keep the groups' order
     face_region = np.full(len(arr.faces), -1, dtype=np.int64)
-    region_of_group = np.empty(len(lists), np.int64)
-    region_of_group[rank] = np.arange(len(lists))
+    region_of_group = np.empty(len(size), np.int64)
+    region_of_group[rank] = np.arange(len(size))
     face_region[flat] = region_of_group[group]
-    return {"lists": lists, "best": best, "area": area, "point": point, "rank": rank,
+    return {"best": best, "area": area, "point": point, "rank": rank,
             "face_region": face_region}
+
+
+def _best_per_group(value: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """For ``group`` sorted (runs from 0, none empty), the index of each run's first largest
+    ``value``: the first row per run of ``np.lexsort((-value, group))`` (no sort unless a
+    value is NaN)."""
+    if np.isnan(value).any():
+        order = np.lexsort((-value, group))
+        return order[np.r_[True, group[order][1:] != group[order][:-1]]]
+    return _first_max_per_group(value, group)
+
+
+def _group_lists(flat: np.ndarray, size: np.ndarray) -> list[list[int]]:
+    """The groups' face lists (``numbering["lists"]``), from ``flat`` and ``size`` as given
+    to :func:`_number_regions`."""
+    starts = (np.cumsum(size) - size).tolist()
+    flat_list = flat.tolist()
+    return [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],

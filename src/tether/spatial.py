@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import shapely
 
 from tether.arrays import ragged_arange
 
@@ -106,14 +108,16 @@ MAX_BLOCKS_PER_SEGMENT = 16
 
 
 class SegmentGrid:
-    """Segments ``a[k]-b[k]`` bucketed for "which segments may be within ``r`` of these
-    points", many points and one ``r`` at a time.
+    """Segments ``a[k]-b[k]`` bucketed for "which segments have a bounding box meeting these
+    boxes": many boxes of about one size at a time (``STRtree.query`` on rectangles, the
+    same pairs).
 
-    For a radius ``r`` the plane is cut into square cells of side ``c >= 2 r / m`` and every
-    segment is registered once in each block of ``(m + 1) x (m + 1)`` cells its bounding box
-    meets. A point's box ``[p - r, p + r]`` spans at most ``m + 1`` cells a side: one block
-    holds every segment whose bounding box meets it, so a query is one lookup per point (no
-    duplicates, no merge). The blocks of a radius are built on its first query and kept.
+    For boxes of half-width ``r`` the plane is cut into square cells of side ``c >= 2 r / m``
+    and every segment is registered once in each block of ``(m + 1) x (m + 1)`` cells its
+    bounding box meets. A box spans at most ``m + 1`` cells a side: one block holds every
+    segment whose bounding box meets it, so a query is one lookup per box (no duplicates, no
+    merge), then the exact test. The blocks of a size are built on its first query and
+    kept (sizes rounded up to 1 %).
     """
 
     def __init__(self, a: np.ndarray, b: np.ndarray) -> None:
@@ -130,24 +134,36 @@ class SegmentGrid:
     def __len__(self) -> int:
         return len(self.ax)
 
-    def candidates(self, pts: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (point index, segment index), grouped by point in increasing order: every
-        segment whose bounding box meets the point's box ``[p - r, p + r]`` (as computed in
-        floating point) is among its point's candidates, each once."""
-        if len(pts) == 0 or len(self) == 0:
+    def meeting(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (box index, segment index) of the boxes ``[lo[i], hi[i]]`` (shape (m, 2)
+        each) and the segments whose bounding box meets them (bounds included, compared as
+        given), each once, grouped by box in increasing order."""
+        if len(lo) == 0 or len(self) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        blocks = self._blocks.get(r)
+        half = 0.5 * float(np.max(hi - lo, initial=0.0))
+        size = 2.0 ** (math.ceil(64 * math.log2(half)) / 64) if half > 0 else 0.0
+        blocks = self._blocks.get(size)
         if blocks is None:
-            blocks = self._blocks[r] = _Blocks.build(self, r)
-        return blocks.query(pts, r)
+            blocks = self._blocks[size] = _Blocks.build(self, size)
+        bi, si = blocks.query(lo, hi)
+        meet = np.flatnonzero((self.x0[si] <= hi[:, 0][bi]) & (self.x1[si] >= lo[:, 0][bi])
+                              & (self.y0[si] <= hi[:, 1][bi]) & (self.y1[si] >= lo[:, 1][bi]))
+        return bi[meet], si[meet].astype(np.int64)
+
+    def query(self, geoms: Any) -> np.ndarray:
+        """``shapely.STRtree.query(geoms)`` for rectangles ``geoms`` (their bounds are taken):
+        a (2, k) array of (geometry index, segment index) pairs whose bounding boxes meet,
+        grouped by geometry."""
+        bounds = shapely.bounds(np.asarray(geoms, dtype=object).reshape(-1))
+        return np.vstack(self.meeting(bounds[:, :2], bounds[:, 2:]))
 
 
 @dataclass(frozen=True, eq=False)
 class _Blocks:
-    """One radius's blocks of a :class:`SegmentGrid` (CSR): block ``(i, j)`` covers cells
-    ``i - m .. i`` by ``j - m .. j`` (cells counted from the segments' lower left corner
-    ``origin``, of side ``cell``, map units); its segments are ``seg[start[k]:start[k + 1]]``,
-    ``k = i * shape[1] + j``, increasing."""
+    """The blocks of a :class:`SegmentGrid` for boxes of half-width ``r`` (CSR): block ``(i,
+    j)`` covers cells ``i - m .. i`` by ``j - m .. j`` (cells counted from the segments'
+    lower left corner ``origin``, of side ``cell``, map units); its segments are
+    ``seg[start[k]:start[k + 1]]``, ``k = i * shape[1] + j``, increasing."""
 
     origin: tuple[float, float]
     cell: float
@@ -160,7 +176,7 @@ class _Blocks:
     def build(cls, grid: SegmentGrid, r: float, m: int = 1) -> _Blocks:
         ox, oy = float(grid.x0.min()), float(grid.y0.min())
         span_x, span_y = float(grid.x1.max()) - ox, float(grid.y1.max()) - oy
-        # px +- r is rounded to the coordinates' precision: the cells cover that too
+        # box bounds are rounded to the coordinates' precision: the cells allow for that
         ulp = 4 * np.finfo(float).eps * max(abs(ox), abs(oy), abs(ox + span_x),
                                             abs(oy + span_y), 1e-300)
         cell = max(1.01 * (2 * r + 2 * ulp) / m, math.sqrt(span_x * span_y / MAX_CELLS),
@@ -170,8 +186,7 @@ class _Blocks:
             gy0 = ((grid.y0 - oy) / cell).astype(np.int64)
             nbx = ((grid.x1 - ox) / cell).astype(np.int64) - gx0 + 1 + m  # blocks a side
             nby = ((grid.y1 - oy) / cell).astype(np.int64) - gy0 + 1 + m
-            count = nbx * nby
-            if int(count.sum()) <= MAX_BLOCKS_PER_SEGMENT * len(count) + 1_000_000:
+            if int((nbx * nby).sum()) <= MAX_BLOCKS_PER_SEGMENT * len(nbx) + 1_000_000:
                 break
             cell *= 2
         shape = (int(span_x / cell) + 1 + m, int(span_y / cell) + 1 + m)
@@ -182,20 +197,22 @@ class _Blocks:
         seg = (key % nseg).astype(np.int32)
         return cls((ox, oy), cell, m, shape, start, seg)
 
-    def query(self, pts: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
-        """The segments of each point's block: (point index, segment index)."""
+    def query(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The segments of each box's block: (box index, segment index). A segment whose
+        bounding box meets the box (as compared in floating point) is among them: cell
+        numbers grow with the coordinates."""
         (ox, oy), c, m = self.origin, self.cell, self.m
-        cx0 = np.floor((pts[:, 0] - r - ox) / c)  # the box's first cell a side
-        cy0 = np.floor((pts[:, 1] - r - oy) / c)
-        if np.any(np.floor((pts[:, 0] + r - ox) / c) - cx0 > m) or \
-                np.any(np.floor((pts[:, 1] + r - oy) / c) - cy0 > m):
-            raise ArithmeticError("a point's box spans more cells than a block")
+        cx0 = np.floor((lo[:, 0] - ox) / c)  # the box's first cell a side
+        cy0 = np.floor((lo[:, 1] - oy) / c)
+        if np.any(np.floor((hi[:, 0] - ox) / c) - cx0 > m) or \
+                np.any(np.floor((hi[:, 1] - oy) / c) - cy0 > m):
+            raise ArithmeticError("a box spans more cells than a block")
         bi = np.clip(cx0 + m, 0, self.shape[0] - 1).astype(np.int64)
         bj = np.clip(cy0 + m, 0, self.shape[1] - 1).astype(np.int64)
         b = bi * self.shape[1] + bj
         first = self.start[b]
         n = self.start[b + 1] - first
-        return np.repeat(np.arange(len(pts)), n), self.seg[ragged_arange(first, n)]
+        return np.repeat(np.arange(len(lo)), n), self.seg[ragged_arange(first, n)]
 
 
 def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
