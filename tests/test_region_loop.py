@@ -135,3 +135,71 @@ def test_best_per_group_is_the_lexsort_head():
         order = np.lexsort((-v, group))
         want = order[np.r_[True, group[order][1:] != group[order][:-1]]]
         assert np.array_equal(D._best_per_group(v, group), want)
+
+
+def test_descending_within_runs_is_the_lexsort():
+    rng = np.random.default_rng(8)
+    for n_runs, top in ((500, 6), (200, 30), (1, 3), (50, 1)):
+        count = rng.integers(0, top + 1, n_runs)
+        start = np.cumsum(count) - count
+        run = np.repeat(np.arange(n_runs), count)
+        value = rng.integers(0, 5, len(run)).astype(float)  # many ties
+        value[rng.random(len(run)) < 0.05] = -np.inf
+        for v in (value, np.where(rng.random(len(run)) < 0.03, np.nan, value)):
+            assert np.array_equal(D._descending_within_runs(v, start, count),
+                                  np.lexsort((-v, run)))
+    assert len(D._descending_within_runs(np.zeros(0), np.zeros(0, int), np.zeros(0, int))) == 0
+
+
+def _part_candidates_reference(arr, need, tol, lss):
+    """``_part_candidates`` as it was, uncached: a lexsort of the segments."""
+    sa, sb, sowner, tree = arr.segments()
+    seg = np.flatnonzero(need[sowner])
+    a, b, part = sa[seg], sb[seg], sowner[seg]
+    ln = np.hypot(*(b - a).T)
+    order = np.lexsort((-ln, part))
+    part_o = part[order]
+    head = np.flatnonzero(np.r_[True, part_o[1:] != part_o[:-1]])
+    rank = np.arange(len(order)) - np.repeat(head, np.diff(np.r_[head, len(order)]))
+    take = order[(rank < 6) & (ln[order] > 0)]
+    Q = 0.5 * (a[take] + b[take])
+    mine = part[take]
+    return Q, mine, D._clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
+
+
+def _crossing_candidates_reference(arr, chains, tol, lss):
+    """``_crossing_candidates`` as it was: a lexsort of all the rows by chain, clearance."""
+    part_chain = np.full(len(arr.parts), -1)
+    part_chain[chains.parts] = np.repeat(np.arange(len(chains)), chains.size)
+    Q, mine, clear = _part_candidates_reference(arr, part_chain >= 0, tol, lss)
+    chain = part_chain[mine]
+    ok = np.flatnonzero(clear >= 4 * tol)
+    ok = ok[np.lexsort((-clear[ok], chain[ok]))]
+    ch = chain[ok]
+    head = np.flatnonzero(np.r_[True, ch[1:] != ch[:-1]]) if len(ch) else np.zeros(0, int)
+    rank = np.arange(len(ch)) - np.repeat(head, np.diff(np.r_[head, len(ch)]))
+    ok = ok[rank < 8]
+    eps = np.minimum(0.25 * (clear[ok] - tol), max(50 * tol, 1e-4 * lss))
+    ptr = np.searchsorted(chain[ok], np.arange(len(chains) + 1))
+    return D._Candidates(ptr, Q[ok].reshape(-1, 2), eps)
+
+
+@pytest.mark.parametrize("nreg", [3, 40, 10**6])
+def test_crossing_candidates_equal_reference(nreg):
+    """Chains of random regions (on a fresh arrangement each: no cache), with the clearance
+    threshold hit or not: the same candidates, bit for bit."""
+    env = floor_plan(40, seed=2).internal
+    lss = 0.12 * (env.bounds[2] - env.bounds[0])
+    for tol in (REL_CURVE_TOL * env.diameter, 30 * REL_CURVE_TOL * env.diameter):
+        curves = D.critical_curves(env, lss, REL_CURVE_TOL)
+        arr = D._arrangement(env, curves, tol)
+        rng = np.random.default_rng(nreg)
+        nf = len(arr.faces)
+        face_region = rng.integers(0, min(nreg, nf), nf)
+        chains = D._chains(arr, face_region)
+        got = D._crossing_candidates(arr, chains, tol, lss)
+        want = _crossing_candidates_reference(D._arrangement(env, curves, tol), chains, tol,
+                                              lss)
+        assert len(want.eps) > 50 and (want.count < want.count.max()).any()
+        for g, w in ((got.ptr, want.ptr), (got.q, want.q), (got.eps, want.eps)):
+            assert np.array_equal(g, w)

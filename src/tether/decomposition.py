@@ -1624,23 +1624,58 @@ class _Candidates:
 def _crossing_candidates(arr: _Arrangement, chains: _Chains, tol: float, lss: float
                          ) -> _Candidates:
     """For every chain, candidate crossing points (midpoints of the 6 longest segments of
-    each of its parts) with their offsets ``eps``, best clearance first (up to 8); only points
-    clear of every other part by ``4 tol``. All chains are handled in one vectorized pass."""
-    part_chain = np.full(len(arr.parts), -1)
-    part_chain[chains.parts] = np.repeat(np.arange(len(chains)), chains.size)
-    Q, mine, clear = _part_candidates(arr, part_chain >= 0, tol, lss)
-    chain = part_chain[mine]
-    ok = np.flatnonzero(clear >= 4 * tol)
-    ok = ok[np.lexsort((-clear[ok], chain[ok]))]
+    each of its parts) with their offsets ``eps``, best clearance first (up to 8; among equals
+    in part order); only points clear of every other part by ``4 tol``. All chains are
+    handled in one vectorized pass."""
+    need = np.zeros(len(arr.parts), bool)
+    need[chains.parts] = True
+    Q, mine, clear = _part_candidates(arr, need, tol, lss)  # in (part, rank) order
+    # the rows chain after chain (a chain's parts in increasing order), then by clearance
+    first = np.searchsorted(mine, np.arange(len(arr.parts) + 1))
+    per_part = first[chains.parts + 1] - first[chains.parts]
+    rows = ragged_arange(first[chains.parts], per_part)
+    chain = np.repeat(np.repeat(np.arange(len(chains)), chains.size), per_part)
+    ok = np.flatnonzero(clear[rows] >= 4 * tol)
+    rows, chain = rows[ok], chain[ok]
+    count = np.bincount(chain, minlength=len(chains))
+    start = np.cumsum(count) - count
+    rows = rows[_descending_within_runs(clear[rows], start, count)]
     # the best 8 of each chain (rank within the chain's run)
-    ch = chain[ok]
-    head = np.flatnonzero(np.r_[True, ch[1:] != ch[:-1]]) if len(ch) else np.zeros(0, int)
-    rank = np.arange(len(ch)) - np.repeat(head, np.diff(np.r_[head, len(ch)]))
-    ok = ok[rank < 8]
+    rank = np.arange(len(rows)) - np.repeat(start, count)
+    rows = rows[rank < 8]
     cap = max(50 * tol, 1e-4 * lss)
-    eps = np.minimum(0.25 * (clear[ok] - tol), cap)
-    ptr = np.searchsorted(chain[ok], np.arange(len(chains) + 1))
-    return _Candidates(ptr, Q[ok].reshape(-1, 2), eps)
+    eps = np.minimum(0.25 * (clear[rows] - tol), cap)
+    ptr = np.r_[0, np.cumsum(np.minimum(count, 8))]
+    return _Candidates(ptr, Q[rows].reshape(-1, 2), eps)
+
+
+def _descending_within_runs(value: np.ndarray, start: np.ndarray, count: np.ndarray,
+                            width: int = 8) -> np.ndarray:
+    """The order of rows sorting each run ``start[i]:start[i] + count[i]`` (runs one after
+    the other, covering the rows) by ``value``, largest first, equals in row order: that of
+    ``np.lexsort((-value, run))``. Runs of up to ``width`` rows are sorted as the rows of one
+    padded matrix (no sort of all the rows), longer ones by a lexsort of their rows."""
+    n = len(value)
+    order = np.arange(n)
+    if n == 0:
+        return order
+    if np.isnan(value).any():
+        run = np.repeat(np.arange(len(count)), count)
+        return np.lexsort((-value, run))
+    short = np.flatnonzero((count > 1) & (count <= width))
+    if len(short):
+        idx = start[short][:, None] + np.arange(width)
+        real = np.arange(width) < count[short][:, None]
+        idx = np.where(real, idx, n - 1)
+        neg = np.where(real, -value[idx], np.inf)  # padding after every value, -inf too
+        srt = np.take_along_axis(idx, np.argsort(neg, axis=1, kind="stable"), axis=1)
+        order[idx[real]] = srt[real]
+    long = np.flatnonzero(count > width)
+    if len(long):
+        rows = ragged_arange(start[long], count[long])
+        run = np.repeat(np.arange(len(long)), count[long])
+        order[rows] = rows[np.lexsort((-value[rows], run))]
+    return order
 
 
 #: Candidate points handled per batch when measuring their clearance: each brings one row per
@@ -1693,13 +1728,15 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
     todo = need & ~cache["done"]
     if todo.any():
         seg = np.flatnonzero(todo[sowner])
+        if np.any(sowner[seg[1:]] < sowner[seg[:-1]]):  # not in part order (never so)
+            seg = seg[np.argsort(sowner[seg], kind="stable")]
         a, b, part = sa[seg], sb[seg], sowner[seg]
         ln = np.hypot(*(b - a).T)
-        order = np.lexsort((-ln, part))
-        part_o = part[order]
-        head = np.flatnonzero(np.r_[True, part_o[1:] != part_o[:-1]]) if len(part_o) else \
-            np.zeros(0, np.int64)
-        rank = np.arange(len(order)) - np.repeat(head, np.diff(np.r_[head, len(order)]))
+        head = np.flatnonzero(np.r_[True, part[1:] != part[:-1]]) if len(part) else \
+            np.zeros(0, np.int64)  # segments are in part order
+        count = np.diff(np.r_[head, len(part)])
+        order = _descending_within_runs(ln, head, count)  # longest first, as a lexsort
+        rank = np.arange(len(order)) - np.repeat(head, count)
         keep = (rank < 6) & (ln[order] > 0)
         take = order[keep]
         Q = 0.5 * (a[take] + b[take])
