@@ -153,3 +153,15 @@ def test_empty_inputs():
     assert [len(x) for x in grid.meeting(np.zeros((0, 2)), np.zeros((0, 2)))] == [0, 0]
     qi, si, d = D._segments_near(np.array([[0.5, 0.6]]), a, a + 1.0, 0.1, grid)
     assert qi.tolist() == [0] and si.tolist() == [0] and d[0] == pytest.approx(0.1 / 2**0.5)
+
+
+def test_segment_pairs_grid_equals_strtree():
+    rng = np.random.default_rng(12)
+    a, b = _segments(rng, 2500)
+    pts = rng.uniform(-0.05, 1.05, (1500, 2))
+    for r in (0.002, 0.03):
+        got = D._segment_pairs(pts, r, SegmentGrid(a, b))
+        want = D._segment_pairs(pts, r, D._segment_tree(a, b))
+        assert len(want[0]) > 100
+        assert sorted(zip(*(x.tolist() for x in got), strict=True)) == \
+            sorted(zip(*(x.tolist() for x in want), strict=True))

@@ -912,25 +912,27 @@ def _segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
     :class:`SegmentGrid`; the same pairs): point indices, segment indices, distances."""
     if len(pts) == 0 or len(a) == 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    qi, si = _segment_pairs(pts, reach, tree)  # envelopes only; exact distances below
     if isinstance(tree, SegmentGrid):
-        return _grid_segments_near(pts, reach, tree)
-    lo = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
-                     pts[:, 1] + reach)
-    qi, si = tree.query(lo)  # envelopes only; exact distances below
-    d = _point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], a[:, 0][si], a[:, 1][si],
-                                   b[:, 0][si], b[:, 1][si])
+        d = _pair_distances(pts[:, 0][qi], pts[:, 1][qi], tree, si)
+    else:
+        d = _point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], a[:, 0][si],
+                                       a[:, 1][si], b[:, 0][si], b[:, 1][si])
     near = np.flatnonzero(d <= reach)
     return qi[near], si[near], d[near]
 
 
-def _grid_segments_near(pts: np.ndarray, reach: float, grid: SegmentGrid
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_segments_near` on a grid: the segments whose bounding box meets the point's
-    box (the STRtree's candidates) closer than ``reach``."""
-    qi, si = grid.meeting(pts - reach, pts + reach)
-    d = _pair_distances(pts[:, 0][qi], pts[:, 1][qi], grid, si)
-    near = np.flatnonzero(d <= reach)
-    return qi[near], si[near], d[near]
+def _segment_pairs(pts: np.ndarray, reach: float, tree: shapely.STRtree | SegmentGrid
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (point, segment) of the points (m, 2) and the segments indexed by ``tree``
+    whose bounding box meets the point's box ``[p - reach, p + reach]``: an STRtree's
+    answer, or a :class:`SegmentGrid`'s (the same pairs, without making the boxes)."""
+    if isinstance(tree, SegmentGrid):
+        return tree.meeting(pts - reach, pts + reach)
+    box = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
+                      pts[:, 1] + reach)
+    qi, si = tree.query(box)
+    return qi, si
 
 
 def _pair_distances(px: np.ndarray, py: np.ndarray, grid: SegmentGrid, si: np.ndarray
