@@ -203,3 +203,30 @@ def test_crossing_candidates_equal_reference(nreg):
         assert len(want.eps) > 50 and (want.count < want.count.max()).any()
         for g, w in ((got.ptr, want.ptr), (got.q, want.q), (got.eps, want.eps)):
             assert np.array_equal(g, w)
+
+
+def test_isolated_regions_are_those_of_the_chains():
+    """The regions no chain of which has a candidate, as the loop found them before: from
+    the chains and their candidates. Random regions, and the smallest faces as regions of
+    their own (some isolated at the larger tolerances)."""
+    env = floor_plan(40, seed=5).internal
+    lss = 0.12 * (env.bounds[2] - env.bounds[0])
+    curves = D.critical_curves(env, lss, REL_CURVE_TOL)
+    seen = 0
+    for k in (1, 30, 300):
+        tol = k * REL_CURVE_TOL * env.diameter
+        arr = D._arrangement(env, curves, tol)
+        rng = np.random.default_rng(k)
+        for nreg in (2, 30):
+            face_region = rng.integers(0, nreg, len(arr.faces))
+            face_region[rng.random(len(face_region)) < 0.2] = -1
+            small = np.argsort(D.shapely.area(arr.faces))[:40]
+            face_region[small] = nreg + np.arange(40)
+            chains = D._chains(arr, face_region)
+            cands = D._crossing_candidates(arr, chains, tol, lss)
+            touched = np.zeros(nreg + 40, bool)
+            touched[chains.pair[cands.count > 0].ravel()] = True
+            want = set(np.flatnonzero(~touched).tolist())
+            assert D._isolated_regions(arr, face_region, nreg + 40, tol, lss) == want
+            seen += len(want)
+    assert seen

@@ -1244,15 +1244,12 @@ def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok:
     for attempt in range(4):
         flat, size = _groups(uf, keep, face_struct)
         numbering = _number_regions(arr, flat, size, pts, clear)
-        face_region, nreg = numbering["face_region"], len(size)
-        chains = _chains(arr, face_region)
-        cands = _crossing_candidates(arr, chains, tol, lss)
+        face_region = numbering["face_region"]
         # a region none of whose boundary is resolved (a speck at a tangency) would never
         # be crossed and its cells never eliminated: it is below resolution as a whole
-        touched = np.zeros(nreg, bool)
-        touched[chains.pair[cands.count > 0].ravel()] = True
-        isolated = set(np.flatnonzero(~touched).tolist()) if nreg > 1 else set()
-        if not isolated or attempt == 3:  # these are the regions
+        isolated = _isolated_regions(arr, face_region, len(size), tol, lss) \
+            if len(size) > 1 and attempt < 3 else set()
+        if not isolated:  # these are the regions
             break
         specks: dict[int, list[int]] = {}
         faces_in = np.flatnonzero(np.isin(face_region, list(isolated)))
@@ -1262,7 +1259,25 @@ def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok:
             del face_struct[f]
         _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
     numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
-    return numbering, chains, cands
+    chains = _chains(arr, face_region)
+    return numbering, chains, _crossing_candidates(arr, chains, tol, lss)
+
+
+def _isolated_regions(arr: _Arrangement, face_region: np.ndarray, nreg: int, tol: float,
+                      lss: float) -> set[int]:
+    """The regions (of ``face_region``, ``nreg`` of them) no chain of which would have a
+    crossing candidate (see :func:`_crossing_candidates`): none of the parts between the
+    region and another has a candidate point clear of the other parts by ``4 tol``. The
+    parts' candidates only: no chains."""
+    fr = np.append(face_region, -1)  # index -1 (no face) maps to the last slot, -1
+    ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
+    between = (ra >= 0) & (rb >= 0) & (ra != rb)
+    _, mine, clear = _part_candidates(arr, between, tol, lss)
+    good = mine[clear >= 4 * tol]
+    touched = np.zeros(nreg, bool)
+    touched[ra[good]] = True
+    touched[rb[good]] = True
+    return set(np.flatnonzero(~touched).tolist())
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
