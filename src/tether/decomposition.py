@@ -1158,6 +1158,54 @@ def gc_paused() -> Iterator[None]:
             gc.enable()
 
 
+def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok: np.ndarray,
+                  sid: np.ndarray, face_struct: dict[int, Structure], pts: np.ndarray,
+                  clear: np.ndarray, tol: float, lss: float
+                  ) -> tuple[dict[str, Any], _Chains, _Candidates]:
+    """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure,
+    ``ok = keep[resolved]``, of structure ids ``sid`` and structures ``face_struct``, points
+    ``pts`` and clearances ``clear``) grouped into numbered regions, with the chains between
+    regions and their crossing candidates. Sub-resolution faces, then speck regions no
+    chain of which has a candidate, join neighbours (``face_struct`` is updated)."""
+    nf = len(arr.faces)
+    kept = np.zeros(nf, bool)
+    kept[keep] = True
+    pa, pb = arr.part_faces[:, 0], arr.part_faces[:, 1]
+    adj = np.flatnonzero((pa >= 0) & (pb >= 0) & (pa != pb) & kept[np.maximum(pa, 0)]
+                         & kept[np.maximum(pb, 0)])
+    adjacent = np.column_stack((pa[adj], pb[adj], adj))  # (face, face, part) rows
+    # faces adjacent across a part with equal structures are one region (components)
+    face_sid = np.full(nf, -1)
+    face_sid[ok] = sid
+    same = (face_sid[adjacent[:, 0]] >= 0) & (face_sid[adjacent[:, 0]]
+                                              == face_sid[adjacent[:, 1]])
+    uf = _UnionFind(nf)
+    uf.parent = _components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
+    plen = shapely.length(arr.parts)
+    # sub-resolution faces join the neighbour they share most boundary with
+    _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
+    for attempt in range(4):
+        flat, size = _groups(uf, keep, face_struct)
+        numbering = _number_regions(arr, flat, size, pts, clear)
+        face_region = numbering["face_region"]
+        # a region none of whose boundary is resolved (a speck at a tangency) would never
+        # be crossed and its cells never eliminated: it is below resolution as a whole
+        isolated = _isolated_regions(arr, face_region, len(size), tol, lss) \
+            if len(size) > 1 and attempt < 3 else set()
+        if not isolated:  # these are the regions
+            break
+        specks: dict[int, list[int]] = {}
+        faces_in = np.flatnonzero(np.isin(face_region, list(isolated)))
+        faces_in = faces_in[np.argsort(face_region[faces_in], kind="stable")]
+        for f, r in zip(faces_in.tolist(), face_region[faces_in].tolist(), strict=True):
+            specks.setdefault(r, []).append(f)
+            del face_struct[f]
+        _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
+    numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
+    chains = _chains(arr, face_region)
+    return numbering, chains, _crossing_candidates(arr, chains, tol, lss)
+
+
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                out: UserFrame | None = None) -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
@@ -1213,54 +1261,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     dec.__dict__["_cell_codes"] = codes  # known when the cells were made
     return dec
-
-
-def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok: np.ndarray,
-                  sid: np.ndarray, face_struct: dict[int, Structure], pts: np.ndarray,
-                  clear: np.ndarray, tol: float, lss: float
-                  ) -> tuple[dict[str, Any], _Chains, _Candidates]:
-    """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure,
-    ``ok = keep[resolved]``, of structure ids ``sid`` and structures ``face_struct``, points
-    ``pts`` and clearances ``clear``) grouped into numbered regions, with the chains between
-    regions and their crossing candidates. Sub-resolution faces, then speck regions no
-    chain of which has a candidate, join neighbours (``face_struct`` is updated)."""
-    nf = len(arr.faces)
-    kept = np.zeros(nf, bool)
-    kept[keep] = True
-    pa, pb = arr.part_faces[:, 0], arr.part_faces[:, 1]
-    adj = np.flatnonzero((pa >= 0) & (pb >= 0) & (pa != pb) & kept[np.maximum(pa, 0)]
-                         & kept[np.maximum(pb, 0)])
-    adjacent = np.column_stack((pa[adj], pb[adj], adj))  # (face, face, part) rows
-    # faces adjacent across a part with equal structures are one region (components)
-    face_sid = np.full(nf, -1)
-    face_sid[ok] = sid
-    same = (face_sid[adjacent[:, 0]] >= 0) & (face_sid[adjacent[:, 0]]
-                                              == face_sid[adjacent[:, 1]])
-    uf = _UnionFind(nf)
-    uf.parent = _components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
-    plen = shapely.length(arr.parts)
-    # sub-resolution faces join the neighbour they share most boundary with
-    _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
-    for attempt in range(4):
-        flat, size = _groups(uf, keep, face_struct)
-        numbering = _number_regions(arr, flat, size, pts, clear)
-        face_region = numbering["face_region"]
-        # a region none of whose boundary is resolved (a speck at a tangency) would never
-        # be crossed and its cells never eliminated: it is below resolution as a whole
-        isolated = _isolated_regions(arr, face_region, len(size), tol, lss) \
-            if len(size) > 1 and attempt < 3 else set()
-        if not isolated:  # these are the regions
-            break
-        specks: dict[int, list[int]] = {}
-        faces_in = np.flatnonzero(np.isin(face_region, list(isolated)))
-        faces_in = faces_in[np.argsort(face_region[faces_in], kind="stable")]
-        for f, r in zip(faces_in.tolist(), face_region[faces_in].tolist(), strict=True):
-            specks.setdefault(r, []).append(f)
-            del face_struct[f]
-        _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
-    numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
-    chains = _chains(arr, face_region)
-    return numbering, chains, _crossing_candidates(arr, chains, tol, lss)
 
 
 def _isolated_regions(arr: _Arrangement, face_region: np.ndarray, nreg: int, tol: float,
