@@ -17,11 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from tether.arcs import feature_name
 from tether.arrays import ragged_arange
-from tether.decomposition import FREE, Decomposition, gc_paused
-from tether.environment import Environment
-from tether.graph import ConnectivityGraph, build_graph, cell_regions
+from tether.decomposition import Decomposition, feature_name_rank, gc_paused
+from tether.graph import ConnectivityGraph, build_graph, cell_first, cell_ids_of, cell_regions
 
 
 @dataclass(frozen=True)
@@ -131,21 +129,34 @@ class Eliminations(Sequence):
         return len(self.cell)
 
     def _one(self, i: int) -> Elimination:
-        ids = self.graph.cell_ids
         dec = self.graph.dec
         c, k, b = int(self.cell[i]), int(self.piece[i]), int(self.because[i])
         ra, rb = dec.pieces[k].regions
-        other = rb if ra == dec.cells[c].region else ra
-        return Elimination(ids[c], f"R{other}", f"P{k}", int(self.round[i]),
-                           None if b < 0 else ids[b])
+        other = rb if ra == cell_regions(dec)[c] else ra
+        ids = cell_ids_of(dec, [c] if b < 0 else [c, b])
+        return Elimination(ids[0], f"R{other}", f"P{k}", int(self.round[i]),
+                           None if b < 0 else ids[1])
 
     @property
     def _all(self) -> tuple[Elimination, ...]:
         got = self.__dict__.get("_tuple")
         if got is None:
             with gc_paused():
-                got = self.__dict__["_tuple"] = tuple(self._one(i) for i in range(len(self)))
+                got = self.__dict__["_tuple"] = self._make_all()
         return got
+
+    def _make_all(self) -> tuple[Elimination, ...]:
+        """Every :class:`Elimination`, in order (ids made in one pass)."""
+        dec = self.graph.dec
+        n = len(self)
+        ids = cell_ids_of(dec, np.concatenate((self.cell, np.maximum(self.because, 0))))
+        regs = np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
+        ends = regs[self.piece]
+        other = np.where(ends[:, 0] == cell_regions(dec)[self.cell], ends[:, 1], ends[:, 0])
+        return tuple(Elimination(c, f"R{o}", f"P{k}", r, None if b < 0 else ib)
+                     for c, o, k, r, b, ib in zip(
+                         ids[:n], other.tolist(), self.piece.tolist(), self.round.tolist(),
+                         self.because.tolist(), ids[n:], strict=True))
 
     def __getitem__(self, i: Any) -> Any:
         if isinstance(i, slice):
@@ -181,21 +192,8 @@ def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
     dec = graph.dec
     alive, cell, slot, rnd, because = fixed_point_arrays(
         cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
-    ids = graph.cell_ids
-    surviving = frozenset(ids[i] for i in np.flatnonzero(alive).tolist())
+    surviving = frozenset(cell_ids_of(dec, np.flatnonzero(alive)))
     return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
-
-
-def feature_name_rank(env: Environment) -> np.ndarray:
-    """``rank[code + 1]``: the position of feature ``code``'s name (``FREE`` for -1) among all
-    of them sorted as strings, cached per map."""
-    got = env.__dict__.get("_feature_name_rank")
-    if got is None:
-        names = [FREE] + [feature_name(env, c) for c in range(2 * env.n)]
-        got = np.empty(len(names), dtype=np.int64)
-        got[sorted(range(len(names)), key=names.__getitem__)] = np.arange(len(names))
-        env.__dict__["_feature_name_rank"] = got
-    return got
 
 
 def cell_rank(dec: Decomposition) -> np.ndarray:
@@ -334,9 +332,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
         surviving, elim = eliminate(graph)
     witness = None
     if not surviving:
-        empty = [r.id for r in dec.regions if not r.cells]
-        if empty:
-            witness = empty[0]
+        empty = np.flatnonzero(np.diff(cell_first(dec)) == 0)
+        if len(empty):
+            witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
     return Verdict(dec, graph, surviving, elim, witness, report)
@@ -349,7 +347,7 @@ def _first_emptied(dec: Decomposition, elim: Eliminations) -> int | None:
     last = np.full(len(dec.regions), -1, dtype=np.int64)
     np.maximum.at(last, reg, np.arange(len(reg)))
     left = np.bincount(reg, minlength=len(dec.regions))
-    full = np.array([len(r.cells) for r in dec.regions]) == left
+    full = np.diff(cell_first(dec)) == left
     cand = np.flatnonzero(full & (last >= 0))
     return int(cand[np.argmin(last[cand])]) if len(cand) else None
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from tether.arcs import TWO_PI, free_arcs_many
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, gc_paused
+from tether.decomposition import Decomposition, _Cells, gc_paused
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -130,8 +130,21 @@ def cell_ids(dec: Decomposition) -> list[str]:
     """The ids of ``dec.cells`` as a list, cached on the decomposition."""
     got = dec.__dict__.get("_cell_id_list")
     if got is None:
-        got = dec.__dict__["_cell_id_list"] = [c.id for c in dec.cells]
+        cells = dec.cells
+        got = cells._table.ids() if type(cells) is _Cells else [c.id for c in cells]
+        dec.__dict__["_cell_id_list"] = got
     return got
+
+
+def cell_ids_of(dec: Decomposition, which: Any) -> list[str]:
+    """The ids of the cells of indices ``which`` (made from the cells' columns, not the list
+    of every id unless it exists already)."""
+    which = np.asarray(which, dtype=np.int64).reshape(-1)
+    cells = dec.cells
+    if "_cell_id_list" in dec.__dict__ or type(cells) is not _Cells:
+        ids = cell_ids(dec)
+        return [ids[i] for i in which.tolist()]
+    return cells._table.ids(which)
 
 
 def cell_regions(dec: Decomposition) -> np.ndarray:

@@ -1,0 +1,173 @@
+"""Cells held as integer columns, against the per-region objects they replaced.
+
+The reference is the former ``_make_regions``: each region's structure named with
+:func:`structure_names` (sorted by name) and one :class:`Cell` made per name pair. The lazy
+sequence ``dec.cells``, ``Region.cells``, ``dec.cell(id)``, the cell codes, the lazily made
+multi-face polygons and the eliminations' ids must equal what the objects gave.
+"""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+import shapely
+from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE
+
+from tether.arcs import feature_name
+from tether.decomposition import (
+    FREE,
+    Cell,
+    _RegionShapes,
+    _structure_cells,
+    cell_name,
+    decompose,
+    structure_codes,
+    structure_names,
+)
+from tether.escape import analyze
+from tether.floorplan import floor_plan
+from tether.graph import cell_ids
+
+
+def _cases():
+    plan = floor_plan(40, seed=1)
+    return [(GENERIC, 2.5), (SQUARE_HOLE, 1.0), (STAR_HOLE, 2.5), (L_SHAPE, 4.0),
+            (plan.internal, (plan.bounds[2] - plan.bounds[0]) / 6 * plan.frame.scale)]
+
+
+def _reference_cells(dec) -> tuple[Cell, ...]:
+    """The cells as the per-region loop made them (the decomposition's own map numbering)."""
+    out = []
+    for r in dec.regions:
+        out += [Cell(cell_name(r.id, s, e), r.id, s, e)
+                for s, e in structure_names(dec.env, r.structure)]
+    return tuple(out)
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_cells_equal_the_per_region_objects(case):
+    env, lss = _cases()[case]
+    dec = decompose(env, lss)
+    ref = _reference_cells(dec)
+    cells = dec.cells
+    assert len(cells) == len(ref) > 5
+    assert cells == ref and ref == cells and tuple(cells) == ref and list(cells) == list(ref)
+    assert hash(cells) == hash(ref)
+    assert cells != ref[:-1] and cells != list(ref)  # a tuple is never equal to a list
+    assert cells[0] == ref[0] and cells[-1] == ref[-1] and cells[len(ref) - 2] == ref[-2]
+    assert cells[2:7] == ref[2:7] and cells[::3] == ref[::3] and cells[5:2] == ()
+    with pytest.raises(IndexError):
+        cells[len(ref)]
+    assert ref[3] in cells and Cell("(R0,E9,E9)", 0, "E9", "E9") not in cells
+    for r in dec.regions:
+        assert r.cells == tuple(c.id for c in ref if c.region == r.id)
+        assert r.cells is r.cells  # made once
+    # codes: per region the rows of structure_codes, in cell order
+    region, start, end = dec.cell_codes()
+    want = [(r.id, a, b) for r in dec.regions for a, b in structure_codes(dec.env, r.structure)
+            .tolist()]
+    assert list(zip(region.tolist(), start.tolist(), end.tolist(), strict=True)) == want
+    assert cell_ids(dec) == [c.id for c in ref]
+
+
+def test_cell_lookup_by_id():
+    dec = decompose(GENERIC, 2.5)
+    ref = _reference_cells(dec)
+    for c in ref:
+        assert dec.cell(c.id) == c
+    first = ref[0]
+    r, s, e = first.id[1:-1].split(",")
+    bad = [f"(R0{r[1:]},{s},{e})", f"({r},{s},{e}", f"({r},{s})", f"(R{len(dec.regions)},{s},{e})",
+           f"({r},{e}9,{s})", "R1", "", f"(r{r[1:]},{s},{e})", f"(R-1,{s},{e})", f" {first.id}"]
+    for cid in bad:
+        with pytest.raises(KeyError):
+            dec.cell(cid)
+    with pytest.raises(KeyError):
+        dec.cell(5)
+
+
+def test_cell_at_names_existing_cells():
+    dec = decompose(GENERIC, 2.5)
+    pts = np.array([r.point for r in dec.regions])
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(0, 2 * np.pi, len(pts))
+    known = {c.id for c in _reference_cells(dec)}
+    got = dec.cell_at(pts, ang)
+    assert sum(c is not None for c in got) > len(pts) // 3
+    assert all(c is None or c in known for c in got)
+
+
+def test_structure_cells_sorts_like_structure_codes():
+    """Random structures (shared objects, FULL and EMPTY among them): the columns are each
+    structure's structure_codes rows, region after region."""
+    env = GENERIC
+    rng = np.random.default_rng(3)
+    pool = ["FULL", "EMPTY"]
+    for _ in range(40):
+        k = int(rng.integers(1, 9))
+        pool.append(frozenset(zip(rng.integers(0, 2 * env.n, k).tolist(),
+                                  rng.integers(0, 2 * env.n, k).tolist(), strict=True)))
+    structs = [pool[i] for i in rng.integers(0, len(pool), 300).tolist()]
+    structs += [frozenset(s) if not isinstance(s, str) else s for s in structs[:20]]  # copies
+    region, start, end = _structure_cells(env, structs)
+    want = [(i, a, b) for i, s in enumerate(structs) for a, b in structure_codes(env, s).tolist()]
+    assert list(zip(region.tolist(), start.tolist(), end.tolist(), strict=True)) == want
+    names = [FREE] + [feature_name(env, c) for c in range(2 * env.n)]
+    got = [(names[a + 1], names[b + 1]) for a, b in zip(start.tolist(), end.tolist(),
+                                                          strict=True)]
+    assert got == [p for s in structs for p in structure_names(env, s)]
+    assert all(len(x) == 0 for x in _structure_cells(env, []))
+
+
+def test_multi_face_polygons_made_on_first_read():
+    """Unions of several faces are made on the first read; a few read through ``some`` are
+    the same geometries as all made at once, and every polygon's area is the region's."""
+    env, lss = _cases()[4]
+    dec = decompose(env, lss)
+    shapes = dec.regions[0]._polygon
+    assert type(shapes) is _RegionShapes and not shapes.converted
+    multi = sorted(shapes._unions)
+    assert len(multi) > 3
+    few = shapes.some(multi[:3] + [0])
+    assert not shapes.converted
+    dec2 = decompose(env, lss)
+    full = [r.polygon for r in dec2.regions]
+    assert dec2.regions[0]._polygon.converted
+    assert all(shapely.is_prepared(p) for p in full)
+    assert shapely.to_wkb(few).tolist() == shapely.to_wkb(
+        [full[i] for i in multi[:3] + [0]]).tolist()
+    for r, p in zip(dec2.regions, full, strict=True):
+        assert p.area == pytest.approx(r.area, rel=1e-9)
+    assert all(p.geom_type in ("Polygon", "MultiPolygon") for p in full)
+
+
+def test_pickled_decomposition_keeps_cells_and_lazy_polygons():
+    dec = decompose(GENERIC, 2.5)
+    copy = pickle.loads(pickle.dumps(dec))
+    assert copy.cells == dec.cells
+    assert [r.cells for r in copy.regions] == [r.cells for r in dec.regions]
+    assert [shapely.to_wkb(r.polygon) for r in copy.regions] == [
+        shapely.to_wkb(r.polygon) for r in dec.regions]
+
+
+@pytest.mark.parametrize("case", [0, 2, 4])
+def test_eliminations_and_survivors_by_id(case):
+    """The eliminations made in one pass equal those made one by one from the list of every
+    cell id, and the survivors are the ids of the alive cells."""
+    env, lss = _cases()[case]
+    v = analyze(decompose(env, lss), self_check=False)
+    el = v.eliminated
+    ids = cell_ids(v.dec)
+    regions = [c.region for c in v.dec.cells]
+    for i, e in enumerate(el):
+        c = int(el.cell[i])
+        assert e == el._one(i) == el[i]
+        assert e.cell == ids[c] and e.piece == f"P{el.piece[i]}"
+        assert (e.because is None) == (el.because[i] < 0)
+        assert e.because is None or e.because == ids[el.because[i]]
+        a, b = v.dec.pieces[int(el.piece[i])].regions
+        assert e.escapes_to == f"R{b if a == regions[c] else a}"
+    fell = set(el.cell.tolist())
+    assert v.surviving == frozenset(ids[i] for i in range(len(ids)) if i not in fell)
