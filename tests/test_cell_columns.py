@@ -171,3 +171,33 @@ def test_eliminations_and_survivors_by_id(case):
         assert e.escapes_to == f"R{b if a == regions[c] else a}"
     fell = set(el.cell.tolist())
     assert v.surviving == frozenset(ids[i] for i in range(len(ids)) if i not in fell)
+
+
+def test_decrement_and_increasing_against_plain_loops():
+    from tether.escape import _decrement, _increasing
+
+    rng = np.random.default_rng(5)
+    for n, k in ((50, 3), (50, 400), (1000, 10), (7, 0)):
+        count = rng.integers(0, 100, n)
+        idx = rng.integers(0, n, k)
+        want = count.copy()
+        for i in idx.tolist():
+            want[i] -= 1
+        _decrement(count, idx)
+        assert count.tolist() == want.tolist()
+    for _ in range(200):
+        m = int(rng.integers(0, 6))
+        a, b, c = (rng.integers(0, 3, m) for _ in range(3))
+        rows = list(zip(a.tolist(), b.tolist(), c.tolist(), strict=True))
+        assert _increasing(a, b, c) == all(x < y for x, y in zip(rows, rows[1:], strict=False))
+
+
+def test_to_dict_cells_and_regions_as_the_objects_give():
+    dec = decompose(STAR_HOLE, 2.5)
+    ref = _reference_cells(dec)
+    assert dec.regions[1].cells  # one region read already, the others filled in one pass
+    d = dec.to_dict()
+    assert d["cells"] == [c.to_dict() for c in ref]
+    assert [r["cells"] for r in d["regions"]] == [
+        [c.id for c in ref if c.region == r.id] for r in dec.regions]
+    assert all(type(r._cells) is tuple for r in dec.regions)

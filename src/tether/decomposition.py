@@ -267,6 +267,25 @@ class _CellTable:
         return [f"(R{r},{names[s + 1]},{names[e + 1]})" for r, s, e in zip(
             reg.tolist(), st.tolist(), en.tolist(), strict=True)]
 
+    def dicts(self) -> list[dict]:
+        """Every cell's :meth:`Cell.to_dict`, made from the columns."""
+        names = self.names
+        return [{"id": f"(R{r},{names[s + 1]},{names[e + 1]})", "region": f"R{r}",
+                 "start_feature": names[s + 1], "end_feature": names[e + 1]}
+                for r, s, e in zip(self.region.tolist(), self.start.tolist(),
+                                   self.end.tolist(), strict=True)]
+
+    def fill(self, regions: Any) -> None:
+        """Make the cell ids of every region of ``regions`` still reading this table, in one
+        pass (each region's :attr:`Region.cells`)."""
+        todo = [r for r in regions if r._cells is self]
+        if not todo:
+            return
+        ids, first = self.ids(), self.first.tolist()
+        put = object.__setattr__
+        for r in todo:
+            put(r, "_cells", tuple(ids[first[r.id]:first[r.id + 1]]))
+
     def region_ids(self, r: int) -> tuple[str, ...]:
         """The ids of region ``r``'s cells."""
         names = self.names
@@ -575,6 +594,9 @@ class Decomposition:
         """Counts, regions and cells; with ``geometry`` also the pieces, the curves and each
         region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
         small on large maps (the full one is tens of MB at a few hundred vertices)."""
+        table = self.cells._table if type(self.cells) is _Cells else None
+        if table is not None:
+            table.fill(self.regions)
         out = {
             "map": self.env.name,
             "lss": self.lss,
@@ -582,7 +604,8 @@ class Decomposition:
             "unresolved_pieces": self.unresolved_pieces,
             "counts": {k: v for k, v in self.counts.items() if k != "curves"},
             "regions": [r.to_dict() for r in self.regions],
-            "cells": [c.to_dict() for c in self.cells],
+            "cells": ([c.to_dict() for c in self.cells] if table is None else
+                      table.dicts()),
         }
         if geometry:
             out["pieces"] = [p.to_dict() for p in self.pieces]

@@ -10,6 +10,7 @@ between pieces shared by the same two regions.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -299,8 +300,14 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, n
 
 
 def _piece_regions(dec: Decomposition) -> np.ndarray:
-    """``(m, 2)`` int array of every piece's two regions."""
-    return np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
+    """``(m, 2)`` int array of every piece's two regions, cached on the decomposition."""
+    got = dec.__dict__.get("_piece_regions")
+    if got is None:
+        m = len(dec.pieces)
+        flat = np.fromiter(itertools.chain.from_iterable(p.regions for p in dec.pieces),
+                           np.int64, 2 * m)
+        got = dec.__dict__["_piece_regions"] = flat.reshape(m, 2)
+    return got
 
 
 def build_graph(dec: Decomposition) -> ConnectivityGraph:
