@@ -201,3 +201,87 @@ def test_to_dict_cells_and_regions_as_the_objects_give():
     assert [r["cells"] for r in d["regions"]] == [
         [c.id for c in ref if c.region == r.id] for r in dec.regions]
     assert all(type(r._cells) is tuple for r in dec.regions)
+
+
+def _old_arc_rows(table):
+    """The former ``_arc_rows`` (always a sorted copy)."""
+    from tether.arcs import TWO_PI
+
+    full = np.flatnonzero(table.full)
+    point = np.concatenate((table.point, full))
+    order = np.argsort(point, kind="stable")
+    return {
+        "point": point[order],
+        "start": np.concatenate((table.start, np.zeros(len(full))))[order],
+        "end": np.concatenate((table.end, np.full(len(full), TWO_PI)))[order],
+        "full": np.concatenate((np.zeros(len(table.point), bool),
+                                np.ones(len(full), bool)))[order],
+        "start_code": np.concatenate((table.start_code, np.full(len(full), -1)))[order],
+        "end_code": np.concatenate((table.end_code, np.full(len(full), -1)))[order],
+    }
+
+
+def _old_candidate_pairs(rows, m):
+    """The former ``_candidate_pairs`` (every range's queries at once)."""
+    from tether.arcs import TWO_PI
+    from tether.arrays import ragged_arange
+    from tether.graph import _SEARCH_MARGIN, _arc_length
+
+    point, start = rows["point"], rows["start"]
+    counts = np.bincount(point, minlength=2 * m)
+    first = np.cumsum(counts) - counts
+    key = point * 8.0 + start
+    a = np.flatnonzero(point < m)
+    pb = point[a] + m
+    has = counts[pb] > 0
+    a, pb = a[has], pb[has]
+    s1 = start[a]
+    lo = s1 - _SEARCH_MARGIN
+    hi = s1 + _arc_length(s1, rows["end"][a], rows["full"][a]) + _SEARCH_MARGIN
+    base = pb * 8.0
+    ranges = [(lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), np.ones(len(a), bool)),
+              (np.zeros(len(a)), hi - TWO_PI, hi > TWO_PI),
+              (lo + TWO_PI, np.full(len(a), TWO_PI), lo < 0)]
+    got_a, got_b = [], []
+    for r0, r1, use in ranges:
+        i0 = np.searchsorted(key, base[use] + r0[use], side="left")
+        i1 = np.searchsorted(key, base[use] + r1[use], side="right")
+        n = np.maximum(i1 - i0, 0)
+        got_a.append(np.repeat(a[use], n))
+        got_b.append(ragged_arange(i0, n))
+    j = np.searchsorted(key, base + lo, side="right") - 1
+    j = np.where(j >= first[pb], j, first[pb] + counts[pb] - 1)
+    got_a.append(a)
+    got_b.append(j)
+    ga, gb = np.concatenate(got_a), np.concatenate(got_b)
+    pair = np.sort(ga * len(point) + gb)
+    pair = pair[np.r_[True, pair[1:] != pair[:-1]]] if len(pair) else pair
+    return pair // len(point), pair % len(point)
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_arc_rows_and_candidate_pairs_as_before(case):
+    """The arc rows (as they are when sorted without FULL points, else a sorted copy) and
+    the candidate pairs (range by range) equal the former all-at-once versions, with FULL
+    points and unsorted tables made up as well."""
+    from tether.arcs import ArcTable
+    from tether.graph import _candidate_pairs, _table_arc_rows
+
+    env, lss = _cases()[case]
+    dec = decompose(env, lss)
+    m = len(dec.pieces)
+    t = dec.crossing_arcs()
+    rng = np.random.default_rng(case)
+    full = np.asarray(t.full, dtype=bool).copy()
+    free_pts = np.setdiff1d(np.arange(len(full)), t.point)
+    full[free_pts] = True  # points without arcs: made FULL
+    flip = rng.permutation(len(t.point))
+    for table in (t, ArcTable(t.point, t.start, t.end, t.start_code, t.end_code, full),
+                  ArcTable(t.point[flip], t.start[flip], t.end[flip], t.start_code[flip],
+                           t.end_code[flip], t.full)):
+        got, want = _table_arc_rows(table), _old_arc_rows(table)
+        assert set(got) == set(want)
+        for k in want:
+            assert np.array_equal(got[k], want[k]), k
+        for a, b in zip(_candidate_pairs(got, m), _old_candidate_pairs(want, m), strict=True):
+            assert np.array_equal(a, b)

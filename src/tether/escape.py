@@ -236,10 +236,9 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     (from 1) and the ``because`` cell (-1 in round 1).
     """
     ncell = len(slot_ptr) - 1
-    count = np.diff(partner_ptr)
-    slot_cell = np.repeat(np.arange(ncell, dtype=np.int64), np.diff(slot_ptr))
+    count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
     zs = np.flatnonzero(count == 0)
-    zc = slot_cell[zs]
+    zc = _slot_cell(slot_ptr, zs)
     head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
     lvl_cell, lvl_slot = zc[head], zs[head]
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
@@ -259,16 +258,14 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         nslot = slot_ptr[lvl_cell + 1] - slot_ptr[lvl_cell]
         slots = ragged_arange(slot_ptr[lvl_cell], nslot)
         npart = partner_ptr[slots + 1] - partner_ptr[slots]
-        ent = ragged_arange(partner_ptr[slots], npart)
-        src = np.repeat(np.repeat(lvl_cell, nslot), npart)
-        tgt = partner_slot[ent]
+        tgt = partner_slot[ragged_arange(partner_ptr[slots], npart)]
         _decrement(count, tgt)
         # a slot empties at its last entry of the round (its count never rises again)
         hit = np.flatnonzero(count[tgt] == 0)
         rev = hit[::-1]
         _, last = np.unique(tgt[rev], return_index=True)
         pos = rev[last]  # entry position where each emptied slot reached 0
-        cell = slot_cell[tgt[pos]]
+        cell = _slot_cell(slot_ptr, tgt[pos])
         fresh = ~queued[cell]
         pos, cell = pos[fresh], cell[fresh]
         # a cell falls through the slot that emptied first in processing order
@@ -277,13 +274,22 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         keep = np.r_[True, cell[1:] != cell[:-1]] if len(cell) else np.zeros(0, bool)
         pos, cell = pos[keep], cell[keep]
         queued[cell] = True
-        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src[pos]
+        # the level's cell whose entries hold each position: its slot, then the slot's cell
+        src = lvl_cell[_slot_cell(np.r_[0, np.cumsum(nslot)],
+                                  _slot_cell(np.r_[0, np.cumsum(npart)], pos))]
+        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src
     alive = ~queued
     if out_cell:
         return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
                 np.concatenate(out_round), np.concatenate(out_because))
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
+
+
+def _slot_cell(ptr: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The group of each item ``s`` of a CSR layout: ``g`` with ``ptr[g] <= s < ptr[g + 1]``
+    (``ptr`` nondecreasing; empty groups are skipped)."""
+    return np.searchsorted(ptr, s, side="right") - 1
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
