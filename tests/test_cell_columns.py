@@ -285,3 +285,24 @@ def test_arc_rows_and_candidate_pairs_as_before(case):
             assert np.array_equal(got[k], want[k]), k
         for a, b in zip(_candidate_pairs(got, m), _old_candidate_pairs(want, m), strict=True):
             assert np.array_equal(a, b)
+
+
+def test_escape_story_chain_on_arrays_as_on_objects():
+    """The story's chain found on the elimination arrays equals the one found by scanning
+    the Elimination objects (a verdict holding them as a plain tuple)."""
+    import dataclasses
+
+    from tether import load_map
+    from tether.cli import example_path
+
+    seen = 0
+    cases = _cases() + [(load_map(example_path("rectangle")), 1.0)]
+    for env, lss in cases:
+        v = analyze(decompose(env, lss), self_check=False)
+        if v.strategy_exists or not v.dec.regions[v.witness_region].cells:
+            continue
+        seen += 1
+        plain = dataclasses.replace(v, eliminated=tuple(v.eliminated))
+        assert v.story() == plain.story()
+        assert len(v.story()) >= 2
+    assert seen >= 1

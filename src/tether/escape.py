@@ -395,11 +395,7 @@ def escape_story(v: Verdict) -> list[str]:
     if w is not None and not dec.regions[w].cells:
         return [f"In region R{w} no rod orientation is free at all: a target that reaches it "
                 "cannot be watched from distance lss. No surveillance strategy exists."]
-    by_cell = {e.cell: e for e in v.eliminated}
-    last = [e for e in v.eliminated if e.cell in dec.regions[w].cells][-1]
-    chain = [last]
-    while chain[-1].because is not None:
-        chain.append(by_cell[chain[-1].because])
+    chain = _witness_chain(v, w)
     lines = []
     for e in reversed(chain):
         if e.because is None:
@@ -413,6 +409,25 @@ def escape_story(v: Verdict) -> list[str]:
     lines.append(f"Every cell over R{w} is eliminated: wherever the observer is, a target in "
                  f"R{w} can escape. No surveillance strategy exists (Proposition 1).")
     return lines
+
+
+def _witness_chain(v: Verdict, w: int) -> list[Elimination]:
+    """The last elimination of a cell over region ``w``, then the elimination of its
+    ``because`` cell, and so on back to round 1 (on the arrays: no other elimination made)."""
+    el = v.eliminated
+    if not isinstance(el, Eliminations):
+        by_cell = {e.cell: e for e in el}
+        chain = [[e for e in el if e.cell in v.dec.regions[w].cells][-1]]
+        while chain[-1].because is not None:
+            chain.append(by_cell[chain[-1].because])
+        return chain
+    at = np.full(len(v.dec.cells), -1, dtype=np.int64)  # each cell's elimination
+    at[el.cell] = np.arange(len(el))
+    i = int(np.flatnonzero(cell_regions(v.dec)[el.cell] == w)[-1])
+    chain = [i]
+    while el.because[chain[-1]] >= 0:
+        chain.append(int(at[el.because[chain[-1]]]))
+    return [el[j] for j in chain]
 
 
 def _piece_text(dec: Decomposition, piece: str) -> str:
