@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import gc
 import itertools
-from collections.abc import Iterator
+import operator
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -188,6 +189,206 @@ class _Shapes:
         return len(self._geoms)
 
 
+class _RegionShapes(_Shapes):
+    """The regions' polygons (see :class:`_Shapes`), the unions of the multi-face regions made
+    on the first read: ``unions[i]`` the faces (an object array) whose ``shapely.union_all``
+    is item ``i``, all made at once on the first read of all (then prepared, converted),
+    only those asked for by :meth:`some`. Building G and analyzing never pay for them."""
+
+    __slots__ = ("_unions",)
+
+    def __init__(self, geoms: np.ndarray, unions: dict[int, np.ndarray], frame: Any = None,
+                 prepare: bool = True) -> None:
+        super().__init__(geoms, frame, prepare)
+        self._unions = unions or None
+
+    @property
+    def converted(self) -> bool:
+        """Whether the polygons are made and in the map's frame already (read or made so)."""
+        return self._unions is None and self._frame is None
+
+    def all(self) -> np.ndarray:
+        if self._unions is not None:
+            geoms = self._geoms.copy()  # never the caller's array
+            for i, faces in self._unions.items():
+                geoms[i] = shapely.union_all(faces)
+            self._geoms, self._unions = geoms, None
+            if self._frame is None and self._prepare:
+                shapely.prepare(geoms)
+        return super().all()
+
+    def some(self, ids: Any) -> np.ndarray:
+        if self._unions is None:
+            return super().some(ids)
+        ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+        geoms = self._geoms[ids]
+        for k, i in enumerate(ids.tolist()):
+            faces = self._unions.get(i)
+            if faces is not None:
+                geoms[k] = shapely.union_all(faces)
+        return geoms if self._frame is None else self._frame.geometry_to_user(geoms)
+
+
+class _CellTable:
+    """The cells of a decomposition as int columns, in cell order (region by region):
+    ``region``, ``start`` and ``end`` feature codes (the reported map's numbering, -1 for both
+    ends of a FULL region's cell); ``names[code + 1]`` is a code's feature name (``FREE`` for
+    -1); region ``r``'s cells are ``first[r]:first[r + 1]``. :class:`Cell` objects and id
+    strings are made from it when read."""
+
+    __slots__ = ("region", "start", "end", "names", "first", "_codes")
+
+    def __init__(self, region: np.ndarray, start: np.ndarray, end: np.ndarray,
+                 names: list[str], nregions: int) -> None:
+        self.region, self.start, self.end, self.names = region, start, end, names
+        count = np.bincount(region, minlength=nregions)
+        self.first = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
+        self._codes: dict[str, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.region)
+
+    def cell(self, i: int) -> Cell:
+        r, s, e = int(self.region[i]), self.names[self.start[i] + 1], self.names[self.end[i] + 1]
+        return Cell(f"(R{r},{s},{e})", r, s, e)
+
+    def cells(self, lo: int = 0, hi: int | None = None) -> Iterator[Cell]:
+        """The cells ``lo:hi``, made one by one."""
+        names = self.names
+        for r, s, e in zip(self.region[lo:hi].tolist(), self.start[lo:hi].tolist(),
+                           self.end[lo:hi].tolist(), strict=True):
+            a, b = names[s + 1], names[e + 1]
+            yield Cell(f"(R{r},{a},{b})", r, a, b)
+
+    def ids(self, which: Any = None) -> list[str]:
+        """The ids of the cells ``which`` (indices; default all), in that order."""
+        names = self.names
+        reg, st, en = ((self.region, self.start, self.end) if which is None else
+                       (self.region[which], self.start[which], self.end[which]))
+        return [f"(R{r},{names[s + 1]},{names[e + 1]})" for r, s, e in zip(
+            reg.tolist(), st.tolist(), en.tolist(), strict=True)]
+
+    def dicts(self) -> list[dict]:
+        """Every cell's :meth:`Cell.to_dict`, made from the columns."""
+        names = self.names
+        return [{"id": f"(R{r},{names[s + 1]},{names[e + 1]})", "region": f"R{r}",
+                 "start_feature": names[s + 1], "end_feature": names[e + 1]}
+                for r, s, e in zip(self.region.tolist(), self.start.tolist(),
+                                   self.end.tolist(), strict=True)]
+
+    def fill(self, regions: Any) -> None:
+        """Make the cell ids of every region of ``regions`` still reading this table, in one
+        pass (each region's :attr:`Region.cells`)."""
+        todo = [r for r in regions if r._cells is self]
+        if not todo:
+            return
+        ids, first = self.ids(), self.first.tolist()
+        put = object.__setattr__
+        for r in todo:
+            put(r, "_cells", tuple(ids[first[r.id]:first[r.id + 1]]))
+
+    def region_ids(self, r: int) -> tuple[str, ...]:
+        """The ids of region ``r``'s cells."""
+        names = self.names
+        lo, hi = int(self.first[r]), int(self.first[r + 1])
+        return tuple([f"(R{r},{names[s + 1]},{names[e + 1]})" for s, e in zip(
+            self.start[lo:hi].tolist(), self.end[lo:hi].tolist(), strict=True)])
+
+    def index(self, cell_id: Any) -> int:
+        """The index of the cell named ``cell_id``, -1 if there is none."""
+        if not isinstance(cell_id, str) or cell_id[:2] != "(R" or cell_id[-1:] != ")":
+            return -1
+        parts = cell_id[2:-1].split(",")
+        if len(parts) != 3 or not parts[0].isdigit():
+            return -1
+        r = int(parts[0])
+        if r >= len(self.first) - 1:
+            return -1
+        code = self._codes
+        if code is None:
+            code = self._codes = {n: c - 1 for c, n in enumerate(self.names) if n is not None}
+        s, e = code.get(parts[1]), code.get(parts[2])
+        if s is None or e is None:
+            return -1
+        lo, hi = int(self.first[r]), int(self.first[r + 1])
+        hit = np.flatnonzero((self.start[lo:hi] == s) & (self.end[lo:hi] == e))
+        if len(hit) == 0:
+            return -1
+        i = lo + int(hit[0])
+        return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
+
+
+class _Cells(Sequence):
+    """:attr:`Decomposition.cells`: an immutable sequence of :class:`Cell` over the int
+    columns of a :class:`_CellTable`, each cell made when read (so ``cells[i] is cells[i]``
+    may be False; they are equal). Equal to the tuple of the same cells, and hashed as it."""
+
+    __slots__ = ("_table",)
+
+    def __init__(self, table: _CellTable) -> None:
+        self._table = table
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+    def __getitem__(self, i: Any) -> Any:
+        n = len(self._table)
+        if isinstance(i, slice):
+            lo, hi, step = i.indices(n)
+            if step == 1:
+                return tuple(self._table.cells(lo, max(lo, hi)))
+            return tuple(self._table.cell(j) for j in range(lo, hi, step))
+        j = operator.index(i)
+        j = j + n if j < 0 else j
+        if not 0 <= j < n:
+            raise IndexError("cell index out of range")
+        return self._table.cell(j)
+
+    def __iter__(self) -> Iterator[Cell]:
+        return self._table.cells()
+
+    def __contains__(self, x: object) -> bool:
+        if not isinstance(x, Cell):
+            return False
+        i = self._table.index(x.id)
+        return i >= 0 and self._table.cell(i) == x
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, _Cells)):
+            return len(self) == len(other) and tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
+class _CellsById(Mapping):
+    """``dec.cell(id)``'s lookup over a :class:`_CellTable` (no dict of every cell)."""
+
+    __slots__ = ("_table",)
+
+    def __init__(self, table: _CellTable) -> None:
+        self._table = table
+
+    def __getitem__(self, cell_id: Any) -> Cell:
+        i = self._table.index(cell_id)
+        if i < 0:
+            raise KeyError(cell_id)
+        return self._table.cell(i)
+
+    def __contains__(self, cell_id: object) -> bool:
+        return self._table.index(cell_id) >= 0
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._table.ids())
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+
 @dataclass(frozen=True, eq=False, slots=True)
 class Region:
     """A noncritical region: polygon, area, a representative interior point, its structure.
@@ -200,17 +401,30 @@ class Region:
     area: float
     point: tuple[float, float]
     structure: Structure = field(repr=False)
-    cells: tuple[str, ...]
+    _cells: Any = field(repr=False)  # the ids, or the decomposition's _CellTable
 
     @property
     def name(self) -> str:
         return f"R{self.id}"
 
     @property
+    def cells(self) -> tuple[str, ...]:
+        """The ids of the region's cells (made from the cells' columns on the first read)."""
+        c = self._cells
+        if type(c) is _CellTable:
+            c = c.region_ids(self.id)
+            object.__setattr__(self, "_cells", c)
+        return c
+
+    def __repr__(self) -> str:
+        return (f"Region(id={self.id!r}, area={self.area!r}, point={self.point!r}, "
+                f"cells={self.cells!r})")
+
+    @property
     def polygon(self) -> Any:
         """The region's polygon (a shapely Polygon or MultiPolygon, map units, prepared)."""
         g = self._polygon
-        return g[self.id] if type(g) is _Shapes else g
+        return g[self.id] if isinstance(g, _Shapes) else g
 
     def to_dict(self) -> dict:
         return {"id": self.name, "area": self.area, "point": list(self.point),
@@ -267,7 +481,9 @@ class Decomposition:
     lss: float
     curves: tuple[Curve, ...] = field(repr=False)
     regions: tuple[Region, ...] = field(repr=False)
-    cells: tuple[Cell, ...] = field(repr=False)
+    #: the cells, region by region (a tuple, or from :func:`decompose` an equal sequence
+    #: making each :class:`Cell` when read: ``cells[i] is cells[i]`` may be False)
+    cells: Sequence[Cell] = field(repr=False)
     pieces: tuple[Piece, ...] = field(repr=False)
     curve_tol: float
     unresolved_pieces: int = 0  # boundary stretches below resolution (see _make_pieces)
@@ -291,6 +507,9 @@ class Decomposition:
         :attr:`cells` (feature codes in :attr:`env`'s numbering, -1 for both ends of a FULL
         region's cell), cached: recorded by :func:`decompose`, else read from the cells."""
         got = self.__dict__.get("_cell_codes")
+        if got is None and type(self.cells) is _Cells:
+            t = self.cells._table
+            got = self.__dict__["_cell_codes"] = (t.region, t.start, t.end)
         if got is None:
             code = {feature_name(self.env, c): c for c in range(2 * self.env.n)}
             code[FREE] = -1
@@ -302,10 +521,11 @@ class Decomposition:
         return got
 
     @property
-    def _cell_by_id(self) -> dict[str, Cell]:
+    def _cell_by_id(self) -> Mapping[str, Cell]:
         d = self.__dict__.get("_cells_by_id")
         if d is None:
-            d = {c.id: c for c in self.cells}
+            d = (_CellsById(self.cells._table) if type(self.cells) is _Cells else
+                 {c.id: c for c in self.cells})
             self.__dict__["_cells_by_id"] = d
         return d
 
@@ -375,6 +595,9 @@ class Decomposition:
         """Counts, regions and cells; with ``geometry`` also the pieces, the curves and each
         region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
         small on large maps (the full one is tens of MB at a few hundred vertices)."""
+        table = self.cells._table if type(self.cells) is _Cells else None
+        if table is not None:
+            table.fill(self.regions)
         out = {
             "map": self.env.name,
             "lss": self.lss,
@@ -382,7 +605,8 @@ class Decomposition:
             "unresolved_pieces": self.unresolved_pieces,
             "counts": {k: v for k, v in self.counts.items() if k != "curves"},
             "regions": [r.to_dict() for r in self.regions],
-            "cells": [c.to_dict() for c in self.cells],
+            "cells": ([c.to_dict() for c in self.cells] if table is None else
+                      table.dicts()),
         }
         if geometry:
             out["pieces"] = [p.to_dict() for p in self.pieces]
@@ -1414,67 +1638,88 @@ def _group_lists(flat: np.ndarray, size: np.ndarray) -> list[list[int]]:
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_struct: dict[int, Structure], out: UserFrame | None = None
-                  ) -> tuple[list[Region], tuple[Cell, ...],
-                             tuple[np.ndarray, np.ndarray, np.ndarray]]:
+                  ) -> tuple[list[Region], _Cells, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
-    union of the faces), area, point, structure and cells; the :class:`Cell` objects,
-    region by region (each region's structure named once for both); and the cells' ``(region,
-    start code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). With
-    ``out``, area, point and cell names are the user's (converted before the regions are
-    made); the polygon and the structure are converted once the pieces are made
-    (:meth:`UserFrame.regions`: the pieces compare the structures with internal ones)."""
+    union of the faces, made on the first read: :class:`_RegionShapes`), area, point,
+    structure and cells; the cells (a :class:`_Cells` over int columns, region by region,
+    each region's in the order of :func:`structure_names`); and the cells' ``(region, start
+    code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). With
+    ``out``, area, point, cell names and polygons are the user's (converted before the
+    regions are made, the polygons on their first read); the structure is converted once the
+    pieces are made (:meth:`UserFrame.regions`: the pieces compare the structures with
+    internal ones)."""
     lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
     rank = numbering["rank"].tolist()
-    # the regions' polygons: single faces as they are, unions of several one by one
-    polys = arr.faces[[lists[g][0] for g in rank]] if rank else np.zeros(0, dtype=object)
-    for rid, g in enumerate(rank):
-        if len(lists[g]) > 1:
-            polys[rid] = shapely.union_all(arr.faces[lists[g]])
-    if out is not None:  # all at once, before any region is made (polygons: see below)
+    polys = _region_shapes(arr, lists, rank, out)
+    if out is not None:  # all at once, before any region is made
         area = area / (out.scale * out.scale)
         point = out.points(point)
     best_l = best.tolist()
+    structs = [face_struct[best_l[g]] for g in rank]
+    region, start, end = _structure_cells(env, structs)
+    if out is None:
+        names = [FREE] + _feature_names(env)
+    else:  # the file's codes and names
+        cm = np.append(np.asarray(out.code_map, dtype=np.int64), -1)  # index -1: stays -1
+        start, end = cm[start], cm[end]
+        names = [FREE] + [feature_name(out.env, c) for c in range(2 * out.env.n)]
+    table = _CellTable(region, start, end, names, len(rank))
     area_l = area.tolist()
     point_l = point.tolist()
-    names: dict[int, list[tuple[str, str]]] = {}  # by structure object: many regions share
-    kinds: dict[int, int] = {}  # structure object -> index in ``codes``
-    codes: list[np.ndarray] = []  # each distinct structure's cell codes, in ``names`` order
-    region_kind = np.empty(len(rank), dtype=np.int64)
-    regions, cells = [], []
-    for rid, g in enumerate(rank):
-        st = face_struct[best_l[g]]
-        got = names.get(id(st))
-        if got is None:
-            got = structure_names(env, st)
-            got = names[id(st)] = got if out is None else out.feature_pairs(got)
-            kinds[id(st)] = len(codes)
-            codes.append(structure_codes(env, st))
-        region_kind[rid] = kinds[id(st)]
-        ids = tuple([f"(R{rid},{s},{e})" for s, e in got])  # cell_name, inlined
-        cells += [Cell(cid, rid, s, e) for cid, (s, e) in zip(ids, got, strict=True)]
-        pt = point_l[g]
-        regions.append(Region(rid, polys[rid], area_l[g], (pt[0], pt[1]), st, ids))
-    if out is None:  # else converted and prepared once the pieces are made (no two copies
-        shapely.prepare(polys)  # of every polygon while the pieces stage runs)
-    return regions, tuple(cells), _cell_codes(region_kind, codes,
-                                              None if out is None else out.code_map)
+    regions = [Region(rid, polys, area_l[g], (point_l[g][0], point_l[g][1]), st, table)
+               for rid, (g, st) in enumerate(zip(rank, structs, strict=True))]
+    return regions, _Cells(table), (region, start, end)
 
 
-def _cell_codes(region_kind: np.ndarray, codes: list[np.ndarray], code_map: np.ndarray | None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The cells' ``(region, start code, end code)`` int columns, in cell order: region ``r``'s
-    cells are the rows of ``codes[region_kind[r]]``; codes renumbered by ``code_map`` (internal
-    to the file's; -1, a FULL region's free end, stays)."""
-    count = np.array([len(c) for c in codes], dtype=np.int64)
-    first = np.cumsum(count) - count
-    table = np.concatenate(codes) if codes else np.zeros((0, 2), dtype=np.int64)
-    if code_map is not None and len(table):
-        cm = np.append(np.asarray(code_map, dtype=np.int64), -1)  # index -1: stays -1
-        table = cm[table]
-    n = count[region_kind]
-    rows = ragged_arange(first[region_kind], n)
-    region = np.repeat(np.arange(len(region_kind), dtype=np.int64), n)
-    return region, table[rows, 0].copy(), table[rows, 1].copy()
+def _region_shapes(arr: _Arrangement, lists: list[list[int]], rank: list[int],
+                   out: UserFrame | None) -> _RegionShapes:
+    """The regions' polygons (region ``i`` is the group ``rank[i]`` of faces ``lists``):
+    single faces as they are, unions of several made on the first read."""
+    n = len(rank)
+    polys = arr.faces[[lists[g][0] for g in rank]] if n else np.zeros(0, dtype=object)
+    unions = {rid: arr.faces[lists[g]] for rid, g in enumerate(rank) if len(lists[g]) > 1}
+    return _RegionShapes(polys, unions, None if out is None else out.frame)
+
+
+def _structure_cells(env: Environment, structs: list[Structure]
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The cells of regions of structures ``structs``: ``(region, start code, end code)``
+    int columns, region by region, each region's cells sorted by (start name, end name) as
+    :func:`structure_codes` sorts them (one lexsort on name ranks over every distinct
+    structure object; a FULL region's cell is ``(-1, -1)``, an EMPTY one has none)."""
+    n = len(structs)
+    if n == 0:
+        empty = np.zeros(0, np.int64)
+        return empty, empty, empty
+    obj = np.fromiter(map(id, structs), np.int64, n)
+    _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
+    objs = [structs[i] for i in first.tolist()]
+    full = ((-1, -1),)
+    sets = [s if not isinstance(s, str) else full if s == "FULL" else () for s in objs]
+    size = np.fromiter(map(len, sets), np.int64, len(sets))
+    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(sets)),
+                       np.int64, 2 * int(size.sum()))
+    a, b = flat[0::2], flat[1::2]
+    name_rank = feature_name_rank(env)
+    row = np.repeat(np.arange(len(objs)), size)
+    order = np.lexsort((name_rank[b + 1], name_rank[a + 1], row))
+    a, b = a[order], b[order]
+    count = size[inv.ravel()]
+    rows = ragged_arange((np.cumsum(size) - size)[inv.ravel()], count)
+    region = np.repeat(np.arange(n, dtype=np.int64), count)
+    return region, a[rows], b[rows]
+
+
+def feature_name_rank(env: Environment) -> np.ndarray:
+    """``rank[code + 1]``: the position of feature ``code``'s name (``FREE`` for -1) among all
+    of them sorted as strings, cached per map."""
+    got = env.__dict__.get("_feature_name_rank")
+    if got is None:
+        names = [FREE] + _feature_names(env)
+        got = np.empty(len(names), dtype=np.int64)
+        got[sorted(range(len(names)), key=names.__getitem__)] = np.arange(len(names))
+        env.__dict__["_feature_name_rank"] = got
+    return got
 
 
 @dataclass
@@ -2026,7 +2271,7 @@ def _polygons(regions: Any) -> list:
     not converted to the map's frame yet, only theirs converted (the self-check reads 200 of
     100k), else read as usual (all converted at once on the first read)."""
     shapes = regions[0]._polygon if len(regions) else None
-    if (type(shapes) is not _Shapes or shapes.converted or 4 * len(regions) > len(shapes)
+    if (not isinstance(shapes, _Shapes) or shapes.converted or 4 * len(regions) > len(shapes)
             or any(r._polygon is not shapes for r in regions)):
         return [r.polygon for r in regions]
     return shapes.some([r.id for r in regions]).tolist()

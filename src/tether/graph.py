@@ -10,15 +10,16 @@ between pieces shared by the same two regions.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tether.arcs import TWO_PI, free_arcs_many
+from tether.arcs import TWO_PI, ArcTable, free_arcs_many
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, gc_paused
+from tether.decomposition import Decomposition, _Cells, gc_paused
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -130,8 +131,21 @@ def cell_ids(dec: Decomposition) -> list[str]:
     """The ids of ``dec.cells`` as a list, cached on the decomposition."""
     got = dec.__dict__.get("_cell_id_list")
     if got is None:
-        got = dec.__dict__["_cell_id_list"] = [c.id for c in dec.cells]
+        cells = dec.cells
+        got = cells._table.ids() if type(cells) is _Cells else [c.id for c in cells]
+        dec.__dict__["_cell_id_list"] = got
     return got
+
+
+def cell_ids_of(dec: Decomposition, which: Any) -> list[str]:
+    """The ids of the cells of indices ``which`` (made from the cells' columns, not the list
+    of every id unless it exists already)."""
+    which = np.asarray(which, dtype=np.int64).reshape(-1)
+    cells = dec.cells
+    if "_cell_id_list" in dec.__dict__ or type(cells) is not _Cells:
+        ids = cell_ids(dec)
+        return [ids[i] for i in which.tolist()]
+    return cells._table.ids(which)
 
 
 def cell_regions(dec: Decomposition) -> np.ndarray:
@@ -176,7 +190,17 @@ def _arc_rows(dec: Decomposition, pts: np.ndarray | None = None) -> dict[str, np
     full-circle arc (``full`` flag set, from 0 to 2π) with feature codes -1."""
     table = dec.crossing_arcs() if pts is None else free_arcs_many(dec.env, pts, dec.lss,
                                                                    check=False)
+    return _table_arc_rows(table)
+
+
+def _table_arc_rows(table: ArcTable) -> dict[str, np.ndarray]:
+    """The rows of :func:`_arc_rows` from an arc table (its own arrays when they are sorted
+    by point already and no point is FULL, else a sorted copy)."""
     full = np.flatnonzero(table.full)
+    if len(full) == 0 and np.all(table.point[1:] >= table.point[:-1]):  # as is: no copies
+        return {"point": table.point, "start": table.start, "end": table.end,
+                "full": np.zeros(len(table.point), bool), "start_code": table.start_code,
+                "end_code": table.end_code}
     point = np.concatenate((table.point, full))
     order = np.argsort(point, kind="stable")
     return {
@@ -228,9 +252,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return empty, empty, empty
     rows = _arc_rows(dec)
     pair_a, pair_b = _candidate_pairs(rows, m)
-    ov = _overlap(rows["start"][pair_a], rows["end"][pair_a], rows["start"][pair_b],
-                  rows["end"][pair_b], rows["full"][pair_a], rows["full"][pair_b])
-    keep = np.flatnonzero(ov > ANGLE_TOL)
+    keep = _overlapping(rows, pair_a, pair_b)
     k = rows["point"][pair_a[keep]]
     regs = _piece_regions(dec)
     ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
@@ -239,6 +261,24 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                      rows["end_code"][pair_b[keep]])
     ok = (ca >= 0) & (cb >= 0)
     return (ca[ok].astype(np.int64), cb[ok].astype(np.int64), k[ok].astype(np.int64))
+
+
+#: Arc pairs compared at once by :func:`_overlapping` (bounds its temporaries: ~10 arrays of
+#: this length, 8 bytes each)
+OVERLAP_CHUNK = 1 << 18
+
+
+def _overlapping(rows: dict[str, np.ndarray], pair_a: np.ndarray, pair_b: np.ndarray
+                 ) -> np.ndarray:
+    """Indices ``i`` of the pairs whose arcs ``pair_a[i]`` and ``pair_b[i]`` overlap by more
+    than ``ANGLE_TOL`` (:func:`_overlap`, chunk by chunk: the same numbers, a lower peak)."""
+    start, end, full = rows["start"], rows["end"], rows["full"]
+    out = []
+    for lo in range(0, len(pair_a), OVERLAP_CHUNK):
+        a, b = pair_a[lo:lo + OVERLAP_CHUNK], pair_b[lo:lo + OVERLAP_CHUNK]
+        ov = _overlap(start[a], end[a], start[b], end[b], full[a], full[b])
+        out.append(np.flatnonzero(ov > ANGLE_TOL) + lo)
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
 
 
 #: Angular margin (radians) of the candidate search: a superset of the overlapping arc pairs,
@@ -264,30 +304,57 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, n
     lo = s1 - _SEARCH_MARGIN
     hi = s1 + _arc_length(s1, rows["end"][a], rows["full"][a]) + _SEARCH_MARGIN
     base = pb * 8.0
-    ranges = [(lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), np.ones(len(a), bool)),
-              (np.zeros(len(a)), hi - TWO_PI, hi > TWO_PI),
-              (lo + TWO_PI, np.full(len(a), TWO_PI), lo < 0)]
+    del pb, s1
+    # the arcs starting in [lo, hi] (wrapped around 2π: up to three ranges)
     got_a, got_b = [], []
-    for r0, r1, use in ranges:
-        i0 = np.searchsorted(key, base[use] + r0[use], side="left")
-        i1 = np.searchsorted(key, base[use] + r1[use], side="right")
-        n = np.maximum(i1 - i0, 0)
-        got_a.append(np.repeat(a[use], n))
-        got_b.append(ragged_arange(i0, n))
+    for got in (_starting_in(key, base, lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), a),
+                _starting_in(key, base, None, hi - TWO_PI, a, hi > TWO_PI),
+                _starting_in(key, base, lo + TWO_PI, None, a, lo < 0)):
+        got_a.append(got[0])
+        got_b.append(got[1])
     # the arc containing a's start: the last starting at or before it, else the point's last
+    pb = point[a] + m
     j = np.searchsorted(key, base + lo, side="right") - 1
     j = np.where(j >= first[pb], j, first[pb] + counts[pb] - 1)
+    del lo, hi, base, pb
     got_a.append(a)
     got_b.append(j)
-    ga, gb = np.concatenate(got_a), np.concatenate(got_b)
-    pair = np.sort(ga * len(point) + gb)  # sorted by (a, b); a few pairs appear twice
+    del j
+    pair = np.concatenate(got_a)
+    pair *= len(point)
+    del got_a
+    pair += np.concatenate(got_b)
+    del got_b
+    pair.sort()  # sorted by (a, b); a few pairs appear twice
     pair = pair[np.r_[True, pair[1:] != pair[:-1]]] if len(pair) else pair
     return pair // len(point), pair % len(point)
 
 
+def _starting_in(key: np.ndarray, base: np.ndarray, r0: np.ndarray | None,
+                 r1: np.ndarray | None, a: np.ndarray, use: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs ``(a[i], row)`` of the rows whose key lies in ``[base[i] + r0[i], base[i] +
+    r1[i]]`` (``r0`` None: 0, ``r1`` None: 2π), for the ``i`` of mask ``use`` (None: all)."""
+    if use is not None:
+        w = np.flatnonzero(use)
+        base, a = base[w], a[w]
+        r0 = None if r0 is None else r0[w]
+        r1 = None if r1 is None else r1[w]
+    i0 = np.searchsorted(key, base + (0.0 if r0 is None else r0), side="left")
+    i1 = np.searchsorted(key, base + (TWO_PI if r1 is None else r1), side="right")
+    n = np.maximum(i1 - i0, 0)
+    return np.repeat(a, n), ragged_arange(i0, n)
+
+
 def _piece_regions(dec: Decomposition) -> np.ndarray:
-    """``(m, 2)`` int array of every piece's two regions."""
-    return np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
+    """``(m, 2)`` int array of every piece's two regions, cached on the decomposition."""
+    got = dec.__dict__.get("_piece_regions")
+    if got is None:
+        m = len(dec.pieces)
+        flat = np.fromiter(itertools.chain.from_iterable(p.regions for p in dec.pieces),
+                           np.int64, 2 * m)
+        got = dec.__dict__["_piece_regions"] = flat.reshape(m, 2)
+    return got
 
 
 def build_graph(dec: Decomposition) -> ConnectivityGraph:
@@ -321,13 +388,17 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     slot_piece = region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell \
         else np.zeros(0, np.int64)
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
+    # (made one after the other, each temporary freed when used: a lower peak)
     slot_a = slot_ptr[ea] + side_pos[0, ep]
     slot_b = slot_ptr[eb] + side_pos[1, ep]
     key = np.column_stack((slot_a, slot_b)).ravel()
-    other = np.column_stack((eb, ea)).ravel()
-    other_slot = np.column_stack((slot_b, slot_a)).ravel()
     order = np.argsort(key, kind="stable")
-    partner_ptr = np.concatenate(([0], np.cumsum(np.bincount(key, minlength=len(slot_piece)))))
+    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(key, minlength=len(slot_piece)), out=partner_ptr[1:])
+    del key
+    partner_slot = np.column_stack((slot_b, slot_a)).ravel()[order]
+    del slot_a, slot_b
+    partner_cell = np.column_stack((eb, ea)).ravel()[order]
+    del order
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr.astype(np.int64), region_pieces,
-                             slot_ptr, slot_piece, partner_ptr.astype(np.int64),
-                             other[order], other_slot[order])
+                             slot_ptr, slot_piece, partner_ptr, partner_cell, partner_slot)

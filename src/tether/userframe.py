@@ -103,18 +103,14 @@ class UserFrame:
 
     def regions(self, regions: list) -> None:
         """Rewrite the regions' structures in the file's feature codes, in place (see
-        :meth:`pieces`); their area, point and cell names are the user's already
-        (``_make_regions``). Their polygons are kept as made, in one shared holder converted
-        (and prepared) all at once on the first read of any of them."""
-        if not regions:
+        :meth:`pieces`); their area, point and cell names are the user's already, their
+        polygons converted (and prepared) all at once on the first read of any of them
+        (``_make_regions``)."""
+        if not regions or self.same:
             return
-        shapes = self.shapes([r._polygon for r in regions], prepare=True)
         put = object.__setattr__
         for r in regions:
-            put(r, "_polygon", shapes)
-        if not self.same:
-            for r in regions:
-                put(r, "structure", self.structure(r.structure))
+            put(r, "structure", self.structure(r.structure))
 
     def shapes(self, geoms: list, prepare: bool = False) -> _Shapes:
         """The internal-frame ``geoms`` of regions or pieces in a holder converting them to
