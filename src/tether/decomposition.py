@@ -1574,19 +1574,35 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
     closer than ``reach``, so far fewer (point, segment) pairs are measured than in one search
     within ``reach``; the same distances."""
     clear = np.full(len(pts), reach)
+    cols = tuple(np.ascontiguousarray(c) for c in (sa[:, 0], sa[:, 1], sb[:, 0], sb[:, 1]))
     todo = np.arange(len(pts))
     for frac in CLEARANCE_STAGES:
         r = reach * frac
         found = np.full(len(todo), np.inf)
         for i in range(0, len(todo), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
             rows = todo[i:i + CLEARANCE_BATCH]
-            qi, sj, d = _segments_near(pts[rows], sa, sb, r, tree)
-            other = sowner[sj] != owner[rows[qi]]
-            np.minimum.at(found, i + qi[other], d[other])
-        hit = found <= r
+            qi, d = _other_distances(pts[rows], owner[rows], cols, sowner, r, tree)
+            np.minimum.at(found, i + qi, d)
+        hit = found <= r  # the nearest within r, if any (farther candidates do not lower it)
         clear[todo[hit]] = found[hit]
         todo = todo[~hit]
     return clear
+
+
+def _other_distances(pts: np.ndarray, owner: np.ndarray, cols: tuple[np.ndarray, ...],
+                     sowner: np.ndarray, r: float, tree: shapely.STRtree
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Distances from points (m, 2) to the segments of other parts (``sowner != owner``)
+    whose envelopes meet the point's box of half-width ``r``: point indices and distances
+    (map units; some beyond ``r``). ``cols``: the segments' ``ax, ay, bx, by`` columns,
+    indexed by ``tree``. A point's own part, its nearest, is dropped before measuring."""
+    box = shapely.box(pts[:, 0] - r, pts[:, 1] - r, pts[:, 0] + r, pts[:, 1] + r)
+    qi, si = tree.query(box)  # envelopes only; exact distances below
+    k = np.flatnonzero(sowner[si] != owner[qi])
+    qi, si = qi[k], si[k]
+    ax, ay, bx, by = cols
+    return qi, _point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], ax[si], ay[si],
+                                          bx[si], by[si])
 
 
 def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
