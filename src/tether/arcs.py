@@ -12,6 +12,7 @@ Feature codes: internally, edge ``i`` has code ``i`` and vertex ``j`` has code `
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -393,13 +394,8 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     if check:
         check_inside(env, pts)
     if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
-        parts = [free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
-                 for i in range(0, len(pts), POINT_BATCH)]
-        offset = np.arange(0, len(pts), POINT_BATCH)
-        return ArcTable(np.concatenate([t.point + o for t, o in zip(parts, offset,
-                                                                    strict=True)]),
-                        *(np.concatenate([getattr(t, f) for t in parts])
-                          for f in ("start", "end", "start_code", "end_code", "full")))
+        return join_tables([free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
+                            for i in range(0, len(pts), POINT_BATCH)])
     inner, frame = env.internal, env.frame
     table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
     if inner is env:
@@ -407,6 +403,29 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     cm = env.code_map  # internal feature codes to the file's
     return ArcTable(table.point, table.start, table.end, cm[table.start_code],
                     cm[table.end_code], table.full)
+
+
+def join_tables(parts: list[ArcTable], release: Callable[[], Any] | None = None) -> ArcTable:
+    """The tables of consecutive batches of points as one table (the points of ``parts[k]``
+    numbered after those of ``parts[k - 1]``). Empties ``parts`` and joins column by column,
+    each column's batches freed once joined (and ``release`` called, if given: e.g. to return
+    the freed memory to the system): the peak is the batches and one joined column, not
+    twice the table."""
+    cols = {f: [getattr(t, f) for t in parts] for f in _TABLE_FIELDS}
+    parts.clear()
+    offset = 0
+    for i, (point, full) in enumerate(zip(cols["point"], cols["full"], strict=True)):
+        cols["point"][i] = point + offset  # one batch's column at a time
+        offset += len(full)
+    joined = {}
+    for f in _TABLE_FIELDS:
+        joined[f] = np.concatenate(cols.pop(f))
+        if release is not None:
+            release()
+    return ArcTable(**joined)
+
+
+_TABLE_FIELDS = ("point", "start", "end", "start_code", "end_code", "full")
 
 
 def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:
