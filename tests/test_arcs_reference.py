@@ -1,6 +1,6 @@
-"""The vectorized rod test, blocked intervals and clearance search against their earlier
-forms, kept here as references: the rewrites must give the very same booleans, intervals and
-distances (bit for bit)."""
+"""The vectorized rod test, blocked intervals, their merge into free arcs and the clearance
+search against their earlier forms, kept here as references: the rewrites must give the very
+same booleans, intervals, arcs and distances (bit for bit)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,14 @@ import numpy as np
 import pytest
 
 from tether.arcs import (
+    _GROUP,
     TWO_PI,
+    ArcTable,
     _edge_columns,
     _facing_index,
     _in_cone,
+    _merge,
+    _order_by_point_angle,
     blocked_intervals,
     check_lss,
     rod_is_free_many,
@@ -203,3 +207,62 @@ def test_blocked_intervals_match_reference(n, seed, angle):
         assert len(ref["point"]) > len(pts) // 4
         # the facing index drops candidates (else the test would compare nothing new)
         assert len(_facing_index(env, lss).edges) < len(env.edge_index(lss).edges)
+
+
+def _merge_reference(iv, npts):
+    """``_merge`` as it was before the codes were gathered at the gap rows only."""
+    order = _order_by_point_angle(iv["point"], iv["start"])
+    pt = iv["point"][order]
+    S = iv["start"][order]
+    E = S + iv["length"][order]
+    cw = iv["cw_code"][order]
+    ccw = iv["ccw_code"][order]
+    m = len(S)
+    full = np.ones(npts, dtype=bool)
+    full[pt] = False
+    if m == 0:
+        z = np.zeros(0)
+        zi = np.zeros(0, dtype=np.int64)
+        return ArcTable(zi, z, z, zi, zi, full)
+    key = E + pt * _GROUP
+    arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
+    M = E[arg]
+    new_run = np.r_[True, pt[1:] != pt[:-1]]
+    last = np.r_[new_run[1:], True]
+    first_of = np.flatnonzero(new_run)
+    last_of = np.flatnonzero(last)
+    grp = np.cumsum(new_run) - 1
+    nxt = np.arange(1, m + 1)
+    nxt[last_of] = first_of
+    g_start = M.copy()
+    g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
+    s_code = ccw[arg]
+    e_code = cw[nxt]
+    W = (M[last_of] - TWO_PI)[grp]
+    s_code = np.where(g_start < W, ccw[arg[last_of]][grp], s_code)
+    g_start = np.maximum(g_start, W)
+    k = np.flatnonzero(g_end - g_start > ANGLE_TOL)
+    start = np.mod(g_start[k], TWO_PI)
+    end = np.mod(g_end[k], TWO_PI)
+    o = _order_by_point_angle(pt[k], start)
+    return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+
+
+@pytest.mark.parametrize("n, seed, angle", [(40, 1, 0.0), (300, 3, 0.0), (120, 4, 0.3)])
+def test_merge_matches_reference(n, seed, angle):
+    """The free arcs of the merge, bit for bit (signed zeros included), on the intervals of
+    close-call points (arcs wrapping past 2pi, intervals sharing ends at vertices)."""
+    env = _rotated(floor_plan(n, seed=seed), angle) if angle else floor_plan(n, seed=seed)
+    env = env.internal
+    rng = np.random.default_rng(seed)
+    wraps = 0
+    for lss in (0.01, 0.05, 0.2):
+        pts = _interval_points(env, lss, 4000, rng)
+        iv = blocked_intervals(env, pts, lss)
+        got, ref = _merge(iv, len(pts)), _merge_reference(iv, len(pts))
+        for f in ("point", "start", "end", "start_code", "end_code", "full"):
+            a, b = getattr(got, f), getattr(ref, f)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), f
+        wraps += int(np.sum(ref.end < ref.start))
+        assert len(ref.point) > 0 and not ref.full.all()
+    assert wraps > 0  # some arcs cross angle 0: the wrapped gap's start feature is tested

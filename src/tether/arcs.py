@@ -189,8 +189,9 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     t1 = np.maximum(r1, 0.0)
     t2 = np.minimum(r2, 1.0)
     k = np.flatnonzero(t1 < t2)
-    pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2 = (
-        x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2))
+    # the rows' geometry taken to the k rows now; their point, edge and roots only at the
+    # rows kept in the end (w)
+    wx, wy, ex, ey, t1, t2 = (x[k] for x in (wx, wy, ex, ey, t1, t2))
     p1x, p1y = wx + t1 * ex, wy + t1 * ey
     p2x, p2y = wx + t2 * ex, wy + t2 * ey
     start = np.mod(np.arctan2(p1y, p1x), TWO_PI)
@@ -201,16 +202,17 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     # chord subtends an angle ~ h * chord / lss^2 (h: distance to the line) that falls below
     # ANGLE_TOL far from any tangency. Dropping those intervals would move the structure's
     # boundary off the critical curves C(Vj, Ei) and B(Vj) near their common end (issue #9).
-    chord = (t2 - t1) * np.sqrt(de)
+    chord = (t2 - t1) * np.sqrt(de[k])
     wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
-    e = eidx[wide]
+    w = k[wide]
+    e = eidx[w]
     return {
-        "point": pidx[wide],
+        "point": pidx[w],
         "edge": e,
         "start": start[wide],
         "length": length[wide],
-        "cw_code": np.where(r1[wide] <= 0, env.n + tag_a[e], e),
-        "ccw_code": np.where(r2[wide] >= 1, env.n + tag_b[e], e),
+        "cw_code": np.where(r1[w] <= 0, env.n + tag_a[e], e),
+        "ccw_code": np.where(r2[w] >= 1, env.n + tag_b[e], e),
     }
 
 
@@ -286,8 +288,6 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     pt = iv["point"][order]
     S = iv["start"][order]
     E = S + iv["length"][order]
-    cw = iv["cw_code"][order]
-    ccw = iv["ccw_code"][order]
     m = len(S)
     full = np.ones(npts, dtype=bool)
     full[pt] = False
@@ -300,27 +300,28 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     key = E + pt * _GROUP
     arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
     M = E[arg]
-    new_run = np.r_[True, pt[1:] != pt[:-1]]
-    last = np.r_[new_run[1:], True]
-    first_of = np.flatnonzero(new_run)
+    last = np.r_[pt[1:] != pt[:-1], True]
     last_of = np.flatnonzero(last)
-    grp = np.cumsum(new_run) - 1
+    first_of = np.r_[0, last_of[:-1] + 1]
+    size = np.diff(np.r_[-1, last_of])
     # candidate gaps: after every row, to the next row's start (the last row: around the circle)
     nxt = np.arange(1, m + 1)
     nxt[last_of] = first_of
-    g_start = M.copy()
     g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
-    s_code = ccw[arg]
-    e_code = cw[nxt]
     # the largest end may wrap past 2pi and cover the beginning of the circle up to W
-    W = (M[last_of] - TWO_PI)[grp]
-    s_code = np.where(g_start < W, ccw[arg[last_of]][grp], s_code)
-    g_start = np.maximum(g_start, W)
+    W = np.repeat(M[last_of] - TWO_PI, size)
+    g_start = np.maximum(M, W)
     k = np.flatnonzero(g_end - g_start > ANGLE_TOL)  # rows inside a component leave no gap
+    # the gaps' end features: the CCW end of the interval reaching farthest (or of the one
+    # wrapping past 2pi, where it covers the gap's start), the CW end of the next interval
+    wraps = M[k] < W[k]
+    ends_at = np.where(wraps, np.repeat(arg[last_of], size)[k] if wraps.any() else 0, arg[k])
+    s_code = iv["ccw_code"][order[ends_at]]
+    e_code = iv["cw_code"][order[nxt[k]]]
     start = np.mod(g_start[k], TWO_PI)
     end = np.mod(g_end[k], TWO_PI)
     o = _order_by_point_angle(pt[k], start)
-    return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+    return ArcTable(pt[k][o], start[o], end[o], s_code[o], e_code[o], full)
 
 
 def _order_by_point_angle(point: np.ndarray, angle: np.ndarray) -> np.ndarray:
