@@ -1846,9 +1846,9 @@ def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     for r, table in enumerate(tables):
         k = np.flatnonzero(rnd == r)
         full[k] = table.full[src[k]]
-        lo = np.searchsorted(table.point, src[k], side="left")
-        first[k] = offset + lo
-        count[k] = np.searchsorted(table.point, src[k], side="right") - lo
+        size = np.bincount(table.point, minlength=len(table.full))  # rows of each point
+        first[k] = offset + (np.cumsum(size) - size)[src[k]]
+        count[k] = size[src[k]]
         offset += len(table.point)
     table = None  # no reference left to a round's table but ``tables``
     rows = ragged_arange(first, count)  # output points in order, no sort
