@@ -1,13 +1,27 @@
-"""The vectorized rod test and clearance search against their earlier forms, kept here as
-references: the rewrites must give the very same booleans and distances (bit for bit)."""
+"""The vectorized rod test, blocked intervals, their merge into free arcs and the clearance
+search against their earlier forms, kept here as references: the rewrites must give the very
+same booleans, intervals, arcs and distances (bit for bit)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from tether.arcs import _edge_columns, _in_cone, check_lss, rod_is_free_many
+from tether.arcs import (
+    _GROUP,
+    TWO_PI,
+    ArcTable,
+    _edge_columns,
+    _facing_index,
+    _in_cone,
+    _merge,
+    _order_by_point_angle,
+    blocked_intervals,
+    check_lss,
+    rod_is_free_many,
+)
 from tether.decomposition import _clearance, _segment_tree, _segments_near
+from tether.environment import Environment
 from tether.floorplan import floor_plan
 from tether.tolerances import ANGLE_TOL
 
@@ -105,3 +119,150 @@ def test_clearance_matches_one_search(seed):
     got = _clearance(pts, owner, sa, sb, sowner, _segment_tree(sa, sb), reach)
     assert np.array_equal(got, _clearance_reference(pts, owner, sa, sb, sowner, reach))
     assert (got < reach).any() and (got == reach).any()
+
+
+def _blocked_reference(env, pts, lss):
+    """``blocked_intervals`` as it was before the facing index: every candidate of the full
+    edge index, the point's coordinates gathered."""
+    ax, ay, dx, dy, dd, sdd, tag_a, tag_b = _edge_columns(env)
+    pidx, eidx = env.edge_index(lss).query(pts)
+    wx = ax[eidx] - pts[:, 0][pidx]
+    wy = ay[eidx] - pts[:, 1][pidx]
+    ex, ey = dx[eidx], dy[eidx]
+    side = ex * (-wy) - ey * (-wx)
+    k = np.flatnonzero(side > env.length_tol * sdd[eidx])
+    pidx, eidx, wx, wy, ex, ey = pidx[k], eidx[k], wx[k], wy[k], ex[k], ey[k]
+    de = dd[eidx]
+    b = ex * wx + ey * wy
+    c = (wx * wx + wy * wy) - lss * lss
+    disc = b * b - de * c
+    k = np.flatnonzero(disc > 0)
+    pidx, eidx, wx, wy, ex, ey, de, b = (x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, b))
+    sq = np.sqrt(disc[k])
+    r1 = (-b - sq) / de
+    r2 = (-b + sq) / de
+    t1 = np.maximum(r1, 0.0)
+    t2 = np.minimum(r2, 1.0)
+    k = np.flatnonzero(t1 < t2)
+    pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2 = (
+        x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2))
+    p1x, p1y = wx + t1 * ex, wy + t1 * ey
+    p2x, p2y = wx + t2 * ex, wy + t2 * ey
+    start = np.mod(np.arctan2(p1y, p1x), TWO_PI)
+    length = np.arctan2(p1x * p2y - p1y * p2x, p1x * p2x + p1y * p2y)
+    chord = (t2 - t1) * np.sqrt(de)
+    wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
+    e = eidx[wide]
+    return {"point": pidx[wide], "edge": e, "start": start[wide], "length": length[wide],
+            "cw_code": np.where(r1[wide] <= 0, env.n + tag_a[e], e),
+            "ccw_code": np.where(r2[wide] >= 1, env.n + tag_b[e], e)}
+
+
+def _interval_points(env, lss, m, rng):
+    """Points where the side and reach tests are close calls: random (some beyond the map and
+    the grid), on the grid's lines, within the length tolerance of an edge's line (both
+    sides), at distance lss of a vertex, near an edge's end."""
+    lo, hi = np.array(env.bounds[:2]), np.array(env.bounds[2:])
+    span = hi - lo
+    rand = lo - 0.6 * span + rng.random((m, 2)) * 2.2 * span
+    ix = env.edge_index(lss)
+    g = rng.integers(0, ix.shape, (m, 2))
+    # the corners of grid cells (on the grid's lines or just inside a cell), their sides
+    f = rng.choice([0.0, 1e-12, 0.5, 1 - 1e-12], (m, 2))
+    grid = ix.origin + (g + f) * ix.cell
+    A, B, _, _ = env.oriented_edges
+    e = rng.integers(0, len(A), m)
+    d = B[e] - A[e]
+    nrm = np.column_stack((-d[:, 1], d[:, 0])) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    h = env.length_tol * rng.choice([-2.0, -1.0, 0.0, 0.999999, 1.0, 1.000001, 2.0, 1e3], m)
+    t = rng.choice([-0.01, 0.0, 0.3, 1.0, 1.01], m)
+    on_line = A[e] + t[:, None] * d + h[:, None] * nrm
+    v = env.vertices[rng.integers(0, len(env.vertices), m)]
+    a = rng.uniform(0, TWO_PI, m)
+    r = lss * rng.choice([0.999999, 1.0, 1.0000001, 0.5], m)
+    ring = v + r[:, None] * np.column_stack((np.cos(a), np.sin(a)))
+    return np.vstack((rand, grid, on_line, ring))
+
+
+def _rotated(env, angle):
+    """The map turned by ``angle`` radians about the origin (no edge left axis-aligned: the
+    facing index's corner test then depends on every corner)."""
+    c, s = np.cos(angle), np.sin(angle)
+    rot = np.array([[c, s], [-s, c]])
+    return Environment(env.boundary @ rot, tuple(h @ rot for h in env.holes), env.name)
+
+
+@pytest.mark.parametrize("n, seed, angle", [(40, 1, 0.0), (120, 2, 0.0), (300, 3, 0.0),
+                                            (120, 4, 0.3), (300, 5, 2.0)])
+def test_blocked_intervals_match_reference(n, seed, angle):
+    env = _rotated(floor_plan(n, seed=seed), angle) if angle else floor_plan(n, seed=seed)
+    env = env.internal
+    rng = np.random.default_rng(seed)
+    for lss in (0.01, 0.05, 0.2):
+        pts = _interval_points(env, lss, 4000, rng)
+        got, ref = blocked_intervals(env, pts, lss), _blocked_reference(env, pts, lss)
+        assert got.keys() == ref.keys()
+        for key, col in ref.items():
+            assert got[key].dtype == col.dtype and np.array_equal(got[key], col), key
+        assert len(ref["point"]) > len(pts) // 4
+        # the facing index drops candidates (else the test would compare nothing new)
+        assert len(_facing_index(env, lss).edges) < len(env.edge_index(lss).edges)
+
+
+def _merge_reference(iv, npts):
+    """``_merge`` as it was before the codes were gathered at the gap rows only."""
+    order = _order_by_point_angle(iv["point"], iv["start"])
+    pt = iv["point"][order]
+    S = iv["start"][order]
+    E = S + iv["length"][order]
+    cw = iv["cw_code"][order]
+    ccw = iv["ccw_code"][order]
+    m = len(S)
+    full = np.ones(npts, dtype=bool)
+    full[pt] = False
+    if m == 0:
+        z = np.zeros(0)
+        zi = np.zeros(0, dtype=np.int64)
+        return ArcTable(zi, z, z, zi, zi, full)
+    key = E + pt * _GROUP
+    arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
+    M = E[arg]
+    new_run = np.r_[True, pt[1:] != pt[:-1]]
+    last = np.r_[new_run[1:], True]
+    first_of = np.flatnonzero(new_run)
+    last_of = np.flatnonzero(last)
+    grp = np.cumsum(new_run) - 1
+    nxt = np.arange(1, m + 1)
+    nxt[last_of] = first_of
+    g_start = M.copy()
+    g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
+    s_code = ccw[arg]
+    e_code = cw[nxt]
+    W = (M[last_of] - TWO_PI)[grp]
+    s_code = np.where(g_start < W, ccw[arg[last_of]][grp], s_code)
+    g_start = np.maximum(g_start, W)
+    k = np.flatnonzero(g_end - g_start > ANGLE_TOL)
+    start = np.mod(g_start[k], TWO_PI)
+    end = np.mod(g_end[k], TWO_PI)
+    o = _order_by_point_angle(pt[k], start)
+    return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+
+
+@pytest.mark.parametrize("n, seed, angle", [(40, 1, 0.0), (300, 3, 0.0), (120, 4, 0.3)])
+def test_merge_matches_reference(n, seed, angle):
+    """The free arcs of the merge, bit for bit (signed zeros included), on the intervals of
+    close-call points (arcs wrapping past 2pi, intervals sharing ends at vertices)."""
+    env = _rotated(floor_plan(n, seed=seed), angle) if angle else floor_plan(n, seed=seed)
+    env = env.internal
+    rng = np.random.default_rng(seed)
+    wraps = 0
+    for lss in (0.01, 0.05, 0.2):
+        pts = _interval_points(env, lss, 4000, rng)
+        iv = blocked_intervals(env, pts, lss)
+        got, ref = _merge(iv, len(pts)), _merge_reference(iv, len(pts))
+        for f in ("point", "start", "end", "start_code", "end_code", "full"):
+            a, b = getattr(got, f), getattr(ref, f)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), f
+        wraps += int(np.sum(ref.end < ref.start))
+        assert len(ref.point) > 0 and not ref.full.all()
+    assert wraps > 0  # some arcs cross angle 0: the wrapped gap's start feature is tested

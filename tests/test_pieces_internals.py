@@ -81,7 +81,9 @@ def test_crossing_table_gathers_each_points_rows():
     rnd = rng.integers(0, 3, m)
     size = np.array([40, 30, 20])[rnd]
     at = np.column_stack((rnd, rng.integers(0, size), rng.integers(0, size)))
-    got = D._crossing_table(tables, at)
+    given = list(tables)
+    got = D._crossing_table(given, at)
+    assert given == []  # emptied: the rounds' columns freed as they are gathered
     for d in range(2 * m):
         r, s = at[d % m, 0], at[d % m, 1 + d // m]
         want, have = tables[r].rows_of(int(s)), got.rows_of(d)
@@ -109,3 +111,28 @@ def test_part_candidates_cached_in_batches_equal_one_pass():
     assert len(want[0]) > 100
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
+
+
+def test_arcs_across_in_batches_equal_one_table(monkeypatch):
+    """The crossings' arcs and structures made in batches (joined column by column) equal
+    those of one free-arcs call and one structure pass over all the points."""
+    env = floor_plan(60, seed=3).internal
+    lss = 0.12 * (env.bounds[2] - env.bounds[0])
+    rng = np.random.default_rng(1)
+    q = interior_points(env, 400, seed=2)
+    a = rng.uniform(0, 2 * np.pi, len(q))
+    n = np.column_stack((np.cos(a), np.sin(a)))
+    eps = rng.uniform(1e-6, 1e-3, len(q)) * lss
+    pts = D.crossing_points(q, n, eps)
+    whole = free_arcs_many(env, pts, lss, check=False)
+    rows = D._table_rows(env, whole, len(pts))
+    for batch in (7, 100, 10_000):
+        monkeypatch.setattr(D, "ACROSS_BATCH", batch)
+        table, sides = D._arcs_across(env, lss, q, n, eps)
+        for f in ("point", "start", "end", "start_code", "end_code", "full"):
+            got, want = getattr(table, f), getattr(whole, f)
+            assert got.dtype == want.dtype and np.array_equal(got, want), f
+        for f in ("kind", "ptr", "pairs"):
+            got, want = getattr(sides, f), getattr(rows, f)
+            assert got.dtype == want.dtype and np.array_equal(got, want), f
+    assert len(whole.point) > len(pts)

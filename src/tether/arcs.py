@@ -12,13 +12,16 @@ Feature codes: internally, edge ``i`` has code ``i`` and vertex ``j`` has code `
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
+from tether.spatial import EdgeIndex
 from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
 TWO_PI = 2.0 * math.pi
@@ -165,10 +168,11 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     shorter than ``env.length_tol``) are dropped.
     """
     ax, ay, dx, dy, dd, sdd, tag_a, tag_b = _edge_columns(env)
-    pidx, eidx = env.edge_index(lss).query(pts)
-    # w = A - p, columns apart (no (k, 2) temporaries); rows are filtered as early as possible
-    wx = ax[eidx] - pts[:, 0][pidx]
-    wy = ay[eidx] - pts[:, 1][pidx]
+    pidx, eidx, count = _query(_facing_index(env, lss), pts)
+    # w = A - p, columns apart (no (k, 2) temporaries); the point's coordinates repeated along
+    # its run of rows (a repeat, cheaper than a gather)
+    wx = ax[eidx] - np.repeat(pts[:, 0], count)
+    wy = ay[eidx] - np.repeat(pts[:, 1], count)
     ex, ey = dx[eidx], dy[eidx]
     side = ex * (-wy) - ey * (-wx)  # cross(d, p - a): > 0 on the free side
     k = np.flatnonzero(side > env.length_tol * sdd[eidx])
@@ -185,8 +189,9 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     t1 = np.maximum(r1, 0.0)
     t2 = np.minimum(r2, 1.0)
     k = np.flatnonzero(t1 < t2)
-    pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2 = (
-        x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, r1, r2, t1, t2))
+    # the rows' geometry taken to the k rows now; their point, edge and roots only at the
+    # rows kept in the end (w)
+    wx, wy, ex, ey, t1, t2 = (x[k] for x in (wx, wy, ex, ey, t1, t2))
     p1x, p1y = wx + t1 * ex, wy + t1 * ey
     p2x, p2y = wx + t2 * ex, wy + t2 * ey
     start = np.mod(np.arctan2(p1y, p1x), TWO_PI)
@@ -197,17 +202,69 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     # chord subtends an angle ~ h * chord / lss^2 (h: distance to the line) that falls below
     # ANGLE_TOL far from any tangency. Dropping those intervals would move the structure's
     # boundary off the critical curves C(Vj, Ei) and B(Vj) near their common end (issue #9).
-    chord = (t2 - t1) * np.sqrt(de)
+    chord = (t2 - t1) * np.sqrt(de[k])
     wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
-    e = eidx[wide]
+    w = k[wide]
+    e = eidx[w]
     return {
-        "point": pidx[wide],
+        "point": pidx[w],
         "edge": e,
         "start": start[wide],
         "length": length[wide],
-        "cw_code": np.where(r1[wide] <= 0, env.n + tag_a[e], e),
-        "ccw_code": np.where(r2[wide] >= 1, env.n + tag_b[e], e),
+        "cw_code": np.where(r1[w] <= 0, env.n + tag_a[e], e),
+        "ccw_code": np.where(r2[w] >= 1, env.n + tag_b[e], e),
     }
+
+
+def _facing_index(env: Environment, lss: float) -> EdgeIndex:
+    """The edge index of :meth:`Environment.edge_index` for ``lss`` without the edges that no
+    point of a grid cell sees from their free side (cached per map and ``lss``): about 45 %
+    fewer candidate rows for :func:`blocked_intervals`, the same rows after its side test.
+
+    An entry (cell, edge) is dropped when ``cross(d, p - a)`` stays below the side test's
+    threshold ``length_tol |d|`` by a margin at every corner of the cell's box grown by a
+    margin (the cross product is linear in ``p``: its largest value on the box is at a corner).
+    The margins (``1e-9`` of the grid's extent) are far above the rounding of the test in
+    floating point, so a dropped entry is one the test rejects for every point in the cell.
+    The border cells keep all their edges: the query clips the points beyond the grid to them.
+    Within a cell the edges keep their order: the rows come out in the very order of the full
+    index's rows that pass the side test."""
+    cache = env.__dict__.setdefault("_facing_indexes", {})
+    key = float(lss)
+    got = cache.get(key)
+    if got is not None:
+        return got
+    full = env.edge_index(lss)
+    ax, ay, dx, dy, _, sdd, _, _ = _edge_columns(env)
+    nx, ny = full.shape
+    cid = np.repeat(np.arange(nx * ny), np.diff(full.start))
+    e = full.edges
+    gx, gy = cid // ny, cid % ny
+    extent = float(np.max(np.abs(full.origin)) + max(nx, ny) * full.cell)
+    grow = 1e-9 * extent
+    x0 = full.origin[0] + gx * full.cell - grow
+    y0 = full.origin[1] + gy * full.cell - grow
+    x1, y1 = x0 + (full.cell + 2 * grow), y0 + (full.cell + 2 * grow)
+    ex, ey = dx[e], dy[e]
+    side = np.maximum(np.maximum(ex * (y0 - ay[e]) - ey * (x0 - ax[e]),
+                                 ex * (y1 - ay[e]) - ey * (x0 - ax[e])),
+                      np.maximum(ex * (y0 - ay[e]) - ey * (x1 - ax[e]),
+                                 ex * (y1 - ay[e]) - ey * (x1 - ax[e])))
+    border = (gx == 0) | (gy == 0) | (gx == nx - 1) | (gy == ny - 1)
+    keep = border | (side > (env.length_tol - grow) * sdd[e])
+    start = np.r_[0, np.cumsum(np.bincount(cid[keep], minlength=nx * ny))]
+    got = cache[key] = EdgeIndex(full.origin, full.cell, full.shape, start, e[keep])
+    return got
+
+
+def _query(index: EdgeIndex, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`EdgeIndex.query` that also returns each point's number of rows."""
+    nx, ny = index.shape
+    g = np.floor((pts - index.origin) / index.cell).astype(np.int64)
+    c = np.clip(g[:, 0], 0, nx - 1) * ny + np.clip(g[:, 1], 0, ny - 1)
+    first = index.start[c]
+    count = index.start[c + 1] - first
+    return np.repeat(np.arange(len(pts)), count), index.edges[ragged_arange(first, count)], count
 
 
 def _edge_columns(env: Environment) -> tuple[np.ndarray, ...]:
@@ -231,8 +288,6 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     pt = iv["point"][order]
     S = iv["start"][order]
     E = S + iv["length"][order]
-    cw = iv["cw_code"][order]
-    ccw = iv["ccw_code"][order]
     m = len(S)
     full = np.ones(npts, dtype=bool)
     full[pt] = False
@@ -245,27 +300,28 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     key = E + pt * _GROUP
     arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
     M = E[arg]
-    new_run = np.r_[True, pt[1:] != pt[:-1]]
-    last = np.r_[new_run[1:], True]
-    first_of = np.flatnonzero(new_run)
+    last = np.r_[pt[1:] != pt[:-1], True]
     last_of = np.flatnonzero(last)
-    grp = np.cumsum(new_run) - 1
+    first_of = np.r_[0, last_of[:-1] + 1]
+    size = np.diff(np.r_[-1, last_of])
     # candidate gaps: after every row, to the next row's start (the last row: around the circle)
     nxt = np.arange(1, m + 1)
     nxt[last_of] = first_of
-    g_start = M.copy()
     g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
-    s_code = ccw[arg]
-    e_code = cw[nxt]
     # the largest end may wrap past 2pi and cover the beginning of the circle up to W
-    W = (M[last_of] - TWO_PI)[grp]
-    s_code = np.where(g_start < W, ccw[arg[last_of]][grp], s_code)
-    g_start = np.maximum(g_start, W)
+    W = np.repeat(M[last_of] - TWO_PI, size)
+    g_start = np.maximum(M, W)
     k = np.flatnonzero(g_end - g_start > ANGLE_TOL)  # rows inside a component leave no gap
+    # the gaps' end features: the CCW end of the interval reaching farthest (or of the one
+    # wrapping past 2pi, where it covers the gap's start), the CW end of the next interval
+    wraps = M[k] < W[k]
+    ends_at = np.where(wraps, np.repeat(arg[last_of], size)[k] if wraps.any() else 0, arg[k])
+    s_code = iv["ccw_code"][order[ends_at]]
+    e_code = iv["cw_code"][order[nxt[k]]]
     start = np.mod(g_start[k], TWO_PI)
     end = np.mod(g_end[k], TWO_PI)
     o = _order_by_point_angle(pt[k], start)
-    return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
+    return ArcTable(pt[k][o], start[o], end[o], s_code[o], e_code[o], full)
 
 
 def _order_by_point_angle(point: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -339,13 +395,8 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     if check:
         check_inside(env, pts)
     if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
-        parts = [free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
-                 for i in range(0, len(pts), POINT_BATCH)]
-        offset = np.arange(0, len(pts), POINT_BATCH)
-        return ArcTable(np.concatenate([t.point + o for t, o in zip(parts, offset,
-                                                                    strict=True)]),
-                        *(np.concatenate([getattr(t, f) for t in parts])
-                          for f in ("start", "end", "start_code", "end_code", "full")))
+        return join_tables([free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
+                            for i in range(0, len(pts), POINT_BATCH)])
     inner, frame = env.internal, env.frame
     table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
     if inner is env:
@@ -353,6 +404,29 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     cm = env.code_map  # internal feature codes to the file's
     return ArcTable(table.point, table.start, table.end, cm[table.start_code],
                     cm[table.end_code], table.full)
+
+
+def join_tables(parts: list[ArcTable], release: Callable[[], Any] | None = None) -> ArcTable:
+    """The tables of consecutive batches of points as one table (the points of ``parts[k]``
+    numbered after those of ``parts[k - 1]``). Empties ``parts`` and joins column by column,
+    each column's batches freed once joined (and ``release`` called, if given: e.g. to return
+    the freed memory to the system): the peak is the batches and one joined column, not
+    twice the table."""
+    cols = {f: [getattr(t, f) for t in parts] for f in _TABLE_FIELDS}
+    parts.clear()
+    offset = 0
+    for i, (point, full) in enumerate(zip(cols["point"], cols["full"], strict=True)):
+        cols["point"][i] = point + offset  # one batch's column at a time
+        offset += len(full)
+    joined = {}
+    for f in _TABLE_FIELDS:
+        joined[f] = np.concatenate(cols.pop(f))
+        if release is not None:
+            release()
+    return ArcTable(**joined)
+
+
+_TABLE_FIELDS = ("point", "start", "end", "start_code", "end_code", "full")
 
 
 def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:

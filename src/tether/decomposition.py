@@ -27,7 +27,14 @@ import numpy as np
 import shapely
 from shapely.errors import GEOSException
 
-from tether.arcs import TWO_PI, ArcTable, check_lss, feature_name, free_arcs_many
+from tether.arcs import (
+    TWO_PI,
+    ArcTable,
+    check_lss,
+    feature_name,
+    free_arcs_many,
+    join_tables,
+)
 from tether.arrays import ragged_arange
 from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
@@ -1837,21 +1844,35 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     release_memory()
     geoms = _chain_geometries(arr, chains, kept)
     flat, ptr = ssrc.tolist(), sptr.tolist()
-    pieces = []
-    described: dict[tuple[int, ...], tuple[str, tuple[str, ...]]] = {}  # many pieces share
-    for pid, (i, (ra, rb), (qx, qy), (nx, ny), eps, verified, geom) in enumerate(zip(
-            kept.tolist(), chains.pair[kept].tolist(), got["q"][kept].tolist(),
-            got["n"][kept].tolist(), got["eps"][kept].tolist(), got["ok"][kept].tolist(),
-            geoms, strict=True)):
-        key = tuple(flat[ptr[i]:ptr[i + 1]])
+    described: dict[tuple[int, ...], tuple] = {}  # many pieces share their curves
+
+    def describe(key: tuple[int, ...]) -> tuple:
+        """The curves' key (one shared tuple), kinds and features of a chain's curves."""
         desc = described.get(key)
         if desc is None:
             kinds = "".join(sorted({curves[c].kind for c in key})) or "?"
             feats = tuple(dict.fromkeys(f for c in key for f in curves[c].features))
-            desc = described[key] = (kinds, feats)
-        pieces.append(Piece(pid, (ra, rb), key, desc[0], desc[1], geom, (qx, qy), (nx, ny),
-                            eps, verified))
+            desc = described[key] = (key, kinds, feats)
+        return desc
+
+    pieces: list[Piece] = []
+    for lo in range(0, len(kept), PIECE_BATCH):  # bounded memory: one batch's lists at a time
+        ids = kept[lo:lo + PIECE_BATCH]
+        q, nrm = got["q"][ids], got["n"][ids]
+        descs = [describe(tuple(flat[ptr[i]:ptr[i + 1]])) for i in ids.tolist()]
+        pieces.extend(map(Piece, range(lo, lo + len(ids)),
+                          zip(chains.pair[ids, 0].tolist(), chains.pair[ids, 1].tolist(),
+                              strict=True),
+                          [d[0] for d in descs], [d[1] for d in descs], [d[2] for d in descs],
+                          geoms[lo:lo + PIECE_BATCH],
+                          zip(q[:, 0].tolist(), q[:, 1].tolist(), strict=True),
+                          zip(nrm[:, 0].tolist(), nrm[:, 1].tolist(), strict=True),
+                          got["eps"][ids].tolist(), got["ok"][ids].tolist()))
     return pieces, len(chains) - len(kept), arcs
+
+
+#: Pieces made per batch: the batch's columns are Python lists, this bounds their memory.
+PIECE_BATCH = 16_384
 
 
 def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
@@ -1959,19 +1980,35 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
     closer than ``reach``, so far fewer (point, segment) pairs are measured than in one search
     within ``reach``; the same distances."""
     clear = np.full(len(pts), reach)
+    cols = tuple(np.ascontiguousarray(c) for c in (sa[:, 0], sa[:, 1], sb[:, 0], sb[:, 1]))
     todo = np.arange(len(pts))
     for frac in CLEARANCE_STAGES:
         r = reach * frac
         found = np.full(len(todo), np.inf)
         for i in range(0, len(todo), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
             rows = todo[i:i + CLEARANCE_BATCH]
-            qi, sj, d = _segments_near(pts[rows], sa, sb, r, tree)
-            other = sowner[sj] != owner[rows[qi]]
-            np.minimum.at(found, i + qi[other], d[other])
-        hit = found <= r
+            qi, d = _other_distances(pts[rows], owner[rows], cols, sowner, r, tree)
+            np.minimum.at(found, i + qi, d)
+        hit = found <= r  # the nearest within r, if any (farther candidates do not lower it)
         clear[todo[hit]] = found[hit]
         todo = todo[~hit]
     return clear
+
+
+def _other_distances(pts: np.ndarray, owner: np.ndarray, cols: tuple[np.ndarray, ...],
+                     sowner: np.ndarray, r: float, tree: shapely.STRtree
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Distances from points (m, 2) to the segments of other parts (``sowner != owner``)
+    whose envelopes meet the point's box of half-width ``r``: point indices and distances
+    (map units; some beyond ``r``). ``cols``: the segments' ``ax, ay, bx, by`` columns,
+    indexed by ``tree``. A point's own part, its nearest, is dropped before measuring."""
+    box = shapely.box(pts[:, 0] - r, pts[:, 1] - r, pts[:, 0] + r, pts[:, 1] + r)
+    qi, si = tree.query(box)  # envelopes only; exact distances below
+    k = np.flatnonzero(sowner[si] != owner[qi])
+    qi, si = qi[k], si[k]
+    ax, ay, bx, by = cols
+    return qi, _point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], ax[si], ay[si],
+                                          bx[si], by[si])
 
 
 def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
@@ -2146,17 +2183,45 @@ def _rows_equal(a: _StructureRows, i: np.ndarray, b: _StructureRows, j: np.ndarr
 def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps: np.ndarray
                  ) -> tuple[ArcTable, _StructureRows]:
     """Exact free arcs at both sides of crossings (rows ``0..k-1``: ``q + eps n``, then
-    ``q - eps n``) and the structures of those ``2k`` points."""
+    ``q - eps n``) and the structures of those ``2k`` points. Computed in batches of
+    :data:`ACROSS_BATCH` points, each batch's structures from its own table, the batches
+    joined column by column with the freed memory returned to the system: the peak is the
+    table, its structures and one batch's temporaries."""
     pts = crossing_points(q, n, eps)
-    table = free_arcs_many(env, pts, lss, check=False)
-    return table, _table_rows(env, table, len(pts))
+    tables, rows = [], []
+    for b, i in enumerate(range(0, max(len(pts), 1), ACROSS_BATCH)):
+        if b % 8 == 7:  # the batches' freed temporaries, scattered among the tables made
+            release_memory()
+        t = free_arcs_many(env, pts[i:i + ACROSS_BATCH], lss, check=False)
+        tables.append(t)
+        rows.append(_table_rows(env, t, len(t.full)))
+        del t
+    release_memory()
+    return join_tables(tables, release_memory), _join_rows(rows)
+
+
+#: Points per batch of :func:`_arcs_across` (half of :data:`tether.arcs.POINT_BATCH`: the
+#: batch's temporaries come on top of the table made so far).
+ACROSS_BATCH = 10_000
+
+
+def _join_rows(parts: list[_StructureRows]) -> _StructureRows:
+    """The structure rows of consecutive batches of points as one (see :func:`join_tables`)."""
+    if len(parts) == 1:
+        return parts[0]
+    ends = np.cumsum([int(r.ptr[-1]) for r in parts])
+    ptr = np.concatenate([[0]] + [r.ptr[1:] + (ends[i - 1] if i else 0)
+                                  for i, r in enumerate(parts)])
+    return _StructureRows(np.concatenate([r.kind for r in parts]), ptr,
+                          np.concatenate([r.pairs for r in parts]))
 
 
 def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     """The arcs at both sides of every piece's crossing, gathered from the tables of the
     rounds that chose them (the very points of :meth:`Decomposition.piece_crossings`):
     points ``0..m-1`` on the ``+normal`` side, ``m..2m-1`` on the other. ``at``: each
-    piece's ``(round, row of the +n side, row of the other)``, shape (m, 3)."""
+    piece's ``(round, row of the +n side, row of the other)``, shape (m, 3). Empties
+    ``tables``: their columns are freed one by one as they are gathered."""
     m = len(at)
     at_arr = np.asarray(at, dtype=np.int64).reshape(-1, 3)
     rnd = np.concatenate((at_arr[:, 0], at_arr[:, 0]))  # per output point
@@ -2168,15 +2233,24 @@ def _crossing_table(tables: list[ArcTable], at: np.ndarray) -> ArcTable:
     for r, table in enumerate(tables):
         k = np.flatnonzero(rnd == r)
         full[k] = table.full[src[k]]
-        lo = np.searchsorted(table.point, src[k], side="left")
-        first[k] = offset + lo
-        count[k] = np.searchsorted(table.point, src[k], side="right") - lo
+        size = np.bincount(table.point, minlength=len(table.full))  # rows of each point
+        first[k] = offset + (np.cumsum(size) - size)[src[k]]
+        count[k] = size[src[k]]
         offset += len(table.point)
+    table = None  # no reference left to a round's table but ``tables``
     rows = ragged_arange(first, count)  # output points in order, no sort
-    cols = [(getattr(tables[0], f) if len(tables) == 1 else
-             np.concatenate([getattr(t, f) for t in tables]))[rows]
-            for f in ("start", "end", "start_code", "end_code")] if tables else \
-        [np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64)]
+    if not tables:
+        return ArcTable(np.repeat(np.arange(2 * m), count), np.zeros(0), np.zeros(0),
+                        np.zeros(0, np.int64), np.zeros(0, np.int64), full)
+    fields = ("start", "end", "start_code", "end_code")
+    src = {f: [getattr(t, f) for t in tables] for f in fields}
+    tables.clear()  # each column of the rounds' tables freed once gathered
+    cols = []
+    for f in fields:
+        parts = src.pop(f)
+        cols.append((parts[0] if len(parts) == 1 else np.concatenate(parts))[rows])
+        del parts
+        release_memory()
     return ArcTable(np.repeat(np.arange(2 * m), count), *cols, full)
 
 
