@@ -1972,7 +1972,8 @@ CLEARANCE_STAGES = (1 / 4, 1.0)
 
 
 def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
-               sowner: np.ndarray, tree: shapely.STRtree, reach: float) -> np.ndarray:
+               sowner: np.ndarray, tree: shapely.STRtree | SegmentGrid, reach: float
+               ) -> np.ndarray:
     """Each point's distance to the nearest segment ``sa[k]-sb[k]`` of another part
     (``sowner[k] != owner[i]``), at most ``reach`` (map units). Searched within growing radii
     (``CLEARANCE_STAGES``): a distance found within a radius is the nearest (every segment
@@ -1996,14 +1997,13 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
 
 
 def _other_distances(pts: np.ndarray, owner: np.ndarray, cols: tuple[np.ndarray, ...],
-                     sowner: np.ndarray, r: float, tree: shapely.STRtree
+                     sowner: np.ndarray, r: float, tree: shapely.STRtree | SegmentGrid
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Distances from points (m, 2) to the segments of other parts (``sowner != owner``)
     whose envelopes meet the point's box of half-width ``r``: point indices and distances
     (map units; some beyond ``r``). ``cols``: the segments' ``ax, ay, bx, by`` columns,
     indexed by ``tree``. A point's own part, its nearest, is dropped before measuring."""
-    box = shapely.box(pts[:, 0] - r, pts[:, 1] - r, pts[:, 0] + r, pts[:, 1] + r)
-    qi, si = tree.query(box)  # envelopes only; exact distances below
+    qi, si = _segment_pairs(pts, r, tree)  # envelopes only; exact distances below
     k = np.flatnonzero(sowner[si] != owner[qi])
     qi, si = qi[k], si[k]
     ax, ay, bx, by = cols
