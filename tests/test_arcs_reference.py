@@ -194,6 +194,7 @@ def _rotated(env, angle):
 
 @pytest.mark.parametrize("n, seed, angle", [(40, 1, 0.0), (120, 2, 0.0), (300, 3, 0.0),
                                             (120, 4, 0.3), (300, 5, 2.0)])
+@pytest.mark.slow
 def test_blocked_intervals_match_reference(n, seed, angle):
     env = _rotated(floor_plan(n, seed=seed), angle) if angle else floor_plan(n, seed=seed)
     env = env.internal
@@ -248,6 +249,7 @@ def _merge_reference(iv, npts):
     return ArcTable(pt[k][o], start[o], end[o], s_code[k][o], e_code[k][o], full)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, seed, angle", [(40, 1, 0.0), (300, 3, 0.0), (120, 4, 0.3)])
 def test_merge_matches_reference(n, seed, angle):
     """The free arcs of the merge, bit for bit (signed zeros included), on the intervals of

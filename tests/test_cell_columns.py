@@ -46,6 +46,7 @@ def _reference_cells(dec) -> tuple[Cell, ...]:
     return tuple(out)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", range(5))
 def test_cells_equal_the_per_region_objects(case):
     env, lss = _cases()[case]
@@ -121,6 +122,7 @@ def test_structure_cells_sorts_like_structure_codes():
     assert all(len(x) == 0 for x in _structure_cells(env, []))
 
 
+@pytest.mark.slow
 def test_multi_face_polygons_made_on_first_read():
     """Unions of several faces are made on the first read; a few read through ``some`` are
     the same geometries as all made at once, and every polygon's area is the region's."""
@@ -152,6 +154,7 @@ def test_pickled_decomposition_keeps_cells_and_lazy_polygons():
         shapely.to_wkb(r.polygon) for r in dec.regions]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [0, 2, 4])
 def test_eliminations_and_survivors_by_id(case):
     """The eliminations made in one pass equal those made one by one from the list of every
@@ -259,6 +262,7 @@ def _old_candidate_pairs(rows, m):
     return pair // len(point), pair % len(point)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", range(5))
 def test_arc_rows_and_candidate_pairs_as_before(case):
     """The arc rows (as they are when sorted without FULL points, else a sorted copy) and
@@ -287,6 +291,7 @@ def test_arc_rows_and_candidate_pairs_as_before(case):
             assert np.array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_escape_story_chain_on_arrays_as_on_objects():
     """The story's chain found on the elimination arrays equals the one found by scanning
     the Elimination objects (a verdict holding them as a plain tuple)."""

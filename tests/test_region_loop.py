@@ -184,6 +184,7 @@ def _crossing_candidates_reference(arr, chains, tol, lss):
     return D._Candidates(ptr, Q[ok].reshape(-1, 2), eps)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("nreg, k", [(3, 30), (40, 1), (10**6, 1)])
 def test_crossing_candidates_equal_reference(nreg, k):
     """Chains of random regions (on a fresh arrangement each: no cache), with the clearance
@@ -205,6 +206,7 @@ def test_crossing_candidates_equal_reference(nreg, k):
             assert np.array_equal(g, w)
 
 
+@pytest.mark.slow
 def test_isolated_regions_are_those_of_the_chains():
     """The regions no chain of which has a candidate, as the loop found them before: from
     the chains and their candidates. Random regions, and the smallest faces as regions of

@@ -36,6 +36,7 @@ def _envelope_pairs(pts, a, b, r):
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-6, 1e-3, 0.01, 0.05, 0.3, 3.0]),
        st.sampled_from([(1.0, 0.0), (1e-3, 0.0), (1.0, 1e6)]))
+@pytest.mark.slow
 def test_meeting_pairs_are_the_envelope_pairs(seed, r, frame):
     scale, offset = frame
     rng = np.random.default_rng(seed)
@@ -87,7 +88,8 @@ def test_blocks_hold_every_segment_of_their_cells():
                 for j in range(gy0[k], gy1[k] + m + 1):
                     want[i * blk.shape[1] + j].append(k)
         assert blk.seg.tolist() == [k for w in want for k in w]
-        assert blk.start.tolist() == np.cumsum([0] + [len(w) for w in want]).tolist()
+        assert blk.block.tolist() == [k for k, w in enumerate(want) if w]
+        assert all(blk.contents(k).tolist() == w for k, w in enumerate(want))
 
 
 def test_blocks_guard_many_long_segments():

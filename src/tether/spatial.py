@@ -162,13 +162,16 @@ class SegmentGrid:
 class _Blocks:
     """The blocks of a :class:`SegmentGrid` for boxes of half-width ``r`` (CSR): block ``(i,
     j)`` covers cells ``i - m .. i`` by ``j - m .. j`` (cells counted from the segments'
-    lower left corner ``origin``, of side ``cell``, map units); its segments are
-    ``seg[start[k]:start[k + 1]]``, ``k = i * shape[1] + j``, increasing."""
+    lower left corner ``origin``, of side ``cell``, map units). Only blocks holding segments
+    are kept: block number ``k = i * shape[1] + j`` is ``block[t]`` (increasing) and its
+    segments are ``seg[start[t]:start[t + 1]]``, increasing (sparse: the grid may have millions
+    of cells, a small map a few hundred segments)."""
 
     origin: tuple[float, float]
     cell: float
     m: int
     shape: tuple[int, int]
+    block: np.ndarray
     start: np.ndarray
     seg: np.ndarray
 
@@ -193,9 +196,17 @@ class _Blocks:
         key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1])
         key.sort()  # (block, segment) as one integer: a sort of values, fast
         nseg = len(gx0)
-        start = np.searchsorted(key, np.arange(shape[0] * shape[1] + 1) * nseg)
-        seg = (key % nseg).astype(np.int32)
-        return cls((ox, oy), cell, m, shape, start, seg)
+        block, seg = np.divmod(key, nseg)
+        head = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
+        start = np.append(head, len(key))
+        return cls((ox, oy), cell, m, shape, block[head], start, seg.astype(np.int32))
+
+    def contents(self, k: int) -> np.ndarray:
+        """The segments of block number ``k`` (increasing; empty if none)."""
+        t = int(np.searchsorted(self.block, k))
+        if t == len(self.block) or self.block[t] != k:
+            return self.seg[:0]
+        return self.seg[self.start[t]:self.start[t + 1]]
 
     def query(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The segments of each box's block: (box index, segment index). A segment whose
@@ -210,8 +221,11 @@ class _Blocks:
         bi = np.clip(cx0 + m, 0, self.shape[0] - 1).astype(np.int64)
         bj = np.clip(cy0 + m, 0, self.shape[1] - 1).astype(np.int64)
         b = bi * self.shape[1] + bj
-        first = self.start[b]
-        n = self.start[b + 1] - first
+        t = np.searchsorted(self.block, b)
+        t = np.minimum(t, len(self.block) - 1)
+        held = self.block[t] == b
+        first = self.start[t]
+        n = np.where(held, self.start[t + 1] - first, 0)
         return np.repeat(np.arange(len(lo)), n), self.seg[ragged_arange(first, n)]
 
 
