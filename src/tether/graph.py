@@ -19,7 +19,7 @@ import numpy as np
 
 from tether.arcs import TWO_PI, ArcTable, free_arcs_many
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, _Cells, gc_paused
+from tether.decomposition import Decomposition, _Cells, gc_paused, release_memory
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -400,5 +400,6 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     del slot_a, slot_b
     partner_cell = np.column_stack((eb, ea)).ravel()[order]
     del order
+    release_memory()  # the temporaries' heap, before the elimination allocates its own
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr.astype(np.int64), region_pieces,
                              slot_ptr, slot_piece, partner_ptr, partner_cell, partner_slot)
