@@ -14,6 +14,7 @@ def run():
     return fig8("paper", dt=0.1)
 
 
+@pytest.mark.slow
 def test_plot_run(run, tmp_path):
     import matplotlib
 
@@ -28,6 +29,7 @@ def test_plot_run(run, tmp_path):
     assert (tmp_path / "r.png").stat().st_size > 1000
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ext", [".gif", ".html"])
 def test_animation_files(run, tmp_path, ext):
     w, r = run

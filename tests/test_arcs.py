@@ -51,6 +51,7 @@ def disagreements(env: Environment, pts: np.ndarray, lss: float, nang: int, seed
     return bad
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", [0.7, 2.0, 5.0])
 def test_arcs_agree_with_brute_force_rod_test(any_map, lss):
     pts = interior_points(any_map, 25, seed=int(lss * 10))
@@ -201,12 +202,14 @@ def check_label_invariants(env: Environment, table, npts: int) -> None:
         assert list(table.start[table.rows_of(i)]) == sorted(table.start[table.rows_of(i)])
 
 
+@pytest.mark.slow
 def test_labels_are_unique_and_vertex_labels_are_reflex(any_map):
     pts = interior_points(any_map, 2000, seed=5)
     for lss in (0.7, 2.0, 5.0):
         check_label_invariants(any_map, free_arcs_many(any_map, pts, lss), len(pts))
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(env=random_maps(), lss=st.floats(0.3, 8.0), seed=st.integers(0, 10_000))
 def test_random_polygons_agree_with_brute_force(env, lss, seed):

@@ -269,6 +269,7 @@ def _conflicts_reference(points, vt, vo, lss, a, arc):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, lss, ratio", [("gallery", 2.0, 0.3),
                                               ("nonconvex_corner", 2.0, 0.6)])
 def test_prop3_conflicts_equal_the_plain_pairwise_check(name, lss, ratio):

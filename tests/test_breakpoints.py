@@ -90,6 +90,7 @@ def test_breakpoint_sampling_regular_hexagon():
         assert_same_as_dense(env, lss)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5),
                                           (GENERIC, 6.0), (STAR_HOLE, 0.4)])
 def test_breakpoint_sampling_test_maps(env, lss):

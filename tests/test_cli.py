@@ -83,6 +83,7 @@ def test_bound_errors(capsys, argv, tmp_path):
     assert not (tmp_path / "never.png").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["tractrix", "rotation", "wall", "vertex"])
 def test_plot_motion_writes_a_png(tmp_path, kind):
     out = tmp_path / f"{kind}.png"

@@ -13,6 +13,7 @@ BASE = ["kernel", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "--
         "--h", "0.5", "--orientations", "36"]
 
 
+@pytest.mark.slow
 def test_kernel_json_and_at(capsys, tmp_path):
     npz = tmp_path / "k.npz"
     png = tmp_path / "k.png"
@@ -46,6 +47,7 @@ def test_kernel_bad_input_exit_2(capsys, extra, message, tmp_path, monkeypatch):
     assert message in err and err.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_kernel_figures(tmp_path):
     import math
 

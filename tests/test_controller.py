@@ -31,6 +31,7 @@ def world(name, lss=2.0, vt=0.5, vo=1.0):
     return _WORLDS[key]
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(x=st.floats(0.2, 15.8), y=st.floats(0.2, 11.8), a=st.floats(0, 2 * math.pi),
        psi=st.floats(0, 2 * math.pi), s=st.floats(0, 1), dt=st.sampled_from([0.005, 0.02, 0.1]),
@@ -87,6 +88,7 @@ def test_infeasible_pivot_is_reported():
     assert "pivot about V" in r.reason and "< Lss·vt/(vo+vt)" in r.reason
 
 
+@pytest.mark.slow
 def test_fig7_rotation_needed_and_made():
     _, r = fig7("paper")
     assert r.outcome == "held"
@@ -97,6 +99,7 @@ def test_fig7_rotation_needed_and_made():
     assert r0.outcome == "lost" and "pivot about V6" in r0.reason
 
 
+@pytest.mark.slow
 def test_fig8_slide_rotate_slide():
     _, r = fig8("paper")
     assert r.outcome == "held"
@@ -107,6 +110,7 @@ def test_fig8_slide_rotate_slide():
     assert r0.outcome == "lost" and "E0" in r0.reason
 
 
+@pytest.mark.slow
 def test_escape_target_wins_without_a_strategy():
     w = world("convex_corner")
     assert not w.verdict.strategy_exists
@@ -131,6 +135,7 @@ def test_escape_target_wins_from_random_starts(seed):
     assert r.outcome == "lost", (x, y, a)
 
 
+@pytest.mark.slow
 def test_gap_def2_alone_loses_walls_repair_it():
     """The former counterexample to the paper's literal escape points (docs/strategy.md): it
     came from the escape rows ignoring rods in the blocked gap next to their cell (the rod
@@ -171,6 +176,7 @@ def test_held_from_safe_starts_on_the_room_corner(kind):
         assert r.outcome == "held", (start, r.reason)
 
 
+@pytest.mark.slow
 def test_pinned_rotation_hands_over_to_the_closer_escape_point():
     """Floor plan (40 vertices), lss 0.6, vt/vo 0.3, the `wall` target hugging a pillar: the
     trigger commits to the pillar's far corner V39, the rotation is pinned against the pillar,

@@ -106,6 +106,7 @@ def change_points(env, lss, a, b, n=400):
 _SLOW_MAPS = {"generic", "plan-50-3"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", [k for k in DECS if k[0] not in _SLOW_MAPS],
                          ids=lambda k: f"{k[0]}-{k[1]}")
 def test_every_structure_change_lies_on_a_critical_curve(key):
@@ -140,6 +141,7 @@ def _structure_changes_on_curves(dec):
     del rng
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(env=random_maps(), lss=st.floats(0.5, 6.0))
 def test_random_polygons_decompose_consistently(env, lss):

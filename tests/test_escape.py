@@ -96,6 +96,7 @@ def random_graph(rng):
         f"(R{r},E{k},E{k})" for k in range(int(rng.integers(0, 4)))])
 
 
+@pytest.mark.slow
 def test_elimination_equals_naive_iteration_on_random_graphs():
     rng = np.random.default_rng(0)
     for _ in range(3000):
@@ -182,6 +183,7 @@ def test_corners_of_the_paper():
     assert len([c for c in r.cells if c not in v.surviving]) == 1
 
 
+@pytest.mark.slow
 def test_analyze_cli_json(capsys, tmp_path):
     out = tmp_path / "v.png"
     assert main(["analyze", str(example_path("rectangle")), "--lss", "1", "--json", "--plot",

@@ -154,6 +154,7 @@ EXAMPLES = [(name, f) for name in ("rectangle", "gallery", "convex_corner", "non
             for f in (0.05, 0.2, 0.35)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "frac"), EXAMPLES)
 def test_examples_equal_reference(name, frac):
     env = load_map(example_path(name))

@@ -89,6 +89,7 @@ def check_similarity(name: str, sim: dict) -> None:
     assert summary(moved, lss * k) == want, sim
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(sim=similarity)
@@ -147,6 +148,7 @@ def renamed(s: dict, names: dict) -> dict:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 @settings(max_examples=4, deadline=None)
 @given(data=st.data())
@@ -171,6 +173,7 @@ def with_collinear(env: Environment, counts: list[int]) -> Environment:
     return Environment(np.vstack(out), env.holes, env.name)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 @settings(max_examples=4, deadline=None)
 @given(data=st.data())

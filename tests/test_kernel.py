@@ -181,6 +181,7 @@ def test_kernel_is_a_fixed_point(room_kernels):
             assert any(k.kernel[dst[m], (b + o) % g.n_a] for o in reach)
 
 
+@pytest.mark.slow
 def test_continuations_pass_a_reflex_vertex():
     """Passing just below the corner of an obstacle, the free arc pointing back turns by
     ~80° within one step: it must still be carried (a spurious trap otherwise)."""

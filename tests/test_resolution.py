@@ -37,6 +37,7 @@ def test_below_resolution_is_rejected_with_names(make):
         make(0.8 * REL_FEATURE_TOL * DIAM)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("make", [thin_hole, thin_spike, narrow_gap])
 @pytest.mark.parametrize("rel", [1.2, 3.0])
 @pytest.mark.parametrize("lss", [2.0, 3.3])

@@ -163,6 +163,7 @@ def random_maps(draw):
     return Environment(square(0, 0, 5), holes, "random"), lss
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(random_maps())
 def test_random_maps_never_raise_geos_errors(case):

@@ -255,6 +255,7 @@ json_values = st.recursive(
     max_leaves=30)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=json_values, ext=st.sampled_from(["json", "geojson"]))
 def test_garbage_json_never_a_traceback(tmp_path_factory, data, ext):

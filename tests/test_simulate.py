@@ -127,6 +127,7 @@ def test_path_target_constant_speed():
     assert np.allclose(r.trace.p[-1], [10, 2])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", sorted(TARGETS))
 def test_targets_bounded_speed_and_seeded(kind):
     w = world()

@@ -35,6 +35,7 @@ def test_parse_lss_range():
             parse_lss_range(bad)
 
 
+@pytest.mark.slow
 def test_sweep_rows_and_bisection_match_a_direct_scan():
     res = sweep(RECT, [0.25, 0.5, 1.0, 1.5], tol=0.02)
     for row in res.rows:
@@ -98,6 +99,7 @@ def _same(a, b):
     assert a.intervals == b.intervals
 
 
+@pytest.mark.slow
 def test_executors_give_the_serial_result():
     serial = sweep(RECT, [0.5, 1.0], tol=0.1)
     with ThreadPoolExecutor(2) as ex:
@@ -147,6 +149,7 @@ def test_formats():
     assert lines[1].startswith("0.5,true,true,") and lines[2].startswith("1.0,false,true,")
 
 
+@pytest.mark.slow
 def test_same_verdict_through_every_format(tmp_path):
     """JSON, GeoJSON, WKT and a rasterized ROS map (walls on the cell grid) agree."""
     env = Environment([[0, 0], [4, 0], [4, 2.5], [0, 2.5]],
@@ -164,6 +167,7 @@ def _save_json(env, tmp_path):
     return tmp_path / "m.json"
 
 
+@pytest.mark.slow
 def test_sweep_cli(tmp_path, capsys):
     m = str(example_path("rectangle"))
     assert main(["sweep", m, "--lss", "0.5:1:0.5", "--tol", "0.1"]) == 0
