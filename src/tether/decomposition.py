@@ -807,10 +807,10 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     else:
         faces, part_faces = _polygonize_faces(parts, pa, pb, powner, longest)
     # which input lines each part came from: input segments near the middle of its longest
-    # segment (a segment tree: distances to whole long polylines would dominate the time)
+    # segment (a segment grid: distances to whole long polylines would dominate the time)
     la, lb, lowner = _ring_segments(lines)
     mid = 0.5 * (pa[longest] + pb[longest])
-    tree = _segment_tree(la, lb)
+    tree = SegmentGrid(la, lb)
     source = np.asarray(source, dtype=np.int64)
     base = int(source.max(initial=0)) + 2  # sources are -1 (wall) .. max
     keys = []  # (part, source) pairs as one integer key; in batches: their candidate pairs

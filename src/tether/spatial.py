@@ -12,10 +12,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
-import shapely
 
 from tether.arrays import ragged_arange
 
@@ -149,13 +147,6 @@ class SegmentGrid:
         meet = np.flatnonzero((self.x0[si] <= hi[:, 0][bi]) & (self.x1[si] >= lo[:, 0][bi])
                               & (self.y0[si] <= hi[:, 1][bi]) & (self.y1[si] >= lo[:, 1][bi]))
         return bi[meet], si[meet].astype(np.int64)
-
-    def query(self, geoms: Any) -> np.ndarray:
-        """``shapely.STRtree.query(geoms)`` for rectangles ``geoms`` (their bounds are taken):
-        a (2, k) array of (geometry index, segment index) pairs whose bounding boxes meet,
-        grouped by geometry."""
-        bounds = shapely.bounds(np.asarray(geoms, dtype=object).reshape(-1))
-        return np.vstack(self.meeting(bounds[:, :2], bounds[:, 2:]))
 
 
 @dataclass(frozen=True, eq=False)
