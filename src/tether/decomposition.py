@@ -40,6 +40,7 @@ from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.spatial import SegmentGrid
+from tether.threads import map_chunks
 from tether.tolerances import REL_CURVE_TOL
 
 if TYPE_CHECKING:
@@ -1269,7 +1270,8 @@ def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
     speck = clear[thin] < 1e-6 * tol + 2 * grid
     thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
     if len(thin):
-        circ = shapely.maximum_inscribed_circle(faces[thin], tolerance=0.1 * tol)
+        # the costly step (long slivers), face by face: on every core
+        circ = map_chunks(shapely.maximum_inscribed_circle, faces[thin], tolerance=0.1 * tol)
         c = shapely.get_coordinates(circ)[::2]
         r = shapely.length(circ)
         better = r > clear[thin]

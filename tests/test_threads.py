@@ -1,0 +1,56 @@
+"""Element-wise shapely calls in threads (tether.threads): the same results, in order."""
+
+import numpy as np
+import pytest
+import shapely
+
+from tether.threads import MIN_CHUNKED, THREADS_ENV, map_chunks, thread_count
+
+
+def _slivers(n: int, seed: int = 0) -> np.ndarray:
+    """Thin random quadrilaterals of varied size and angle (the costly case of the inscribed
+    circle), some far from the origin."""
+    rng = np.random.default_rng(seed)
+    polys = []
+    for _ in range(n):
+        c = rng.uniform(-1e3, 1e3, 2)
+        a = rng.uniform(0, np.pi)
+        length, width = rng.uniform(0.5, 5), rng.uniform(1e-3, 0.3)
+        u, v = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+        skew = rng.uniform(0.2, 0.8)
+        pts = [c, c + length * u, c + length * u + width * v, c + skew * length * u + width * v]
+        polys.append(shapely.Polygon(pts))
+    return np.array(polys, dtype=object)
+
+
+@pytest.mark.parametrize("threads", ["1", "2", "3", "7"])
+def test_chunks_give_the_direct_result_in_order(monkeypatch, threads):
+    monkeypatch.setenv(THREADS_ENV, threads)
+    faces = _slivers(3 * MIN_CHUNKED + 5)
+    direct = shapely.maximum_inscribed_circle(faces, tolerance=1e-3)
+    got = map_chunks(shapely.maximum_inscribed_circle, faces, tolerance=1e-3)
+    assert len(got) == len(faces)
+    assert all(shapely.equals_exact(direct, got, tolerance=0))
+    # and element-wise functions of other shapes
+    assert np.array_equal(map_chunks(shapely.area, faces), shapely.area(faces))
+
+
+def test_short_arrays_and_empty(monkeypatch):
+    monkeypatch.setenv(THREADS_ENV, "4")
+    faces = _slivers(5)
+    assert np.array_equal(map_chunks(shapely.area, faces), shapely.area(faces))
+    assert len(map_chunks(shapely.area, faces[:0])) == 0
+
+
+@pytest.mark.parametrize("value, expected", [("1", 1), ("6", 6), (" 3 ", 3)])
+def test_thread_count_from_the_environment(monkeypatch, value, expected):
+    monkeypatch.setenv(THREADS_ENV, value)
+    assert thread_count() == expected
+
+
+@pytest.mark.parametrize("value", ["", "0", "-2", "many", "1.5"])
+def test_thread_count_ignores_what_is_not_a_positive_integer(monkeypatch, value):
+    monkeypatch.setenv(THREADS_ENV, value)
+    assert thread_count() >= 1
+    import os
+    assert thread_count() == len(os.sched_getaffinity(0))  # the cores this process may use
