@@ -54,3 +54,14 @@ def test_thread_count_ignores_what_is_not_a_positive_integer(monkeypatch, value)
     assert thread_count() >= 1
     import os
     assert thread_count() == len(os.sched_getaffinity(0))  # the cores this process may use
+
+
+def test_single_threaded_keeps_a_users_setting(monkeypatch):
+    from tether.threads import single_threaded
+
+    monkeypatch.delenv(THREADS_ENV, raising=False)
+    single_threaded()
+    assert thread_count() == 1
+    monkeypatch.setenv(THREADS_ENV, "3")
+    single_threaded()
+    assert thread_count() == 3

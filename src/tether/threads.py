@@ -46,3 +46,9 @@ def map_chunks(func: Callable[..., np.ndarray], items: np.ndarray, **kwargs: Any
     with ThreadPoolExecutor(max_workers=n) as pool:
         parts = list(pool.map(lambda chunk: func(chunk, **kwargs), chunks))
     return np.concatenate(parts)
+
+
+def single_threaded() -> None:
+    """Run element-wise calls in the calling thread from now on, unless ``TETHER_THREADS`` is
+    set already: the initializer of a sweep's worker processes, which fill the cores."""
+    os.environ.setdefault(THREADS_ENV, "1")

@@ -109,7 +109,9 @@ def _executor(args: argparse.Namespace):
             raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
         from concurrent.futures import ProcessPoolExecutor
 
-        ex = ProcessPoolExecutor(max_workers=args.workers)
+        from tether.threads import single_threaded
+
+        ex = ProcessPoolExecutor(max_workers=args.workers, initializer=single_threaded)
         return ex, ex.shutdown
     if args.dask:
         try:
