@@ -159,8 +159,8 @@ class _Structures:
         return _Structures(self.base, np.r_[0, 0, 0, np.cumsum(size)], pairs), new
 
     def to_file(self, code_map: np.ndarray) -> None:
-        """Read the structures in the file's feature codes from now on (``code_map``:
-        internal code -> the file's); the ones read already are converted."""
+        """Make the structures in the file's feature codes from now on (``code_map``:
+        internal code -> the file's; any made before are dropped, to be made again)."""
         self._code_map = np.asarray(code_map, dtype=np.int64)
         self._sets = {}
 
@@ -1736,7 +1736,7 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
         area = area / (out.scale * out.scale)
         point = out.points(point)
     structs, sid = structs.subset(face_sid[best[numbering["rank"]]])
-    structs.region = sid
+    structs.region = sid  # region i's structure id
     region, start, end = _structure_cells(env, structs, sid)
     if out is None:
         names = [FREE] + _feature_names(env)
