@@ -65,8 +65,7 @@ def test_structure_ids_equal_exactly_for_equal_structures():
 
 
 def test_structure_rows_are_the_rows_of_the_frozensets():
-    """The holder's rows are those ``_set_rows`` flattens from the frozensets, row for row; a
-    subset keeps each id's structure."""
+    """The holder's rows are those ``_set_rows`` flattens from the frozensets, row for row."""
     env, lss = _cases()[2]
     inner = env.internal
     table = _table(env, lss, 400, seed=7)
@@ -79,11 +78,6 @@ def test_structure_rows_are_the_rows_of_the_frozensets():
         assert mine.kind[k] == sets.kind[r]
         assert np.array_equal(mine.pairs[mine.ptr[k]:mine.ptr[k + 1]],
                               sets.pairs[sets.ptr[r]:sets.ptr[r + 1]])
-    some = ids[::3]
-    sub, new = structs.subset(some)
-    assert len(sub) == 2 + len(np.unique(some[some >= 2]))
-    assert [sub.structure(k) for k in new.tolist()] == [structs.structure(k)
-                                                        for k in some.tolist()]
 
 
 def test_region_structures_made_on_first_read():

@@ -148,16 +148,6 @@ class _Structures:
         kind = np.minimum(np.arange(len(self), dtype=np.int64), 2)
         return _StructureRows(kind, self.ptr, self.pairs)
 
-    def subset(self, ids: np.ndarray) -> tuple[_Structures, np.ndarray]:
-        """The structures of ``ids`` only (ids 0 and 1 kept, the others renumbered from 2 in
-        increasing order) and the new id of each of ``ids``."""
-        used = np.unique(ids[ids >= 2])
-        size = self.ptr[used + 1] - self.ptr[used]
-        pairs = self.pairs[ragged_arange(self.ptr[used], size)]
-        new = np.searchsorted(used, ids) + 2
-        new[ids < 2] = ids[ids < 2]
-        return _Structures(self.base, np.r_[0, 0, 0, np.cumsum(size)], pairs), new
-
     def to_file(self, code_map: np.ndarray) -> None:
         """Make the structures in the file's feature codes from now on (``code_map``:
         internal code -> the file's; any made before are dropped, to be made again)."""
@@ -1724,7 +1714,8 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     each region's in the order of :func:`structure_names`); and the cells' ``(region, start
     code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). The
     structures are ids into one shared :class:`_Structures` (``structs``, of the faces'
-    ids ``face_sid``, kept for the regions' structures only), frozensets made when read. With
+    ids ``face_sid``; the faces' structures are nearly all some region's), frozensets made
+    when read. With
     ``out``, area, point, cell names and polygons are the user's (converted before the
     regions are made, the polygons on their first read); the structure is converted once the
     pieces are made (:meth:`UserFrame.regions`: the pieces compare the structures with
@@ -1735,7 +1726,7 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     if out is not None:  # all at once, before any region is made
         area = area / (out.scale * out.scale)
         point = out.points(point)
-    structs, sid = structs.subset(face_sid[best[numbering["rank"]]])
+    sid = face_sid[best[numbering["rank"]]]
     structs.region = sid  # region i's structure id
     region, start, end = _structure_cells(env, structs, sid)
     if out is None:
