@@ -21,6 +21,7 @@ from tether.decomposition import (
     Cell,
     _RegionShapes,
     _structure_cells,
+    _Structures,
     cell_name,
     decompose,
     structure_codes,
@@ -112,14 +113,30 @@ def test_structure_cells_sorts_like_structure_codes():
                                   rng.integers(0, 2 * env.n, k).tolist(), strict=True)))
     structs = [pool[i] for i in rng.integers(0, len(pool), 300).tolist()]
     structs += [frozenset(s) if not isinstance(s, str) else s for s in structs[:20]]  # copies
-    region, start, end = _structure_cells(env, structs)
+    table, sid = _as_structures(env, structs)
+    region, start, end = _structure_cells(env, table, sid)
     want = [(i, a, b) for i, s in enumerate(structs) for a, b in structure_codes(env, s).tolist()]
     assert list(zip(region.tolist(), start.tolist(), end.tolist(), strict=True)) == want
     names = [FREE] + [feature_name(env, c) for c in range(2 * env.n)]
     got = [(names[a + 1], names[b + 1]) for a, b in zip(start.tolist(), end.tolist(),
                                                           strict=True)]
     assert got == [p for s in structs for p in structure_names(env, s)]
-    assert all(len(x) == 0 for x in _structure_cells(env, []))
+    assert all(len(x) == 0 for x in _structure_cells(env, table, np.zeros(0, np.int64)))
+
+
+def _as_structures(env, structs):
+    """Structures (frozensets, FULL, EMPTY) as a ``_Structures`` table (one id per distinct
+    value, in order of first appearance) and the id of each."""
+    base = 2 * env.n + 1
+    ids = {"EMPTY": 0, "FULL": 1}
+    rows = []
+    for s in structs:
+        if s not in ids:
+            ids[s] = len(ids)
+            rows.append(sorted(a * base + b for a, b in s))
+    ptr = np.cumsum([0, 0, 0] + [len(r) for r in rows])
+    pairs = np.array([c for r in rows for c in r], dtype=np.int64)
+    return _Structures(base, ptr, pairs), np.array([ids[s] for s in structs], dtype=np.int64)
 
 
 @pytest.mark.slow

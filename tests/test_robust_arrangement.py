@@ -140,7 +140,7 @@ def test_self_check_failure_is_loud():
     # corrupt one region's structure: a region claiming another region's cells
     regions = list(dec.regions)
     a, b = next((r, s) for r in regions for s in regions if r.structure != s.structure)
-    regions[a.id] = dataclasses.replace(a, structure=b.structure)
+    regions[a.id] = dataclasses.replace(a, _structure=b.structure)
     pieces = tuple(dataclasses.replace(p, verified=False) if k == 0 else p
                    for k, p in enumerate(dec.pieces))
     bad = dataclasses.replace(dec, regions=tuple(regions), pieces=pieces)

@@ -59,20 +59,20 @@ def structures(env: Environment, table: ArcTable, npts: int) -> list[Structure]:
     """Structure key of each point of an :class:`ArcTable`: a frozenset of
     ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``. Points with equal
     structures share one object."""
-    ids, keys = structure_ids(env, table, npts)
-    return [keys[i] for i in ids.tolist()]
+    ids, table_ = structure_ids(env, table, npts)
+    return [table_.structure(i) for i in ids.tolist()]
 
 
 def structure_ids(env: Environment, table: ArcTable, npts: int
-                  ) -> tuple[np.ndarray, list[Structure]]:
-    """An integer id per point of an :class:`ArcTable`, equal for equal structures, and the
-    structure of each id (vectorized: one frozenset per distinct structure)."""
+                  ) -> tuple[np.ndarray, _Structures]:
+    """An integer id per point of an :class:`ArcTable`, equal for equal structures (and only
+    for them), and the structures of the ids as integer rows (:class:`_Structures`: no
+    frozenset is made here)."""
     ids = np.zeros(npts, dtype=np.int64)  # id 0: EMPTY
-    keys: list[Structure] = ["EMPTY", "FULL"]
     ids[np.asarray(table.full, dtype=bool)] = 1
-    if len(table.point) == 0:
-        return ids, keys
     base = 2 * env.n + 1
+    if len(table.point) == 0:
+        return ids, _Structures(base, np.zeros(3, np.int64), np.zeros(0, np.int64))
     pair = table.start_code.astype(np.int64) * base + table.end_code
     # np.lexsort((pair, point)) on one exact integer key (pair < base**2), several times faster
     if (npts + 1) * base * base < 2**62:
@@ -80,6 +80,9 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     else:  # the key would overflow
         order = np.lexsort((pair, table.point))
     point, pair = table.point[order], pair[order]
+    new = np.r_[True, (point[1:] != point[:-1]) | (pair[1:] != pair[:-1])]
+    if not new.all():  # a set holds each pair once
+        point, pair = point[new], pair[new]
     counts = np.bincount(point, minlength=npts)
     width = int(counts.max())
     first = np.cumsum(counts) - counts
@@ -91,13 +94,66 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     inv, first_row = _row_ids(grid)
     ids[rows] = inv + 2
     sub = grid[first_row]
-    valid = sub >= 0  # each row's pairs come first, then -1 padding
-    a, b = np.divmod(sub[valid], base)
-    pairs = list(zip(a.tolist(), b.tolist(), strict=True))
-    stops = np.cumsum(valid.sum(axis=1)).tolist()
-    starts = [0] + stops[:-1]
-    keys.extend(frozenset(pairs[i:j]) for i, j in zip(starts, stops, strict=True))
-    return ids, keys
+    valid = sub >= 0  # each row's pairs come first (sorted), then -1 padding
+    ptr = np.r_[0, 0, 0, np.cumsum(valid.sum(axis=1))]  # ids 0 and 1 have no pairs
+    return ids, _Structures(base, ptr, sub[valid])
+
+
+class _Structures:
+    """Distinct structures as integer rows, shared by the points (or regions) having them:
+    id 0 is ``"EMPTY"``, id 1 ``"FULL"``, id ``i >= 2`` the set of ``(start_code,
+    end_code)`` pairs (internal codes) encoded ``start_code * base + end_code``, sorted, in
+    ``pairs[ptr[i]:ptr[i + 1]]``. ``region`` (when the regions hold it): the id of each
+    region's structure. The frozenset of an id is made on its first read and kept, in the
+    file's codes once :meth:`to_file` is called (the rows stay internal)."""
+
+    __slots__ = ("base", "ptr", "pairs", "region", "_code_map", "_sets")
+
+    def __init__(self, base: int, ptr: np.ndarray, pairs: np.ndarray,
+                 region: np.ndarray | None = None) -> None:
+        self.base = base
+        self.ptr = ptr
+        self.pairs = pairs
+        self.region = region
+        self._code_map: np.ndarray | None = None
+        self._sets: dict[int, Structure] = {}
+
+    def __len__(self) -> int:
+        return len(self.ptr) - 1
+
+    def __getstate__(self) -> tuple:
+        return self.base, self.ptr, self.pairs, self.region, self._code_map, self._sets
+
+    def __setstate__(self, state: tuple) -> None:
+        self.base, self.ptr, self.pairs, self.region, self._code_map, self._sets = state
+
+    def structure(self, i: int) -> Structure:
+        """The structure of id ``i`` (``"EMPTY"``, ``"FULL"`` or a frozenset, one object
+        per id)."""
+        if i < 2:
+            return "FULL" if i == 1 else "EMPTY"
+        got = self._sets.get(i)
+        if got is None:
+            a, b = np.divmod(self.pairs[self.ptr[i]:self.ptr[i + 1]], self.base)
+            if self._code_map is not None:
+                a, b = self._code_map[a], self._code_map[b]
+            got = self._sets[i] = frozenset(zip(a.tolist(), b.tolist(), strict=True))
+        return got
+
+    def of_region(self, rid: int) -> Structure:
+        """The structure of region ``rid``."""
+        return self.structure(int(self.region[rid]))
+
+    def rows(self) -> _StructureRows:
+        """Every id's structure as :class:`_StructureRows` (internal codes)."""
+        kind = np.minimum(np.arange(len(self), dtype=np.int64), 2)
+        return _StructureRows(kind, self.ptr, self.pairs)
+
+    def to_file(self, code_map: np.ndarray) -> None:
+        """Make the structures in the file's feature codes from now on (``code_map``:
+        internal code -> the file's; any made before are dropped, to be made again)."""
+        self._code_map = np.asarray(code_map, dtype=np.int64)
+        self._sets = {}
 
 
 def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
@@ -402,18 +458,27 @@ class Region:
     """A noncritical region: polygon, area, a representative interior point, its structure.
 
     ``_polygon`` is the polygon, or the decomposition's :class:`_Shapes` holding it (item
-    ``id``, converted to the map's frame on the first read of any region's polygon)."""
+    ``id``, converted to the map's frame on the first read of any region's polygon);
+    ``_structure`` the structure, or the decomposition's :class:`_Structures` holding it
+    (the frozenset made on the first read)."""
 
     id: int
     _polygon: Any = field(repr=False)
     area: float
     point: tuple[float, float]
-    structure: Structure = field(repr=False)
+    _structure: Any = field(repr=False)
     _cells: Any = field(repr=False)  # the ids, or the decomposition's _CellTable
 
     @property
     def name(self) -> str:
         return f"R{self.id}"
+
+    @property
+    def structure(self) -> Structure:
+        """``"FULL"``, ``"EMPTY"`` or the frozenset of the cells' ``(start_code, end_code)``
+        pairs (the file's feature codes)."""
+        s = self._structure
+        return s.of_region(self.id) if type(s) is _Structures else s
 
     @property
     def cells(self) -> tuple[str, ...]:
@@ -1391,15 +1456,14 @@ def gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok: np.ndarray,
-                  sid: np.ndarray, face_struct: dict[int, Structure], pts: np.ndarray,
-                  clear: np.ndarray, tol: float, lss: float
-                  ) -> tuple[dict[str, Any], _Chains, _Candidates]:
-    """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure,
-    ``ok = keep[resolved]``, of structure ids ``sid`` and structures ``face_struct``, points
-    ``pts`` and clearances ``clear``) grouped into numbered regions, with the chains between
-    regions and their crossing candidates. Sub-resolution faces, then speck regions no
-    chain of which has a candidate, join neighbours (``face_struct`` is updated)."""
+def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray,
+                  face_sid: np.ndarray, pts: np.ndarray, clear: np.ndarray, tol: float,
+                  lss: float) -> tuple[dict[str, Any], _Chains, _Candidates]:
+    """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure, of
+    structure ids ``face_sid`` per face, -1: none; points ``pts`` and clearances ``clear``)
+    grouped into numbered regions, with the chains between regions and their crossing
+    candidates. Sub-resolution faces, then speck regions no chain of which has a candidate,
+    join neighbours (``face_sid`` is updated: the structure taken)."""
     nf = len(arr.faces)
     kept = np.zeros(nf, bool)
     kept[keep] = True
@@ -1408,17 +1472,15 @@ def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok:
                          & kept[np.maximum(pb, 0)])
     adjacent = np.column_stack((pa[adj], pb[adj], adj))  # (face, face, part) rows
     # faces adjacent across a part with equal structures are one region (components)
-    face_sid = np.full(nf, -1)
-    face_sid[ok] = sid
     same = (face_sid[adjacent[:, 0]] >= 0) & (face_sid[adjacent[:, 0]]
                                               == face_sid[adjacent[:, 1]])
     uf = _UnionFind(nf)
     uf.parent = _components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
     plen = shapely.length(arr.parts)
     # sub-resolution faces join the neighbour they share most boundary with
-    _absorb(keep[~resolved], adjacent, plen, uf, face_struct)
+    _absorb(keep[~resolved], adjacent, plen, uf, face_sid)
     for attempt in range(4):
-        flat, size = _groups(uf, keep, face_struct)
+        flat, size = _groups(uf, keep, face_sid)
         numbering = _number_regions(arr, flat, size, pts, clear)
         face_region = numbering["face_region"]
         # a region none of whose boundary is resolved (a speck at a tangency) would never
@@ -1432,8 +1494,8 @@ def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray, ok:
         faces_in = faces_in[np.argsort(face_region[faces_in], kind="stable")]
         for f, r in zip(faces_in.tolist(), face_region[faces_in].tolist(), strict=True):
             specks.setdefault(r, []).append(f)
-            del face_struct[f]
-        _absorb_groups(list(specks.values()), adjacent, plen, uf, face_struct)
+        face_sid[faces_in] = -1
+        _absorb_groups(list(specks.values()), adjacent, plen, uf, face_sid)
     numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
     chains = _chains(arr, face_region)
     return numbering, chains, _crossing_candidates(arr, chains, tol, lss)
@@ -1463,20 +1525,21 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     resolved = clear[keep] >= 2 * tol
     ok = keep[resolved]
     table = free_arcs_many(env, pts[ok], lss, check=False)
-    sid, skeys = structure_ids(env, table, len(ok))
-    face_struct: dict[int, Structure] = {f: skeys[i] for f, i in zip(ok.tolist(), sid.tolist(),
-                                                                    strict=True)}
+    sid, structs = structure_ids(env, table, len(ok))
+    del table
+    face_sid = np.full(len(arr.faces), -1, dtype=np.int64)  # the structure id of each face
+    face_sid[ok] = sid
     release_memory()
     report("regions", 0.7)
-    numbering, chains, cands = _face_regions(arr, keep, resolved, ok, sid, face_struct, pts,
-                                             clear, tol, lss)
+    numbering, chains, cands = _face_regions(arr, keep, resolved, face_sid, pts, clear, tol,
+                                             lss)
     # the segments' grid and the candidates cache are no longer needed: freed before the
     # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
     arr.__dict__.pop("_segments", None)
     arr.__dict__.pop("_part_candidates", None)
     release_memory()
     # the regions made after that: their polygons and cells do not add to the grid's peak
-    regions, cells, codes = _make_regions(env, arr, numbering, face_struct, out)
+    regions, cells, codes = _make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
     pieces, unresolved_pieces, arcs = _make_pieces(env, arr, regions, chains, cands, curves,
                                                     lss)
@@ -1514,15 +1577,15 @@ def _isolated_regions(arr: _Arrangement, face_region: np.ndarray, nreg: int, tol
 
 
 def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _UnionFind,
-            face_struct: dict[int, Structure]) -> None:
+            face_sid: np.ndarray) -> None:
     """Merge each pending face (no structure of its own) into the resolved neighbour face it
     shares the longest arrangement part with (the first such pair in ``adjacent`` order among
-    equals), taking that neighbour's structure; repeated while faces are taken (vectorized)."""
+    equals), taking that neighbour's structure id (``face_sid``, -1: none); repeated while
+    faces are taken (vectorized)."""
     nf = len(uf.parent)
     todo = np.zeros(nf, bool)
     todo[np.asarray(pending, dtype=np.int64)] = True
-    has = np.zeros(nf, bool)
-    has[np.fromiter(face_struct, np.int64, len(face_struct))] = True
+    has = face_sid >= 0
     # both directions of every pair, in the order a loop over the pairs would meet them
     f = adjacent[:, :2].ravel()
     g = adjacent[:, 1::-1].ravel()
@@ -1537,16 +1600,16 @@ def _absorb(pending: np.ndarray, adjacent: np.ndarray, plen: np.ndarray, uf: _Un
         rows = rows[np.r_[True, f[rows][1:] != f[rows][:-1]]]
         for a, b in zip(f[rows].tolist(), g[rows].tolist(), strict=True):
             uf.union(a, b)
-            face_struct[a] = face_struct[b]
+        face_sid[f[rows]] = face_sid[g[rows]]  # the g are not pending: set before this round
         todo[f[rows]] = False
         has[f[rows]] = True
 
 
 def _absorb_groups(pending: list[list[int]], adjacent: np.ndarray, plen: np.ndarray,
-                   uf: _UnionFind, face_struct: dict[int, Structure]) -> None:
+                   uf: _UnionFind, face_sid: np.ndarray) -> None:
     """Merge each pending group of faces (a speck region, its faces already united) as a whole
     into the neighbour region it shares the most arrangement boundary with, taking that
-    region's structure.
+    region's structure id (``face_sid``, -1: none).
 
     Absorbing the faces one by one, as :func:`_absorb` does for single faces, would let two
     faces of one speck join two different neighbours and so unite those two regions, whatever
@@ -1560,10 +1623,11 @@ def _absorb_groups(pending: list[list[int]], adjacent: np.ndarray, plen: np.ndar
     for _ in range(16):
         if not todo:
             return
+        has = face_sid >= 0
         shared: dict[int, dict[int, tuple[float, int]]] = {}
         for a, b, k in near:
             for f, g in ((a, b), (b, a)):
-                if f in todo and g not in todo and g in face_struct:
+                if f in todo and g not in todo and has[g]:
                     per = shared.setdefault(todo[f], {})
                     root = uf.find(g)
                     total, _ = per.get(root, (0.0, g))
@@ -1574,24 +1638,22 @@ def _absorb_groups(pending: list[list[int]], adjacent: np.ndarray, plen: np.ndar
             _, g = max(per.values())
             for f in pending[i]:
                 uf.union(f, g)
-                face_struct[f] = face_struct[g]
+                face_sid[f] = face_sid[g]
                 del todo[f]
 
 
-def _groups(uf: _UnionFind, keep: np.ndarray, face_struct: dict[int, Structure]
+def _groups(uf: _UnionFind, keep: np.ndarray, face_sid: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
-    """The faces of ``keep`` having a structure, grouped by union-find root: groups in the
-    order of their first face in ``keep``, faces in ``keep`` order within a group. Returns
-    the faces group after group and each group's size."""
+    """The faces of ``keep`` having a structure (``face_sid >= 0``), grouped by union-find
+    root: groups in the order of their first face in ``keep``, faces in ``keep`` order within
+    a group. Returns the faces group after group and each group's size."""
     par = np.asarray(uf.parent, dtype=np.int64)
     while True:  # every face to its root
         nxt = par[par]
         if np.array_equal(nxt, par):
             break
         par = nxt
-    has = np.zeros(len(par), bool)
-    has[np.fromiter(face_struct, np.int64, len(face_struct))] = True
-    fs = keep[has[keep]]
+    fs = keep[face_sid[keep] >= 0]
     _, first, inv = np.unique(par[fs], return_index=True, return_inverse=True)
     rank = np.empty(len(first), np.int64)
     rank[np.argsort(first, kind="stable")] = np.arange(len(first))
@@ -1646,13 +1708,16 @@ def _group_lists(flat: np.ndarray, size: np.ndarray) -> list[list[int]]:
 
 
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
-                  face_struct: dict[int, Structure], out: UserFrame | None = None
+                  face_sid: np.ndarray, structs: _Structures, out: UserFrame | None = None
                   ) -> tuple[list[Region], _Cells, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The :class:`Region` objects of a numbering (:func:`_number_regions`): polygon (the
     union of the faces, made on the first read: :class:`_RegionShapes`), area, point,
     structure and cells; the cells (a :class:`_Cells` over int columns, region by region,
     each region's in the order of :func:`structure_names`); and the cells' ``(region, start
-    code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). With
+    code, end code)`` columns (:meth:`Decomposition.cell_codes`, the file's codes). The
+    structures are ids into one shared :class:`_Structures` (``structs``, of the faces'
+    ids ``face_sid``; the faces' structures are nearly all some region's), frozensets made
+    when read. With
     ``out``, area, point, cell names and polygons are the user's (converted before the
     regions are made, the polygons on their first read); the structure is converted once the
     pieces are made (:meth:`UserFrame.regions`: the pieces compare the structures with
@@ -1663,9 +1728,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     if out is not None:  # all at once, before any region is made
         area = area / (out.scale * out.scale)
         point = out.points(point)
-    best_l = best.tolist()
-    structs = [face_struct[best_l[g]] for g in rank]
-    region, start, end = _structure_cells(env, structs)
+    sid = face_sid[best[numbering["rank"]]]
+    structs.region = sid  # region i's structure id
+    region, start, end = _structure_cells(env, structs, sid)
     if out is None:
         names = [FREE] + _feature_names(env)
     else:  # the file's codes and names
@@ -1675,8 +1740,8 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     table = _CellTable(region, start, end, names, len(rank))
     area_l = area.tolist()
     point_l = point.tolist()
-    regions = [Region(rid, polys, area_l[g], (point_l[g][0], point_l[g][1]), st, table)
-               for rid, (g, st) in enumerate(zip(rank, structs, strict=True))]
+    regions = [Region(rid, polys, area_l[g], (point_l[g][0], point_l[g][1]), structs, table)
+               for rid, g in enumerate(rank)]
     return regions, _Cells(table), (region, start, end)
 
 
@@ -1690,31 +1755,36 @@ def _region_shapes(arr: _Arrangement, lists: list[list[int]], rank: list[int],
     return _RegionShapes(polys, unions, None if out is None else out.frame)
 
 
-def _structure_cells(env: Environment, structs: list[Structure]
+def _structure_cells(env: Environment, structs: _Structures, sid: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The cells of regions of structures ``structs``: ``(region, start code, end code)``
-    int columns, region by region, each region's cells sorted by (start name, end name) as
-    :func:`structure_codes` sorts them (one lexsort on name ranks over every distinct
-    structure object; a FULL region's cell is ``(-1, -1)``, an EMPTY one has none)."""
-    n = len(structs)
+    """The cells of regions of structure ids ``sid`` (of ``structs``): ``(region, start code,
+    end code)`` int columns, region by region, each region's cells sorted by (start name, end
+    name) as :func:`structure_codes` sorts them (one sort on name ranks over every
+    distinct structure; a FULL region's cell is ``(-1, -1)``, an EMPTY one has none)."""
+    n = len(sid)
     if n == 0:
         empty = np.zeros(0, np.int64)
         return empty, empty, empty
-    obj = np.fromiter(map(id, structs), np.int64, n)
-    _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
-    objs = [structs[i] for i in first.tolist()]
-    full = ((-1, -1),)
-    sets = [s if not isinstance(s, str) else full if s == "FULL" else () for s in objs]
-    size = np.fromiter(map(len, sets), np.int64, len(sets))
-    flat = np.fromiter(itertools.chain.from_iterable(itertools.chain.from_iterable(sets)),
-                       np.int64, 2 * int(size.sum()))
-    a, b = flat[0::2], flat[1::2]
+    ids, inv = np.unique(sid, return_inverse=True)
+    npairs = structs.ptr[ids + 1] - structs.ptr[ids]
+    size = npairs + (ids == 1)  # FULL: one cell, no pairs
+    starts = np.cumsum(size) - size
+    a = np.full(int(size.sum()), -1, dtype=np.int64)
+    b = a.copy()
+    at = ragged_arange(starts, npairs)
+    a[at], b[at] = np.divmod(structs.pairs[ragged_arange(structs.ptr[ids], npairs)],
+                             structs.base)
     name_rank = feature_name_rank(env)
-    row = np.repeat(np.arange(len(objs)), size)
-    order = np.lexsort((name_rank[b + 1], name_rank[a + 1], row))
+    row = np.repeat(np.arange(len(ids)), size)
+    ra, rb = name_rank[a + 1], name_rank[b + 1]
+    m = len(name_rank)
+    if (len(ids) + 1) * m * m < 2**62:  # one exact integer key: ~10 times faster
+        order = np.argsort((row * m + ra) * m + rb, kind="stable")
+    else:
+        order = np.lexsort((rb, ra, row))
     a, b = a[order], b[order]
     count = size[inv.ravel()]
-    rows = ragged_arange((np.cumsum(size) - size)[inv.ravel()], count)
+    rows = ragged_arange(starts[inv.ravel()], count)
     region = np.repeat(np.arange(n, dtype=np.int64), count)
     return region, a[rows], b[rows]
 
@@ -2069,7 +2139,7 @@ def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
     ``chain_srcs`` are the chains' curves (CSR, :meth:`_Arrangement.chain_sources`)."""
     m = len(chains)
     count = cands.count
-    reg_rows, reg_of = _set_rows([r.structure for r in regions], 2 * env.n + 1)
+    reg_rows, reg_of = _region_rows(regions, 2 * env.n + 1)
     sa, sb = reg_of[chains.pair[:, 0]], reg_of[chains.pair[:, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
     out_eps = np.zeros(m)
@@ -2144,6 +2214,17 @@ def _table_rows(env: Environment, table: ArcTable, npts: int) -> _StructureRows:
     size = np.bincount(point, minlength=npts)
     kind = np.where(size > 0, 2, np.asarray(table.full, dtype=bool).astype(np.int64))
     return _StructureRows(kind, np.r_[0, np.cumsum(size)], pair)
+
+
+def _region_rows(regions: list[Region], base: int) -> tuple[_StructureRows, np.ndarray]:
+    """The regions' structures as integer rows (internal codes) and the row of each region:
+    the rows of the :class:`_Structures` the regions share, as made (else
+    :func:`_set_rows` of their structures)."""
+    held = regions[0]._structure if regions else None
+    if (type(held) is _Structures and held._code_map is None
+            and held.base == base and all(r._structure is held for r in regions)):
+        return held.rows(), held.region[[r.id for r in regions]]
+    return _set_rows([r.structure for r in regions], base)
 
 
 def _set_rows(structs: list[Structure], base: int) -> tuple[_StructureRows, np.ndarray]:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import ArcTable
-from tether.decomposition import FREE, _Shapes
+from tether.decomposition import FREE, _Shapes, _Structures
 from tether.environment import Environment
 
 
@@ -102,15 +102,20 @@ class UserFrame:
                 put(p, "features", self.features(p.features))
 
     def regions(self, regions: list) -> None:
-        """Rewrite the regions' structures in the file's feature codes, in place (see
-        :meth:`pieces`); their area, point and cell names are the user's already, their
-        polygons converted (and prepared) all at once on the first read of any of them
-        (``_make_regions``)."""
+        """Have the regions' structures read in the file's feature codes: the shared
+        :class:`~tether.decomposition._Structures` they hold makes its frozensets so from now
+        on (else each region's structure is rewritten in place, see :meth:`pieces`); their
+        area, point and cell names are the user's already, their polygons converted (and
+        prepared) all at once on the first read of any of them (``_make_regions``)."""
         if not regions or self.same:
+            return
+        held = regions[0]._structure
+        if type(held) is _Structures and all(r._structure is held for r in regions):
+            held.to_file(self.code_map)
             return
         put = object.__setattr__
         for r in regions:
-            put(r, "structure", self.structure(r.structure))
+            put(r, "_structure", self.structure(r.structure))
 
     def shapes(self, geoms: list, prepare: bool = False) -> _Shapes:
         """The internal-frame ``geoms`` of regions or pieces in a holder converting them to
