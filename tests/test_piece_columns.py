@@ -137,8 +137,7 @@ def test_sequence_equals_and_hashes_as_the_tuple():
 def test_columns_read_by_g_the_crossings_and_the_self_check():
     """The region pairs, the crossings and the unverified pieces read from the columns equal
     those read from the objects (also with a piece marked unverified)."""
-    plan, lss = _plan()
-    dec = decompose(plan, lss)
+    dec = decompose(GENERIC, 2.5)
     objs = tuple(dec.pieces)
     regs = _piece_regions(dec)
     assert regs.dtype == np.int64 and regs.tolist() == [list(p.regions) for p in objs]
@@ -185,3 +184,21 @@ def test_describe_chains_against_a_dict_of_tuples(seed):
     desc, descs = _describe_chains(sptr, ssrc, which, curves)
     assert [descs[d] for d in desc.tolist()] == _describe_reference(sptr, ssrc, which, curves)
     assert len(descs) == len(set(descs))  # each distinct description once
+
+
+def test_dictionary_and_piece_between_read_the_columns():
+    """The full dictionary's pieces (made from the columns) equal each piece's own
+    dictionary and line; the simulator's piece between two regions is the first such piece."""
+    from tether.sim.simulate import _piece_between
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    got = dec.to_dict(geometry=True)["pieces"]
+    want = [p.to_dict() | {"geometry": shapely.to_wkt(p.geometry, rounding_precision=-1)}
+            for p in dec.pieces]
+    assert got == want
+    for k, p in enumerate(dec.pieces):
+        a, b = p.regions
+        first = next(q.name for q in dec.pieces if set(q.regions) == {a, b})
+        assert _piece_between(dec, a, b) == _piece_between(dec, b, a) == first
+        assert k == 0 or _piece_between(dec, a, a) == "P?"

@@ -527,6 +527,17 @@ class _PieceTable:
                 yield Piece(i, (a, r), curves, kind, feats, shapes, (qx, qy), (nx, ny), eps,
                             ok)
 
+    def dicts(self) -> list[dict]:
+        """Every piece's :meth:`Piece.to_dict`, made from the columns (lengths all at once,
+        the same numbers as one by one)."""
+        descs = self.descs
+        length = shapely.length(self.shapes.all()).tolist()
+        return [{"id": f"P{i}", "regions": [f"R{a}", f"R{b}"], "type": descs[d][1],
+                 "features": list(descs[d][2]), "length": ln, "point": [qx, qy]}
+                for i, (a, b, d, ln, qx, qy) in enumerate(zip(
+                    self.pair[:, 0].tolist(), self.pair[:, 1].tolist(), self.desc.tolist(),
+                    length, self.q[:, 0].tolist(), self.q[:, 1].tolist(), strict=True))]
+
 
 #: Pieces made per batch when iterating: the batch's columns are Python lists, this bounds
 #: their memory.
@@ -563,9 +574,13 @@ class _Pieces(Sequence):
         return self._table.pieces()
 
     def __contains__(self, x: object) -> bool:
-        if not isinstance(x, Piece) or type(x.id) is not int or not 0 <= x.id < len(self):
+        if not isinstance(x, Piece):
             return False
-        return self._table.piece(x.id) == x
+        try:
+            i = operator.index(x.id)
+        except TypeError:
+            return False
+        return 0 <= i < len(self) and self._table.piece(i) == x
 
     def __eq__(self, other: object) -> bool:
         if isinstance(other, (tuple, _Pieces)):
@@ -720,12 +735,15 @@ class Decomposition:
                       table.dicts()),
         }
         if geometry:
-            out["pieces"] = [p.to_dict() for p in self.pieces]
+            pieces = self.pieces._table if type(self.pieces) is _Pieces else None
+            out["pieces"] = ([p.to_dict() for p in self.pieces] if pieces is None else
+                             pieces.dicts())
             out["curves"] = [c.to_dict() for c in self.curves]
             wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
             for d, w in zip(out["regions"], wkt, strict=True):
                 d["polygon"] = w
-            wkt = shapely.to_wkt([p.geometry for p in self.pieces], rounding_precision=-1)
+            wkt = shapely.to_wkt([p.geometry for p in self.pieces] if pieces is None else
+                                 pieces.shapes.all(), rounding_precision=-1)
             for d, w in zip(out["pieces"], wkt, strict=True):
                 d["geometry"] = w
         return out
