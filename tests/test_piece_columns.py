@@ -141,6 +141,7 @@ def test_columns_read_by_g_the_crossings_and_the_self_check():
     objs = tuple(dec.pieces)
     regs = _piece_regions(dec)
     assert regs.dtype == np.int64 and regs.tolist() == [list(p.regions) for p in objs]
+    assert not regs.flags.writeable  # the column itself: G must not write it
     q, n, eps = dec.piece_crossings()
     assert q.tolist() == [list(p.sample) for p in objs]
     assert n.tolist() == [list(p.normal) for p in objs]

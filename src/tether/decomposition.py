@@ -498,6 +498,7 @@ class _PieceTable:
                  ok: np.ndarray, desc: np.ndarray, descs: list[tuple], shapes: _Shapes) -> None:
         self.pair, self.q, self.n, self.eps, self.ok = pair, q, n, eps, ok
         self.desc, self.descs, self.shapes = desc, descs, shapes
+        pair.flags.writeable = False  # G reads it as is (graph._piece_regions)
 
     def __len__(self) -> int:
         return len(self.pair)
