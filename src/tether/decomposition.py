@@ -504,13 +504,15 @@ class Region:
                 "cells": list(self.cells)}
 
 
-@dataclass(frozen=True, eq=False, slots=True)
+@dataclass(frozen=True, slots=True)
 class Piece:
     """A maximal stretch of critical curve separating two regions (``math.md`` §8).
 
     ``sample`` is a point of the piece, ``normal`` the unit normal there pointing into
     ``regions[0]``, ``eps`` an offset small enough that ``sample ± eps * normal`` lie in the two
-    regions (and on the right sides of the exact curve).
+    regions (and on the right sides of the exact curve). Pieces compare (and hash) by value,
+    their line aside: a decomposition's pieces are made when read (:class:`_Pieces`), so two
+    reads of one piece are equal objects, not the same one.
     """
 
     id: int
@@ -518,7 +520,8 @@ class Piece:
     curves: tuple[int, ...]
     kind: str
     features: tuple[str, ...]
-    _geometry: Any = field(repr=False)  # the line, or a _Shapes holding it (item ``id``)
+    # the line, or a _Shapes holding it (item ``id``)
+    _geometry: Any = field(repr=False, compare=False)
     sample: tuple[float, float]
     normal: tuple[float, float]
     eps: float
@@ -546,6 +549,118 @@ class Piece:
                 "point": list(self.sample)}
 
 
+class _PieceTable:
+    """The pieces of a decomposition as columns, in piece order (piece ``i`` is row ``i``):
+    ``pair`` (m, 2) int64, the two regions (``regions[0]`` the side ``n`` points into);
+    ``q`` (m, 2) crossing samples and ``n`` (m, 2) unit normals, ``eps`` (m,) offsets (map
+    units once :meth:`tether.userframe.UserFrame.pieces` converted them); ``ok`` (m,) bool,
+    verified; ``desc`` (m,) int ids into ``descs``, the distinct ``(curves, kind, features)``
+    (many pieces share their curves); ``shapes`` the lines (a :class:`_Shapes`, item ``i``
+    piece ``i``). :class:`Piece` objects are made from it when read."""
+
+    __slots__ = ("pair", "q", "n", "eps", "ok", "desc", "descs", "shapes")
+
+    def __init__(self, pair: np.ndarray, q: np.ndarray, n: np.ndarray, eps: np.ndarray,
+                 ok: np.ndarray, desc: np.ndarray, descs: list[tuple], shapes: _Shapes) -> None:
+        self.pair, self.q, self.n, self.eps, self.ok = pair, q, n, eps, ok
+        self.desc, self.descs, self.shapes = desc, descs, shapes
+        pair.flags.writeable = False  # G reads it as is (graph._piece_regions)
+
+    def __len__(self) -> int:
+        return len(self.pair)
+
+    def piece(self, i: int) -> Piece:
+        a, b = self.pair[i].tolist()
+        qx, qy = self.q[i].tolist()
+        nx, ny = self.n[i].tolist()
+        curves, kind, feats = self.descs[self.desc[i]]
+        return Piece(i, (a, b), curves, kind, feats, self.shapes, (qx, qy), (nx, ny),
+                     float(self.eps[i]), bool(self.ok[i]))
+
+    def pieces(self, lo: int = 0, hi: int | None = None) -> Iterator[Piece]:
+        """The pieces ``lo:hi``, made one by one (the columns read a bounded batch at a
+        time: the lists of a batch, not of all)."""
+        hi = len(self) if hi is None else hi
+        descs, shapes = self.descs, self.shapes
+        for b in range(lo, hi, PIECE_BATCH):
+            e = min(b + PIECE_BATCH, hi)
+            q, n = self.q[b:e], self.n[b:e]
+            for i, a, r, d, qx, qy, nx, ny, eps, ok in zip(
+                    range(b, e), self.pair[b:e, 0].tolist(), self.pair[b:e, 1].tolist(),
+                    self.desc[b:e].tolist(), q[:, 0].tolist(), q[:, 1].tolist(),
+                    n[:, 0].tolist(), n[:, 1].tolist(), self.eps[b:e].tolist(),
+                    self.ok[b:e].tolist(), strict=True):
+                curves, kind, feats = descs[d]
+                yield Piece(i, (a, r), curves, kind, feats, shapes, (qx, qy), (nx, ny), eps,
+                            ok)
+
+    def dicts(self) -> list[dict]:
+        """Every piece's :meth:`Piece.to_dict`, made from the columns (lengths all at once,
+        the same numbers as one by one)."""
+        descs = self.descs
+        length = shapely.length(self.shapes.all()).tolist()
+        return [{"id": f"P{i}", "regions": [f"R{a}", f"R{b}"], "type": descs[d][1],
+                 "features": list(descs[d][2]), "length": ln, "point": [qx, qy]}
+                for i, (a, b, d, ln, qx, qy) in enumerate(zip(
+                    self.pair[:, 0].tolist(), self.pair[:, 1].tolist(), self.desc.tolist(),
+                    length, self.q[:, 0].tolist(), self.q[:, 1].tolist(), strict=True))]
+
+
+#: Pieces made per batch when iterating: the batch's columns are Python lists, this bounds
+#: their memory.
+PIECE_BATCH = 16_384
+
+
+class _Pieces(Sequence):
+    """:attr:`Decomposition.pieces`: an immutable sequence of :class:`Piece` over the columns
+    of a :class:`_PieceTable`, each piece made when read (so ``pieces[i] is pieces[i]`` may be
+    False; they are equal). Equal to the tuple of the same pieces, and hashed as it."""
+
+    __slots__ = ("_table",)
+
+    def __init__(self, table: _PieceTable) -> None:
+        self._table = table
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+    def __getitem__(self, i: Any) -> Any:
+        n = len(self._table)
+        if isinstance(i, slice):
+            lo, hi, step = i.indices(n)
+            if step == 1:
+                return tuple(self._table.pieces(lo, max(lo, hi)))
+            return tuple(self._table.piece(j) for j in range(lo, hi, step))
+        j = operator.index(i)
+        j = j + n if j < 0 else j
+        if not 0 <= j < n:
+            raise IndexError("piece index out of range")
+        return self._table.piece(j)
+
+    def __iter__(self) -> Iterator[Piece]:
+        return self._table.pieces()
+
+    def __contains__(self, x: object) -> bool:
+        if not isinstance(x, Piece):
+            return False
+        try:
+            i = operator.index(x.id)
+        except TypeError:
+            return False
+        return 0 <= i < len(self) and self._table.piece(i) == x
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, _Pieces)):
+            return len(self) == len(other) and tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
 @dataclass(frozen=True, eq=False)
 class Decomposition:
     """The result of :func:`decompose`: curves, regions, cells, pieces and point location."""
@@ -557,7 +672,9 @@ class Decomposition:
     #: the cells, region by region (a tuple, or from :func:`decompose` an equal sequence
     #: making each :class:`Cell` when read: ``cells[i] is cells[i]`` may be False)
     cells: Sequence[Cell] = field(repr=False)
-    pieces: tuple[Piece, ...] = field(repr=False)
+    #: the pieces, in piece order (a tuple, or from :func:`decompose` an equal sequence
+    #: making each :class:`Piece` when read: ``pieces[i] is pieces[i]`` may be False)
+    pieces: Sequence[Piece] = field(repr=False)
     curve_tol: float
     unresolved_pieces: int = 0  # boundary stretches below resolution (see _make_pieces)
 
@@ -613,6 +730,9 @@ class Decomposition:
     def piece_crossings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every piece's crossing sample: points (k, 2), unit normals into ``regions[0]``
         (k, 2), offsets (k,), map units."""
+        if type(self.pieces) is _Pieces:  # copies of the columns
+            t = self.pieces._table
+            return t.q.copy(), t.n.copy(), t.eps.copy()
         return (np.array([p.sample for p in self.pieces]).reshape(-1, 2),
                 np.array([p.normal for p in self.pieces]).reshape(-1, 2),
                 np.array([p.eps for p in self.pieces], dtype=float))
@@ -682,12 +802,15 @@ class Decomposition:
                       table.dicts()),
         }
         if geometry:
-            out["pieces"] = [p.to_dict() for p in self.pieces]
+            pieces = self.pieces._table if type(self.pieces) is _Pieces else None
+            out["pieces"] = ([p.to_dict() for p in self.pieces] if pieces is None else
+                             pieces.dicts())
             out["curves"] = [c.to_dict() for c in self.curves]
             wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
             for d, w in zip(out["regions"], wkt, strict=True):
                 d["polygon"] = w
-            wkt = shapely.to_wkt([p.geometry for p in self.pieces], rounding_precision=-1)
+            wkt = shapely.to_wkt([p.geometry for p in self.pieces] if pieces is None else
+                                 pieces.shapes.all(), rounding_precision=-1)
             for d, w in zip(out["pieces"], wkt, strict=True):
                 d["geometry"] = w
         return out
@@ -1545,14 +1668,14 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                                                     lss)
     report("done", 1.0)
     if out is None:
-        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, tuple(pieces), tol,
-                            unresolved_pieces)
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, _Pieces(pieces),
+                            tol, unresolved_pieces)
     else:  # the regions' polygons and structures and the pieces to the user's frame
         del arr, chains, cands  # the arrangement, freed first
         out.regions(regions)
         out.pieces(pieces)
         dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
-                            tuple(pieces), tol / out.scale, unresolved_pieces)
+                            _Pieces(pieces), tol / out.scale, unresolved_pieces)
         arcs = out.crossing_arcs(arcs)
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     dec.__dict__["_cell_codes"] = codes  # known when the cells were made
@@ -1900,9 +2023,9 @@ def _point_ids(pts: np.ndarray) -> np.ndarray:
 
 def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], chains: _Chains,
                  cands: _Candidates, curves: list[Curve], lss: float
-                 ) -> tuple[list[Piece], int, ArcTable]:
-    """One piece per chain with a crossing sample. Returns the pieces, the number of
-    chains dropped as below resolution (no candidate point clear of other curves by
+                 ) -> tuple[_PieceTable, int, ArcTable]:
+    """One piece per chain with a crossing sample. Returns the pieces (as columns), the
+    number of chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only) and the exact arcs at both sides of every piece's crossing (see
     :meth:`Decomposition.crossing_arcs`)."""
@@ -1910,46 +2033,43 @@ def _make_pieces(env: Environment, arr: _Arrangement, regions: list[Region], cha
     got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
     kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
     # the pieces' arcs first, the rounds' tables freed before the pieces are made: a lower
-    # peak (at 1,000 map vertices each table is ~100 MB, the pieces ~150 MB)
+    # peak (at 1,000 map vertices each table is ~100 MB)
     arcs = _crossing_table(tables, got["at"][kept])
     del tables
     release_memory()
     geoms = _chain_geometries(arr, chains, kept)
-    flat, ptr = ssrc.tolist(), sptr.tolist()
-    described: dict[tuple[int, ...], tuple] = {}  # many pieces share their curves
+    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
+    table = _PieceTable(chains.pair[kept].astype(np.int64), got["q"][kept], got["n"][kept],
+                        got["eps"][kept], got["ok"][kept], desc, descs, _Shapes(geoms))
+    return table, len(chains) - len(kept), arcs
 
-    def describe(key: tuple[int, ...]) -> tuple:
-        """The curves' key (one shared tuple), kinds and features of a chain's curves."""
-        desc = described.get(key)
-        if desc is None:
+
+def _describe_chains(sptr: np.ndarray, ssrc: np.ndarray, which: np.ndarray,
+                     curves: list[Curve]) -> tuple[np.ndarray, list[tuple]]:
+    """The descriptions of the chains ``which``, whose curves are ``ssrc[sptr[i]:sptr[i +
+    1]]`` (sorted, distinct): an id per chain into the returned list of distinct ``(curves,
+    kinds, features)`` (the curves' tuple, their kind letters sorted, ``"?"`` for none, and
+    their features in order, each once). Chains of equal curves share an id, found
+    vectorized, size by size (:func:`_row_ids`); each distinct one is described once."""
+    start = sptr[which]
+    size = sptr[which + 1] - start
+    desc = np.zeros(len(which), np.int64)
+    descs: list[tuple] = []
+    for s in np.unique(size).tolist():
+        rows = np.flatnonzero(size == s)
+        keys = ssrc[start[rows, None] + np.arange(s)]  # (k, s): each chain's curves
+        ids, first = _row_ids(keys) if s else (np.zeros(len(rows), np.int64), [0])
+        desc[rows] = ids + len(descs)
+        for key in keys[first].tolist():
             kinds = "".join(sorted({curves[c].kind for c in key})) or "?"
             feats = tuple(dict.fromkeys(f for c in key for f in curves[c].features))
-            desc = described[key] = (key, kinds, feats)
-        return desc
-
-    pieces: list[Piece] = []
-    for lo in range(0, len(kept), PIECE_BATCH):  # bounded memory: one batch's lists at a time
-        ids = kept[lo:lo + PIECE_BATCH]
-        q, nrm = got["q"][ids], got["n"][ids]
-        descs = [describe(tuple(flat[ptr[i]:ptr[i + 1]])) for i in ids.tolist()]
-        pieces.extend(map(Piece, range(lo, lo + len(ids)),
-                          zip(chains.pair[ids, 0].tolist(), chains.pair[ids, 1].tolist(),
-                              strict=True),
-                          [d[0] for d in descs], [d[1] for d in descs], [d[2] for d in descs],
-                          geoms[lo:lo + PIECE_BATCH],
-                          zip(q[:, 0].tolist(), q[:, 1].tolist(), strict=True),
-                          zip(nrm[:, 0].tolist(), nrm[:, 1].tolist(), strict=True),
-                          got["eps"][ids].tolist(), got["ok"][ids].tolist()))
-    return pieces, len(chains) - len(kept), arcs
+            descs.append((tuple(key), kinds, feats))
+    return desc, descs
 
 
-#: Pieces made per batch: the batch's columns are Python lists, this bounds their memory.
-PIECE_BATCH = 16_384
-
-
-def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> list:
-    """The lines of the chains ``which``: a chain's part, or its parts merged into as few
-    lines as they form (all multi-part chains at once)."""
+def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> np.ndarray:
+    """The lines of the chains ``which`` (an object array): a chain's part, or its parts
+    merged into as few lines as they form (all multi-part chains at once)."""
     size = chains.size[which]
     out = arr.parts[chains.parts[chains.ptr[which]]]  # single parts as they are
     multi = np.flatnonzero(size > 1)
@@ -1958,7 +2078,7 @@ def _chain_geometries(arr: _Arrangement, chains: _Chains, which: np.ndarray) -> 
         lines = shapely.multilinestrings(arr.parts[chains.parts[rows]],
                                          indices=np.repeat(np.arange(len(multi)), size[multi]))
         out[multi] = shapely.line_merge(lines)
-    return out.tolist()
+    return out
 
 
 @dataclass
@@ -2457,8 +2577,17 @@ def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int 
         chosen = np.sort(rng.choice(chosen, regions, replace=False))
     pts, owner = sample_in_regions(dec, 1, seed, regions=chosen)
     bad_pieces = tuple({"piece": p.name, "regions": [f"R{r}" for r in p.regions],
-                        "point": list(p.sample)} for p in dec.pieces if not p.verified)
+                        "point": list(p.sample)} for p in _unverified(dec.pieces))
     return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces)
+
+
+def _unverified(pieces: Sequence[Piece]) -> list[Piece]:
+    """The pieces not verified when the decomposition was built (read from the columns: only
+    those made)."""
+    if type(pieces) is _Pieces:
+        t = pieces._table
+        return [t.piece(i) for i in np.flatnonzero(~t.ok).tolist()]
+    return [p for p in pieces if not p.verified]
 
 
 def _point_disagreements(dec: Decomposition, pts: np.ndarray, owner: np.ndarray

@@ -19,7 +19,14 @@ import numpy as np
 
 from tether.arrays import ragged_arange
 from tether.decomposition import Decomposition, feature_name_rank, gc_paused
-from tether.graph import ConnectivityGraph, build_graph, cell_first, cell_ids_of, cell_regions
+from tether.graph import (
+    ConnectivityGraph,
+    _piece_regions,
+    build_graph,
+    cell_first,
+    cell_ids_of,
+    cell_regions,
+)
 
 
 @dataclass(frozen=True)
@@ -131,7 +138,7 @@ class Eliminations(Sequence):
     def _one(self, i: int) -> Elimination:
         dec = self.graph.dec
         c, k, b = int(self.cell[i]), int(self.piece[i]), int(self.because[i])
-        ra, rb = dec.pieces[k].regions
+        ra, rb = _piece_regions(dec)[k].tolist()
         other = rb if ra == cell_regions(dec)[c] else ra
         ids = cell_ids_of(dec, [c] if b < 0 else [c, b])
         return Elimination(ids[0], f"R{other}", f"P{k}", int(self.round[i]),
@@ -150,8 +157,7 @@ class Eliminations(Sequence):
         dec = self.graph.dec
         n = len(self)
         ids = cell_ids_of(dec, np.concatenate((self.cell, np.maximum(self.because, 0))))
-        regs = np.array([p.regions for p in dec.pieces], dtype=np.int64).reshape(-1, 2)
-        ends = regs[self.piece]
+        ends = _piece_regions(dec)[self.piece]
         other = np.where(ends[:, 0] == cell_regions(dec)[self.cell], ends[:, 1], ends[:, 0])
         return tuple(Elimination(c, f"R{o}", f"P{k}", r, None if b < 0 else ib)
                      for c, o, k, r, b, ib in zip(

@@ -19,7 +19,7 @@ import numpy as np
 
 from tether.arcs import TWO_PI, ArcTable, free_arcs_many
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, _Cells, gc_paused, release_memory
+from tether.decomposition import Decomposition, _Cells, _Pieces, gc_paused, release_memory
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -97,8 +97,8 @@ class ConnectivityGraph:
             for j in range(rptr[r], rptr[r + 1]):
                 pos[(r, rpcs[j])] = j - rptr[r]
         out: dict[tuple[str, int], tuple[str, ...]] = {}
-        for k, piece in enumerate(dec.pieces):
-            for r in piece.regions:
+        for k, regions in enumerate(_piece_regions(dec).tolist()):
+            for r in regions:
                 j = pos[(r, k)]
                 for c in range(first[r], first[r + 1]):
                     s = sptr[c] + j
@@ -347,7 +347,10 @@ def _starting_in(key: np.ndarray, base: np.ndarray, r0: np.ndarray | None,
 
 
 def _piece_regions(dec: Decomposition) -> np.ndarray:
-    """``(m, 2)`` int array of every piece's two regions, cached on the decomposition."""
+    """``(m, 2)`` int array of every piece's two regions: the pieces' column (never to be
+    written), or read from the pieces and cached on the decomposition."""
+    if type(dec.pieces) is _Pieces:
+        return dec.pieces._table.pair
     got = dec.__dict__.get("_piece_regions")
     if got is None:
         m = len(dec.pieces)

@@ -4,11 +4,12 @@ names (file numbering). Angles are unchanged by the frame; lengths scale by a po
 
 The result objects are made once: the regions' areas, points and cell names are converted
 (vectorized) before the regions are made, cells are named after the file when made; the
-pieces' samples are converted once the pieces are made (the pieces stage works in the internal
-frame), rewritten in the objects, which nothing else holds yet. The geometries (polygons and
-pieces' lines) stay in the internal frame, one shared holder each, converted all at once (one
-vectorized call) on their first read: G and the analysis never read them. Where the map keeps
-its internal numbering (no straight vertex), names, cells and structures are left as they are."""
+pieces' samples and offsets are converted once the pieces' columns are made (the pieces
+stage works in the internal frame), vectorized, in the columns, which nothing else holds yet.
+The geometries (polygons and pieces' lines) stay in the internal frame, one shared holder
+each, converted all at once (one vectorized call) on their first read: G and the analysis
+never read them. Where the map keeps its internal numbering (no straight vertex), names, cells
+and structures are left as they are."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import ArcTable
-from tether.decomposition import FREE, _Shapes, _Structures
+from tether.decomposition import FREE, _PieceTable, _Shapes, _Structures
 from tether.environment import Environment
 
 
@@ -80,31 +81,26 @@ class UserFrame:
         names = self.names
         return tuple(c.to_user(self.frame, names) for c in curves)
 
-    def pieces(self, pieces: list) -> None:
-        """Rewrite the pieces' sample, offset and features in the user's frame, in place: they
-        were just made in the internal frame and nothing else holds them (as the frozen
-        dataclass's own ``__init__`` does, through ``object.__setattr__``); a second
-        generation of pieces would cost their making and freeing again. Their lines are kept
-        as made, in one shared holder converted all at once on the first read
-        (:class:`~tether.decomposition._Shapes`)."""
-        if not pieces:
+    def pieces(self, table: _PieceTable) -> None:
+        """Convert the pieces' columns to the user's frame, in place (they were just made in
+        the internal frame and nothing else holds them): samples and offsets vectorized,
+        features renamed in the small table of distinct descriptions. Their lines are kept as
+        made, in the shared holder, now converting them all at once on the first read
+        (:class:`~tether.decomposition._Shapes`). Normals are unchanged (the frame scales
+        and translates)."""
+        if not len(table):
             return
-        shapes = self.shapes([p._geometry for p in pieces])
-        qs = self.points([p.sample for p in pieces]).tolist()
-        eps = (np.array([p.eps for p in pieces], dtype=float) / self.scale).tolist()
-        put = object.__setattr__
-        for p, q, e in zip(pieces, qs, eps, strict=True):
-            put(p, "_geometry", shapes)
-            put(p, "sample", (q[0], q[1]))
-            put(p, "eps", e)
+        table.shapes = self.shapes(table.shapes.all())
+        table.q = self.points(table.q)
+        table.eps = table.eps / self.scale
         if not self.same:
-            for p in pieces:
-                put(p, "features", self.features(p.features))
+            table.descs = [(c, k, self.features(f)) for c, k, f in table.descs]
 
     def regions(self, regions: list) -> None:
         """Have the regions' structures read in the file's feature codes: the shared
         :class:`~tether.decomposition._Structures` they hold makes its frozensets so from now
-        on (else each region's structure is rewritten in place, see :meth:`pieces`); their
+        on (else each region's structure is rewritten in place: they were just made and nothing
+        else holds them); their
         area, point and cell names are the user's already, their polygons converted (and
         prepared) all at once on the first read of any of them (``_make_regions``)."""
         if not regions or self.same:
@@ -117,11 +113,13 @@ class UserFrame:
         for r in regions:
             put(r, "_structure", self.structure(r.structure))
 
-    def shapes(self, geoms: list, prepare: bool = False) -> _Shapes:
-        """The internal-frame ``geoms`` of regions or pieces in a holder converting them to
-        the map's frame (and preparing them) on the first read. Item ``i`` is read by the
-        object of id ``i``: regions and pieces are numbered in order as made."""
-        arr = np.fromiter(geoms, dtype=object, count=len(geoms))
+    def shapes(self, geoms: Any, prepare: bool = False) -> _Shapes:
+        """The internal-frame ``geoms`` (a list or an object array) of regions or pieces in a
+        holder converting them to the map's frame (and preparing them) on the first read.
+        Item ``i`` is read by the object of id ``i``: regions and pieces are numbered in order
+        as made."""
+        arr = (geoms if isinstance(geoms, np.ndarray) else
+               np.fromiter(geoms, dtype=object, count=len(geoms)))
         return _Shapes(arr, self.frame, prepare)
 
     def crossing_arcs(self, arcs: ArcTable) -> ArcTable:

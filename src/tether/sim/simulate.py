@@ -387,10 +387,11 @@ def simulate(world: World, controller: Controller, target: Target,
 
 def _piece_between(dec: Any, r0: int, r1: int) -> str:
     """Name of a piece between regions ``r0`` and ``r1`` (``P?`` if they only touch)."""
-    for pc in dec.pieces:
-        if set(pc.regions) == {r0, r1}:
-            return pc.name
-    return "P?"
+    from tether.graph import _piece_regions
+
+    a, b = _piece_regions(dec).T
+    hit = np.flatnonzero(((a == r0) & (b == r1)) | ((a == r1) & (b == r0)))
+    return dec.pieces[int(hit[0])].name if len(hit) else "P?"
 
 
 # ------------------------------------------------------------------------------ traces
