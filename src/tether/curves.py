@@ -1120,40 +1120,88 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
     u[flip] *= -1
     theta = np.arctan2(u[:, 1], u[:, 0])  # in (-pi/2, pi/2]
     offset = u[:, 0] * fam_p[:, 1] - u[:, 1] * fam_p[:, 0]  # signed distance of the line to 0
+    groups = [g for g in _line_groups(theta, offset, tol) if len(g) >= 2]
+    if not groups:
+        return curves
+    members = [straight[g] for group in groups for g in group]  # curve numbers, by group
+    polys = [p for k in members for p in curves[k].polylines]
+    npoly = np.array([len(curves[k].polylines) for k in members], dtype=np.int64)
+    gsize = np.array([len(g) for g in groups], dtype=np.int64)
+    poly_group = np.repeat(np.repeat(np.arange(len(groups)), gsize), npoly)
+    size = np.array([len(p) for p in polys], dtype=np.int64)
+    pstart = np.cumsum(size) - size
+    pts = np.vstack(polys)
+    # every vertex's position along its group's line: one product per group, of the rows a
+    # product per polyline had (a row's bits do not depend on the other rows)
+    along = np.empty(len(pts))
+    gstop = np.cumsum(np.bincount(poly_group, weights=size, minlength=len(groups))
+                      ).astype(np.int64).tolist()
+    for group, r0, r1 in zip(groups, [0] + gstop[:-1], gstop, strict=True):
+        along[r0:r1] = (pts[r0:r1] - fam_p[group[0]]) @ u[group[0]]
+    row_poly = np.repeat(np.arange(len(polys)), size)
+    row_group = poly_group[row_poly]
+    # each group's vertices by position along the line (stable), one per tol
+    order = np.lexsort((along, row_group))
+    s_along, s_group = along[order], row_group[order]
+    distinct = np.r_[True, (np.diff(s_along) > tol) | (s_group[1:] != s_group[:-1])]
+    order = order[distinct]
+    d_along, d_group = along[order], row_group[order]
+    # each polyline's extreme vertices (the first of equals) and the group's vertices
+    # strictly inside (lo + tol, hi - tol)
+    lo = np.minimum.reduceat(along, pstart)
+    hi = np.maximum.reduceat(along, pstart)
+    first_lo = _first_per_group(np.flatnonzero(along == lo[row_poly]), row_poly)
+    first_hi = _first_per_group(np.flatnonzero(along == hi[row_poly]), row_poly)
+    i0 = _grouped_searchsorted(d_group, d_along, poly_group, lo + tol, "right")
+    i1 = np.maximum(i0, _grouped_searchsorted(d_group, d_along, poly_group, hi - tol, "left"))
+    count = i1 - i0 + 2
+    cstart = np.cumsum(count) - count
+    k = np.arange(int(count.sum())) - np.repeat(cstart, count)
+    backward = along[pstart] > along[pstart + size - 1]
+    k = np.where(np.repeat(backward, count), np.repeat(count - 1, count) - k, k)
+    src = np.where(k == 0, np.repeat(first_lo, count),
+                   np.where(k == np.repeat(count - 1, count), np.repeat(first_hi, count),
+                            order[np.minimum(np.repeat(i0 - 1, count) + k, len(order) - 1)]))
+    merged = pts[src]
+    params = np.empty(len(merged))
+    stops = np.cumsum(count).tolist()
     out = list(curves)
-    for group in _line_groups(theta, offset, tol):
-        if len(group) < 2:
-            continue
-        base = fam_p[group[0]]
-        uu = u[group[0]]
-        # every vertex of the group's polylines, by position along the line
-        pts = np.vstack([p for g in group for p in curves[straight[g]].polylines])
-        along = (pts - base) @ uu
-        order = np.argsort(along, kind="stable")
-        pts, along = pts[order], along[order]
-        distinct = np.r_[True, np.diff(along) > tol]
-        pts, along = pts[distinct], along[distinct]
-        for g in group:
-            k = straight[g]
-            c = curves[k]
-            fam, i = c.family, c.index
-            dd = fam.d[i]
-            polys, params = [], []
-            for poly in c.polylines:
-                a = (poly - base) @ uu
-                lo, hi = a.min(), a.max()
-                # the group's vertices strictly inside (lo + tol, hi - tol): a slice of the
-                # sorted ``along`` (a mask over the whole group was quadratic in its size)
-                i0 = np.searchsorted(along, lo + tol, side="right")
-                i1 = max(i0, np.searchsorted(along, hi - tol, side="left"))
-                merged = np.vstack((poly[[int(np.argmin(a))]], pts[i0:i1],
-                                    poly[[int(np.argmax(a))]]))
-                if a[0] > a[-1]:
-                    merged = merged[::-1]
-                polys.append(merged)
-                params.append((merged - fam.p[i]) @ dd / (dd @ dd))
-            out[k] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(polys),
-                           tuple(params), fam, i, c.frame)
+    j = 0  # polyline number
+    for kk, n in zip(members, npoly.tolist(), strict=True):
+        c = curves[kk]
+        fam, i = c.family, c.index
+        dd = fam.d[i]
+        r0, r1 = (stops[j - 1] if j else 0), stops[j + n - 1]
+        params[r0:r1] = (merged[r0:r1] - fam.p[i]) @ dd / (dd @ dd)
+        cuts = [r0] + stops[j:j + n]
+        out[kk] = Curve(c.id, c.kind, c.features, c.domain, c.intervals,
+                        tuple(merged[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)),
+                        tuple(params[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)),
+                        fam, i, c.frame)
+        j += n
+    return out
+
+
+def _first_per_group(rows: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """The first of ``rows`` (increasing) of each value of ``group[rows]`` (increasing)."""
+    g = group[rows]
+    return rows[np.r_[True, g[1:] != g[:-1]]]
+
+
+def _grouped_searchsorted(dg: np.ndarray, dv: np.ndarray, qg: np.ndarray, qv: np.ndarray,
+                          side: str) -> np.ndarray:
+    """``np.searchsorted`` of each ``qv[k]`` among the values of group ``qg[k]``, for values
+    ``dv`` sorted by (group ``dg``, value), as an index into ``dv``: the number of values of
+    earlier groups and of the group's values below (``left``) or not above (``right``) it.
+    One merged sort, exact comparisons."""
+    nd = len(dv)
+    data_first = side == "right"  # ties: a value equal to the query counts as below it
+    tie = np.r_[np.full(nd, not data_first), np.full(len(qv), data_first)]
+    order = np.lexsort((tie, np.r_[dv, qv], np.r_[dg, qg]))
+    is_data = order < nd
+    before = np.cumsum(is_data) - is_data
+    out = np.empty(len(qv), np.int64)
+    out[order[~is_data] - nd] = before[~is_data]
     return out
 
 
@@ -1166,16 +1214,13 @@ def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list
     th = np.where(theta > np.pi / 2 - 1e-9, theta - np.pi, theta)
     off = np.where(theta > np.pi / 2 - 1e-9, -offset, offset)
     order = np.argsort(th, kind="stable")
-    groups = []
-    start = 0
-    for j in range(1, len(order) + 1):
-        if j == len(order) or th[order[j]] - th[order[j - 1]] > ANGLE_TOL:
-            run = order[start:j]
-            run = run[np.argsort(off[run], kind="stable")]
-            cut = np.flatnonzero(np.diff(off[run]) > tol) + 1
-            groups += [g.tolist() for g in np.split(run, cut)]
-            start = j
-    return groups
+    run = np.r_[0, np.cumsum(np.diff(th[order]) > ANGLE_TOL)]  # runs of close angles
+    by_off = np.lexsort((off[order], run))  # each run by offset (stable)
+    idx, run = order[by_off], run[by_off]
+    cut = np.flatnonzero((np.diff(off[idx]) > tol) | (run[1:] != run[:-1])) + 1
+    flat = idx.tolist()
+    bounds = [0] + cut.tolist() + [len(flat)]
+    return [flat[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
