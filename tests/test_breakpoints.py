@@ -174,3 +174,21 @@ def test_conchoid_pair_filter_drops_no_crossing(env, lss, monkeypatch):
         every = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
     assert len(every[0]) > 0
     assert np.array_equal(kept[0], every[0]) and np.array_equal(kept[1], every[1])
+
+
+def test_insert_after_is_the_stable_sort():
+    """Samples inserted after given sorted samples: the arrays the former stable sort of the
+    concatenation gave (equal keys included: an inserted parameter may round to its
+    neighbour's)."""
+    rng = np.random.default_rng(2)
+    c = np.sort(rng.integers(0, 40, 2000))
+    t = np.round(rng.random(2000), 2)
+    order = np.lexsort((t, c))
+    c, t = c[order], t[order]
+    at = np.flatnonzero((c[1:] == c[:-1]) & (rng.random(1999) < 0.5))
+    frac = rng.choice([0.0, 0.3819660112501051, 1.0], len(at))
+    t_new = t[at] + frac * (t[at + 1] - t[at])
+    c2, t2 = curves_mod._insert_after(c, t, at, t_new)
+    cc, tt = np.concatenate((c, c[at])), np.concatenate((t, t_new))
+    order = np.lexsort((tt, cc))
+    assert np.array_equal(c2, cc[order]) and np.array_equal(t2, tt[order])

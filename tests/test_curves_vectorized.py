@@ -94,3 +94,18 @@ def test_row_norms_are_the_scalar_norms_bit_for_bit():
     rng = np.random.default_rng(5)
     v = rng.normal(size=(20_000, 2)) * rng.uniform(1e-6, 1e6, size=(20_000, 1))
     assert np.array_equal(_norms(v), np.array([np.linalg.norm(x) for x in v]))
+
+
+def test_first_nearest_is_the_stable_sort_pick():
+    """The nearest segment per row by a minimum per row picks what a stable sort by (row,
+    distance) picks: the first of equal distances (ties are common: shared vertices)."""
+    from tether.curves import _first_nearest
+
+    rng = np.random.default_rng(8)
+    row = np.sort(rng.integers(0, 300, 3000))
+    row = np.searchsorted(np.unique(row), row)  # every row present
+    dist = rng.choice([0.0, 0.5, 1.0, 2.0], len(row)) + rng.choice([0.0, 1e-17], len(row))
+    for d in (dist, np.where(rng.random(len(row)) < 0.01, np.nan, dist)):
+        order = np.lexsort((d, row))
+        want = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+        assert np.array_equal(_first_nearest(row, d), want)

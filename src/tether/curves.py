@@ -445,10 +445,7 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     # the close samples around one breakpoint: their transition is pinned as is)
     gap = 1e-4 * (fam.hi - fam.lo)[c[:-1]]
     mid = np.flatnonzero((c[1:] == c[:-1]) & (t[1:] - t[:-1] > gap))
-    c = np.concatenate((c, c[mid]))
-    t = np.concatenate((t, t[mid] + _SPLIT * (t[mid + 1] - t[mid])))
-    order = np.lexsort((t, c))
-    c, t = c[order], t[order]
+    c, t = _insert_after(c, t, mid, t[mid] + _SPLIT * (t[mid + 1] - t[mid]))
     counts = np.bincount(c, minlength=m)
     first = np.cumsum(counts) - counts
     if fam.kind in "CDE":  # open ends at the vertex / domain ends: sample just inside
@@ -487,6 +484,21 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
                 ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
                 ivs.pop()
     return out
+
+
+def _insert_after(c: np.ndarray, t: np.ndarray, at: np.ndarray, t_new: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Samples ``(c, t)`` sorted by (curve, parameter) with a sample ``(c[at[k]], t_new[k])``
+    inserted after each sample ``at[k]`` (increasing, distinct; ``t[at[k]] <= t_new[k] <=
+    t[at[k] + 1]``, same curve): the arrays a stable sort of all of them gives, without the
+    sort."""
+    n = len(c) + len(at)
+    pos = np.arange(len(c)) + np.searchsorted(at, np.arange(len(c)))  # earlier insertions
+    new = at + 1 + np.arange(len(at))
+    c2, t2 = np.empty(n, c.dtype), np.empty(n, t.dtype)
+    c2[pos], t2[pos] = c, t
+    c2[new], t2[new] = c[at], t_new
+    return c2, t2
 
 
 def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
@@ -914,24 +926,18 @@ def _draw_conchoids(fam: Family, group: list[tuple[Family, int, list[tuple[float
         active[v[pair[split]]] = True
         if not split.any():
             break
-        iv = np.concatenate((iv, v[pair[split]]))
-        ts = np.concatenate((ts, mid_t[split]))
-        order = np.lexsort((ts, iv))
-        iv, ts = iv[order], ts[order]
+        # each middle right after its chord's first parameter (all rows of an active
+        # interval are among ``rows``, so the next row is the chord's other end)
+        iv, ts = _insert_after(iv, ts, rows[pair[split]], mid_t[split])
     pts = fam.points(c[iv], ts)
     n = np.bincount(iv, minlength=m)
-    stops = np.cumsum(n).tolist()
-    starts = [0] + stops[:-1]
-    at_lo = (lo == fam.lo[c]) & _pole_ends(fam, c, lo)
-    at_hi = (hi == fam.hi[c]) & _pole_ends(fam, c, hi)
-    drawn = []
-    for k, (ci, a0, b0) in enumerate(zip(c.tolist(), starts, stops, strict=True)):
-        t_k, p_k = _with_marks(fam, ci, ts[a0:b0].copy(), pts[a0:b0].copy())
-        if at_hi[k]:
-            p_k[-1] = fam.p[ci]
-        if at_lo[k]:
-            p_k[0] = fam.p[ci]
-        drawn.append((t_k, p_k))
+    ts, pts, first, n = _with_marks_many(fam, c, np.cumsum(n) - n, n, ts, pts)
+    at_lo = np.flatnonzero((lo == fam.lo[c]) & _pole_ends(fam, c, lo))
+    at_hi = np.flatnonzero((hi == fam.hi[c]) & _pole_ends(fam, c, hi))
+    pts[(first + n - 1)[at_hi]] = fam.p[c[at_hi]]
+    pts[first[at_lo]] = fam.p[c[at_lo]]
+    stops = (first + n).tolist()
+    drawn = [(ts[a:b], pts[a:b]) for a, b in zip(first.tolist(), stops, strict=True)]
     ends = np.cumsum(count).tolist()
     return [drawn[e - q:e] for q, e in zip(count, ends, strict=True)]
 
@@ -966,10 +972,9 @@ def _draw_simple(fam: Family, group: list[tuple[Family, int, list[tuple[float, f
     iv, ts = _linspace_many(lo, hi, n)
     first = np.cumsum(n) - n
     pts = fam.points(c[iv], ts)
+    ts, pts, first, n = _with_marks_many(fam, c, first, n, ts, pts)
     stops = (first + n).tolist()
-    firsts = first.tolist()
-    drawn = [_with_marks(fam, int(ci), ts[a:b], pts[a:b])
-             for ci, a, b in zip(c.tolist(), firsts, stops, strict=True)]
+    drawn = [(ts[a:b], pts[a:b]) for a, b in zip(first.tolist(), stops, strict=True)]
     ends = np.cumsum(count).tolist()
     return [drawn[e - m:e] for m, e in zip(count, ends, strict=True)]
 
@@ -1054,6 +1059,47 @@ def _with_marks(fam: Family, c: int, ts: np.ndarray, pts: np.ndarray
     pts = np.vstack((pts, add_p))
     order = np.argsort(ts, kind="stable")
     return ts[order], pts[order]
+
+
+def _with_marks_many(fam: Family, c: np.ndarray, first: np.ndarray, n: np.ndarray,
+                     ts: np.ndarray, pts: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_with_marks` of many polylines at once: polyline ``k`` of curve ``c[k]`` is
+    rows ``first[k]:first[k] + n[k]`` of ``ts``, ``pts`` (consecutive). Returns the new
+    ``ts, pts, first, n`` (the same numbers and order, polyline by polyline)."""
+    size = np.array([len(mk) for mk in fam.marks], dtype=np.int64)
+    if len(size) == 0 or size.sum() == 0:
+        return ts, pts, first, n
+    mark_t = np.array([t for mk in fam.marks for t, _ in mk], dtype=float)
+    mark_p = np.array([p for mk in fam.marks for _, p in mk], dtype=float).reshape(-1, 2)
+    shifts = np.array((-2 * math.pi, 0.0, 2 * math.pi) if fam.kind == "B" else (0.0,))
+    # (polyline, mark, shift) rows, mark-major as the loops of _with_marks
+    per = size[c]
+    row = np.repeat(np.repeat(np.arange(len(c)), per), len(shifts))
+    mark = np.repeat(ragged_arange((np.cumsum(size) - size)[c], per), len(shifts))
+    add_t = mark_t[mark] + np.tile(shifts, int(per.sum()))
+    inside = (ts[first][row] < add_t) & (add_t < ts[first + n - 1][row])
+    row, mark, add_t = row[inside], mark[inside], add_t[inside]
+    if len(row) == 0:
+        return ts, pts, first, n
+    # a mark replaces the samples of its polyline at the same parameter
+    near = ragged_arange(first[row], n[row])
+    thr = np.repeat(1e-15 * np.maximum(1.0, np.abs(add_t)), n[row])
+    keep = np.ones(len(ts), bool)
+    keep[near[~(np.abs(ts[near] - np.repeat(add_t, n[row])) > thr)]] = False
+    line = np.repeat(np.arange(len(c)), n)
+    kept = np.flatnonzero(keep)
+    all_line = np.concatenate((line[kept], row))
+    all_t = np.concatenate((ts[kept], add_t))
+    all_p = np.vstack((pts[kept], mark_p[mark]))
+    # polylines with marks sorted by parameter (stable: samples, then marks in order); the
+    # others keep their order
+    marked = np.zeros(len(c), bool)
+    marked[row] = True
+    key = np.where(marked[all_line], all_t, np.arange(len(all_t), dtype=float))
+    order = np.lexsort((key, all_line))
+    n2 = np.bincount(all_line, minlength=len(c))
+    return all_t[order], all_p[order], np.cumsum(n2) - n2, n2
 
 
 def _pole_end(fam: Family, c: int, t: float) -> bool:
@@ -1315,8 +1361,7 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
                 / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
     dist = np.hypot(*(a[seg] + u[:, None] * ab - q[row]).T)
-    order = np.lexsort((dist, row))
-    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]  # nearest segment per row
+    best = _first_nearest(row, dist)  # nearest segment per row
     s = seg[best]
     lo, hi = lo_all[s], hi_all[s]
     t = lo + u[best] * (hi - lo)
@@ -1324,19 +1369,33 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     c = np.array([curves[k].index for k in cid.tolist()], dtype=int)
     dlo = fam.lo[c]
     dhi = fam.hi[c]
+    sub = fam.rows(c)  # the same rows every step: gathered once
     for _ in range(12):
-        tangent = _tangents(fam, c, t, dlo, dhi)
+        tangent = _tangents(sub, None, t, dlo, dhi)
         tt = np.einsum("ij,ij->i", tangent, tangent)
-        step = np.where(tt > 0, np.einsum("ij,ij->i", fam.points(c, t) - q, tangent)
+        step = np.where(tt > 0, np.einsum("ij,ij->i", sub.points(None, t) - q, tangent)
                         / np.maximum(tt, 1e-300), 0.0)
         t_new = np.clip(t - step, lo, hi)
         done = np.abs(t_new - t) <= 1e-15 * np.maximum(1.0, np.abs(t))
         t = t_new
         if done.all():
             break
-    tangent = _tangents(fam, c, t, dlo, dhi)
+    tangent = _tangents(sub, None, t, dlo, dhi)
     tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
-    return t, fam.points(c, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+    return t, sub.points(None, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+
+
+def _first_nearest(row: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """For rows ``row`` (increasing, each present), the index of each row's smallest
+    ``dist``, the first among equals (as a stable sort by (row, dist) picks it; a lexsort
+    if some distance is nan)."""
+    if np.isnan(dist).any():
+        order = np.lexsort((dist, row))
+        return order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    start = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+    least = np.minimum.reduceat(dist, start)
+    hit = np.flatnonzero(dist == np.repeat(least, np.diff(np.r_[start, len(row)])))
+    return _first_per_group(hit, row)
 
 
 #: Consecutive polyline segments per block in the pruned nearest-segment search.
@@ -1378,9 +1437,10 @@ def _near_segment_pairs(a: np.ndarray, b: np.ndarray, sc: np.ndarray, ncurves: i
     return np.repeat(rowb, size), ragged_arange(bstart[blk], size)
 
 
-def _tangents(fam: Family, c: np.ndarray, t: np.ndarray, dlo: np.ndarray, dhi: np.ndarray
-              ) -> np.ndarray:
-    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``)."""
+def _tangents(fam: Family, c: np.ndarray | None, t: np.ndarray, dlo: np.ndarray,
+              dhi: np.ndarray) -> np.ndarray:
+    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``;
+    ``c`` as in :meth:`Family.points`)."""
     h = 1e-7 * np.maximum(np.maximum(1.0, np.abs(t)), dhi - dlo)
     a, b = np.maximum(t - h, dlo), np.minimum(t + h, dhi)
     return (fam.points(c, b) - fam.points(c, a)) / (b - a)[:, None]
