@@ -192,3 +192,26 @@ def test_insert_after_is_the_stable_sort():
     cc, tt = np.concatenate((c, c[at])), np.concatenate((t, t_new))
     order = np.lexsort((tt, cc))
     assert np.array_equal(c2, cc[order]) and np.array_equal(t2, tt[order])
+
+
+def test_equal_samples_tested_once():
+    """The semi-free test of sorted samples with equal ones tested once answers as the test
+    of every sample (the samples of a floor plan's curves: D has a fifth of them twice)."""
+    env = floor_plan(120, seed=3)
+    inner = env.internal
+    fams = candidate_families(inner, (env.bounds[2] - env.bounds[0]) / 15 * env.frame.scale)
+    rng = np.random.default_rng(4)
+    repeated = 0
+    for fam in fams:
+        bc, bt = curves_mod._breakpoints(inner, fam)
+        c = np.concatenate((bc, rng.integers(0, len(fam), 50)))
+        t = np.concatenate((bt, rng.uniform(fam.lo.min(), fam.hi.max(), 50)))
+        keep = (t > fam.lo[c]) & (t < fam.hi[c])
+        c, t = c[keep], t[keep]
+        order = np.lexsort((t, c))
+        c, t = c[order], t[order]
+        repeated += int(np.sum((c[1:] == c[:-1]) & (t[1:] == t[:-1])))
+        want = curves_mod.rod_is_free_many(inner, fam.points(c, t), fam.rod_angles(c, t),
+                                           fam.lss)
+        assert np.array_equal(curves_mod._semi_free(inner, fam, c, t), want), fam.kind
+    assert repeated > 0

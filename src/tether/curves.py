@@ -455,7 +455,7 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     if fam.kind in "CDE":  # open ends at the vertex / domain ends: sample just inside
         eps = 1e-9 * (fam.hi[c] - fam.lo[c])
         t = np.clip(t, fam.lo[c] + eps, fam.hi[c] - eps)
-    free = rod_is_free_many(env, fam.points(c, t), fam.rod_angles(c, t), L)
+    free = _semi_free(env, fam, c, t)
     # transitions between consecutive samples of the same curve: pin them by bisection
     same = c[1:] == c[:-1]
     trans = np.flatnonzero(same & (free[1:] != free[:-1]))
@@ -488,6 +488,16 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
                 ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
                 ivs.pop()
     return out
+
+
+def _semi_free(env: Environment, fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Whether the event rod of curve ``c[k]`` at ``t[k]`` is semi-free, for samples sorted by
+    (curve, parameter); equal samples (a breakpoint found twice: a line through a vertex
+    crosses both of its edges) are tested once (the test is row by row: the same answers)."""
+    is_new = np.r_[True, (c[1:] != c[:-1]) | (t[1:] != t[:-1])]
+    cn, tn = c[is_new], t[is_new]
+    free = rod_is_free_many(env, fam.points(cn, tn), fam.rod_angles(cn, tn), fam.lss)
+    return free[np.cumsum(is_new) - 1]
 
 
 def _insert_after(c: np.ndarray, t: np.ndarray, at: np.ndarray, t_new: np.ndarray
