@@ -398,16 +398,21 @@ def _mark_apexes(fa: Family, fe: Family) -> None:
     fe.marks.extend([] for _ in range(len(fe)))
     if len(fe) == 0:
         return
-    # the apex parameter s = (p - w)·d / d·d of every conchoid (a 2-vector dot product is
-    # x0 y0 + x1 y1, the bits of ``@`` on 1-d vectors)
+    # the apex parameter s = (p - w)·d / d·d of every conchoid, roughly (the products of
+    # ``@`` may round otherwise): only the conchoids with s near their domain are computed
+    # as before (rounding moves s by about 1e-16 |p - w| / |d|: the margin is ample)
     r, d = fe.p - fe.w, fe.d
-    s = (r[:, 0] * d[:, 0] + r[:, 1] * d[:, 1]) / (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
-    hit = np.flatnonzero((fe.lo < s) & (s < fe.hi))
-    edge = np.array([int(fe.features[c][1][1:]) for c in hit.tolist()], dtype=np.int64)
-    q = fa.p[edge] + s[hit][:, None] * fa.d[edge]
-    for c, i, sc, qc in zip(hit.tolist(), edge.tolist(), s[hit].tolist(), q, strict=True):
-        fa.marks[i].append((sc, qc))
-        fe.marks[c].append((sc, qc))
+    dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+    s = (r[:, 0] * d[:, 0] + r[:, 1] * d[:, 1]) / dd
+    slack = 1e-9 * (1.0 + np.hypot(r[:, 0], r[:, 1]) / np.sqrt(dd))
+    for c in np.flatnonzero((fe.lo - slack < s) & (s < fe.hi + slack)).tolist():
+        i = int(fe.features[c][1][1:])
+        dc = fe.d[c]
+        sc = float((fe.p[c] - fe.w[c]) @ dc / (dc @ dc))
+        if fe.lo[c] < sc < fe.hi[c]:
+            q = fa.p[i] + sc * fa.d[i]
+            fa.marks[i].append((sc, q))
+            fe.marks[c].append((sc, q))
 
 
 # ---------------------------------------------------------------------- critical parts
@@ -1194,13 +1199,21 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
     size = np.array([len(p) for p in polys], dtype=np.int64)
     pstart = np.cumsum(size) - size
     pts = np.vstack(polys)
-    # every vertex's position along its group's line: one product per group, of the rows a
-    # product per polyline had (a row's bits do not depend on the other rows)
+    # every vertex's position along its group's line: the products of the former loops, one
+    # per group (its vertices) and one per polyline (its ends), so the very same bits
+    # whatever the BLAS kernel (a row's bits could depend on the matrix's size)
     along = np.empty(len(pts))
+    a_poly = np.empty(len(pts))
     gstop = np.cumsum(np.bincount(poly_group, weights=size, minlength=len(groups))
                       ).astype(np.int64).tolist()
+    pstop = (pstart + size).tolist()
+    j = 0
     for group, r0, r1 in zip(groups, [0] + gstop[:-1], gstop, strict=True):
-        along[r0:r1] = (pts[r0:r1] - fam_p[group[0]]) @ u[group[0]]
+        base, uu = fam_p[group[0]], u[group[0]]
+        along[r0:r1] = (pts[r0:r1] - base) @ uu
+        while j < len(polys) and pstop[j] <= r1:
+            a_poly[pstop[j] - len(polys[j]):pstop[j]] = (polys[j] - base) @ uu
+            j += 1
     row_poly = np.repeat(np.arange(len(polys)), size)
     row_group = poly_group[row_poly]
     # each group's vertices by position along the line (stable), one per tol
@@ -1211,36 +1224,33 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
     d_along, d_group = along[order], row_group[order]
     # each polyline's extreme vertices (the first of equals) and the group's vertices
     # strictly inside (lo + tol, hi - tol)
-    lo = np.minimum.reduceat(along, pstart)
-    hi = np.maximum.reduceat(along, pstart)
-    first_lo = _first_per_group(np.flatnonzero(along == lo[row_poly]), row_poly)
-    first_hi = _first_per_group(np.flatnonzero(along == hi[row_poly]), row_poly)
+    lo = np.minimum.reduceat(a_poly, pstart)
+    hi = np.maximum.reduceat(a_poly, pstart)
+    first_lo = _first_per_group(np.flatnonzero(a_poly == lo[row_poly]), row_poly)
+    first_hi = _first_per_group(np.flatnonzero(a_poly == hi[row_poly]), row_poly)
     i0 = _grouped_searchsorted(d_group, d_along, poly_group, lo + tol, "right")
     i1 = np.maximum(i0, _grouped_searchsorted(d_group, d_along, poly_group, hi - tol, "left"))
     count = i1 - i0 + 2
     cstart = np.cumsum(count) - count
     k = np.arange(int(count.sum())) - np.repeat(cstart, count)
-    backward = along[pstart] > along[pstart + size - 1]
+    backward = a_poly[pstart] > a_poly[pstart + size - 1]
     k = np.where(np.repeat(backward, count), np.repeat(count - 1, count) - k, k)
     src = np.where(k == 0, np.repeat(first_lo, count),
                    np.where(k == np.repeat(count - 1, count), np.repeat(first_hi, count),
                             order[np.minimum(np.repeat(i0 - 1, count) + k, len(order) - 1)]))
     merged = pts[src]
-    params = np.empty(len(merged))
     stops = np.cumsum(count).tolist()
     out = list(curves)
     j = 0  # polyline number
     for kk, n in zip(members, npoly.tolist(), strict=True):
         c = curves[kk]
         fam, i = c.family, c.index
-        dd = fam.d[i]
-        r0, r1 = (stops[j - 1] if j else 0), stops[j + n - 1]
-        params[r0:r1] = (merged[r0:r1] - fam.p[i]) @ dd / (dd @ dd)
-        cuts = [r0] + stops[j:j + n]
-        out[kk] = Curve(c.id, c.kind, c.features, c.domain, c.intervals,
-                        tuple(merged[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)),
-                        tuple(params[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)),
-                        fam, i, c.frame)
+        dd, p = fam.d[i], fam.p[i]
+        den = dd @ dd
+        cuts = [stops[j - 1] if j else 0] + stops[j:j + n]
+        lines = [merged[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)]
+        out[kk] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(lines),
+                        tuple((line - p) @ dd / den for line in lines), fam, i, c.frame)
         j += n
     return out
 
