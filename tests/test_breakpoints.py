@@ -29,8 +29,28 @@ def assert_same_intervals(env, lss, monkeypatch):
     near = [_critical_intervals(inner, fam) for fam in fams]
     with monkeypatch.context() as mp:
         mp.setattr(curves_mod, "_breakpoint_pairs", all_pairs)
+        mp.setattr(curves_mod, "_conchoid_vertex_pairs", all_pairs)
         every = [_critical_intervals(inner, fam) for fam in fams]
     assert near == every
+    assert_same_breakpoints(inner, fams, monkeypatch)
+
+
+def sorted_breakpoints(env, fam):
+    c, t = curves_mod._breakpoints(env, fam)
+    order = np.lexsort((t, c))
+    return c[order], t[order]
+
+
+def assert_same_breakpoints(inner, fams, monkeypatch):
+    """The pair filters (edge boxes; the conchoids' vertex sectors) keep every breakpoint
+    of the search over all pairs, each once: the same sets of (curve, parameter)."""
+    near = [sorted_breakpoints(inner, fam) for fam in fams]
+    with monkeypatch.context() as mp:
+        mp.setattr(curves_mod, "_breakpoint_pairs", all_pairs)
+        mp.setattr(curves_mod, "_conchoid_vertex_pairs", all_pairs)
+        every = [sorted_breakpoints(inner, fam) for fam in fams]
+    for fam, (c, t), (c2, t2) in zip(fams, near, every, strict=True):
+        assert np.array_equal(c, c2) and np.array_equal(t, t2), fam.kind
 
 
 @pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5),
@@ -42,6 +62,30 @@ def test_test_maps(env, lss, monkeypatch):
 def test_floor_plan(monkeypatch):
     env = floor_plan(60, seed=0)
     assert_same_intervals(env, (env.bounds[2] - env.bounds[0]) / 15, monkeypatch)
+
+
+def test_sector_boxes_hold_the_sectors():
+    """Every point of a conchoid's double sector (the directions from the pole to Q(t), t
+    over the padded domain, radius 2 lss either way) lies in its box or the mirrored box."""
+    env = floor_plan(120, seed=3)
+    inner = env.internal
+    fam = candidate_families(inner, (env.bounds[2] - env.bounds[0]) / 15 * env.frame.scale)[4]
+    x0, y0, x1, y1 = curves_mod._sector_boxes(fam, 1e-3)
+    span = fam.hi - fam.lo
+    frac = np.linspace(-1e-3, 1 + 1e-3, 101)
+    t = fam.lo[:, None] + frac[None, :] * span[:, None]
+    q = fam.w[:, None, :] + t[:, :, None] * fam.d[:, None, :] - fam.p[:, None, :]
+    u = q / np.hypot(q[..., 0], q[..., 1])[..., None]
+    for r in np.linspace(-2, 2, 21) * fam.lss:
+        x, y = r * u[..., 0], r * u[..., 1]
+        slack = 1e-12
+        inside = ((x >= x0[:, None] - slack) & (x <= x1[:, None] + slack)
+                  & (y >= y0[:, None] - slack) & (y <= y1[:, None] + slack))
+        mirrored = ((-x >= x0[:, None] - slack) & (-x <= x1[:, None] + slack)
+                    & (-y >= y0[:, None] - slack) & (-y <= y1[:, None] + slack))
+        assert np.all(inside | mirrored)
+    # and the boxes are tighter than the pole's box on most conchoids
+    assert np.mean((x1 - x0) * (y1 - y0)) < 0.5 * (4 * fam.lss) ** 2
 
 
 @pytest.mark.slow
@@ -130,3 +174,44 @@ def test_conchoid_pair_filter_drops_no_crossing(env, lss, monkeypatch):
         every = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
     assert len(every[0]) > 0
     assert np.array_equal(kept[0], every[0]) and np.array_equal(kept[1], every[1])
+
+
+def test_insert_after_is_the_stable_sort():
+    """Samples inserted after given sorted samples: the arrays the former stable sort of the
+    concatenation gave (equal keys included: an inserted parameter may round to its
+    neighbour's)."""
+    rng = np.random.default_rng(2)
+    c = np.sort(rng.integers(0, 40, 2000))
+    t = np.round(rng.random(2000), 2)
+    order = np.lexsort((t, c))
+    c, t = c[order], t[order]
+    at = np.flatnonzero((c[1:] == c[:-1]) & (rng.random(1999) < 0.5))
+    frac = rng.choice([0.0, 0.3819660112501051, 1.0], len(at))
+    t_new = t[at] + frac * (t[at + 1] - t[at])
+    c2, t2 = curves_mod._insert_after(c, t, at, t_new)
+    cc, tt = np.concatenate((c, c[at])), np.concatenate((t, t_new))
+    order = np.lexsort((tt, cc))
+    assert np.array_equal(c2, cc[order]) and np.array_equal(t2, tt[order])
+
+
+def test_equal_samples_tested_once():
+    """The semi-free test of sorted samples with equal ones tested once answers as the test
+    of every sample (the samples of a floor plan's curves: D has a fifth of them twice)."""
+    env = floor_plan(120, seed=3)
+    inner = env.internal
+    fams = candidate_families(inner, (env.bounds[2] - env.bounds[0]) / 15 * env.frame.scale)
+    rng = np.random.default_rng(4)
+    repeated = 0
+    for fam in fams:
+        bc, bt = curves_mod._breakpoints(inner, fam)
+        c = np.concatenate((bc, rng.integers(0, len(fam), 50)))
+        t = np.concatenate((bt, rng.uniform(fam.lo.min(), fam.hi.max(), 50)))
+        keep = (t > fam.lo[c]) & (t < fam.hi[c])
+        c, t = c[keep], t[keep]
+        order = np.lexsort((t, c))
+        c, t = c[order], t[order]
+        repeated += int(np.sum((c[1:] == c[:-1]) & (t[1:] == t[:-1])))
+        want = curves_mod.rod_is_free_many(inner, fam.points(c, t), fam.rod_angles(c, t),
+                                           fam.lss)
+        assert np.array_equal(curves_mod._semi_free(inner, fam, c, t), want), fam.kind
+    assert repeated > 0

@@ -94,3 +94,66 @@ def test_row_norms_are_the_scalar_norms_bit_for_bit():
     rng = np.random.default_rng(5)
     v = rng.normal(size=(20_000, 2)) * rng.uniform(1e-6, 1e6, size=(20_000, 1))
     assert np.array_equal(_norms(v), np.array([np.linalg.norm(x) for x in v]))
+
+
+def test_first_nearest_is_the_stable_sort_pick():
+    """The nearest segment per row by a minimum per row picks what a stable sort by (row,
+    distance) picks: the first of equal distances (ties are common: shared vertices)."""
+    from tether.curves import _first_nearest
+
+    rng = np.random.default_rng(8)
+    row = np.sort(rng.integers(0, 300, 3000))
+    row = np.searchsorted(np.unique(row), row)  # every row present
+    dist = rng.choice([0.0, 0.5, 1.0, 2.0], len(row)) + rng.choice([0.0, 1e-17], len(row))
+    for d in (dist, np.where(rng.random(len(row)) < 0.01, np.nan, dist)):
+        order = np.lexsort((d, row))
+        want = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+        assert np.array_equal(_first_nearest(row, d), want)
+
+
+def reference_mark_apexes(fa, fe):
+    """The former conchoid-by-conchoid loop of ``_mark_apexes``."""
+    fe.marks.extend([] for _ in range(len(fe)))
+    for c, feats in enumerate(fe.features):
+        i = int(feats[1][1:])
+        d = fe.d[c]
+        s = float((fe.p[c] - fe.w[c]) @ d / (d @ d))
+        if fe.lo[c] < s < fe.hi[c]:
+            q = fa.p[i] + s * fa.d[i]
+            fa.marks[i].append((s, q))
+            fe.marks[c].append((s, q))
+
+
+@pytest.mark.parametrize(("env", "lss"), [(GENERIC, 2.5), (STAR_HOLE, 1.5),
+                                          (floor_plan(150, seed=2), 1.2)])
+def test_mark_apexes_equals_the_loop(env, lss, monkeypatch):
+    """The apex marks computed for all conchoids at once: the loop's floats and points."""
+    import tether.curves as C
+
+    inner = env.internal
+    got = C.candidate_families(inner, lss * env.frame.scale)
+    with monkeypatch.context() as mp:
+        mp.setattr(C, "_mark_apexes", reference_mark_apexes)
+        want = C.candidate_families(inner, lss * env.frame.scale)
+    apexes = 0
+    for f, g in zip(got, want, strict=True):
+        assert len(f.marks) == len(g.marks)
+        for a, b in zip(f.marks, g.marks, strict=True):
+            assert [(type(t), t, p.tolist()) for t, p in a] == \
+                [(type(t), t, p.tolist()) for t, p in b]
+        apexes += sum(len(m) for m in f.marks) if f.kind == "E" else 0
+    assert apexes > 0 or env.n < 100  # the floor plan has apexes
+
+
+@pytest.mark.parametrize(("env", "lss"), [(GENERIC, 2.5), (STAR_HOLE, 1.5), (L_SHAPE, 3.0),
+                                          (floor_plan(150, seed=2), 1.2)])
+def test_vertex_estimates_equal_the_scalar_ones(env, lss):
+    from tether.curves import _vertex_estimate, _vertex_estimates
+
+    inner = env.internal
+    tol = REL_CURVE_TOL * inner.diameter
+    found = []
+    for fam in candidate_families(inner, lss * env.frame.scale):
+        found += _overshoot_family(fam, _critical_intervals(inner, fam), 20 * tol)
+    assert _vertex_estimates(found, tol) == [_vertex_estimate(f, c, ivs, tol)
+                                             for f, c, ivs in found]

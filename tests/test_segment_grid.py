@@ -167,3 +167,22 @@ def test_segment_pairs_grid_equals_strtree():
         assert len(want[0]) > 100
         assert sorted(zip(*(x.tolist() for x in got), strict=True)) == \
             sorted(zip(*(x.tolist() for x in want), strict=True))
+
+
+@pytest.mark.parametrize(("r", "m"), [(0.004, 1), (0.02, 1), (0.01, 2), (1e-6, 1)])
+def test_block_table_lookup_equals_the_binary_search(r, m):
+    """Blocks found through the direct table (small grids) are those the binary search in
+    the sorted block numbers finds (large sparse grids), for boxes in and around the grid."""
+    import dataclasses
+
+    rng = np.random.default_rng(6)
+    a, b = _segments(rng, 1500)
+    grid = SegmentGrid(a, b)
+    blk = _Blocks.build(grid, r, m)
+    c = rng.uniform(-0.3, 1.3, (3000, 2))
+    w = r * rng.uniform(0.0, 1.0, (3000, 2))
+    sparse = dataclasses.replace(blk, slot=None)
+    assert blk.slot is not None or r < 1e-5
+    got, want = blk.query(c - w, c + w), sparse.query(c - w, c + w)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    assert len(got[1]) > 0

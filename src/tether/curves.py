@@ -396,14 +396,23 @@ def _mark_apexes(fa: Family, fe: Family) -> None:
     """A conchoid with base ``Ei`` touches the offset of ``Ei`` tangentially at its apex, where
     the rod is perpendicular to the edge: mark that point, exactly, on both curves."""
     fe.marks.extend([] for _ in range(len(fe)))
-    for c, feats in enumerate(fe.features):
-        i = int(feats[1][1:])
-        d = fe.d[c]
-        s = float((fe.p[c] - fe.w[c]) @ d / (d @ d))
-        if fe.lo[c] < s < fe.hi[c]:
-            q = fa.p[i] + s * fa.d[i]
-            fa.marks[i].append((s, q))
-            fe.marks[c].append((s, q))
+    if len(fe) == 0:
+        return
+    # the apex parameter s = (p - w)·d / d·d of every conchoid, roughly (the products of
+    # ``@`` may round otherwise): only the conchoids with s near their domain are computed
+    # as before (rounding moves s by about 1e-16 |p - w| / |d|: the margin is ample)
+    r, d = fe.p - fe.w, fe.d
+    dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+    s = (r[:, 0] * d[:, 0] + r[:, 1] * d[:, 1]) / dd
+    slack = 1e-9 * (1.0 + np.hypot(r[:, 0], r[:, 1]) / np.sqrt(dd))
+    for c in np.flatnonzero((fe.lo - slack < s) & (s < fe.hi + slack)).tolist():
+        i = int(fe.features[c][1][1:])
+        dc = fe.d[c]
+        sc = float((fe.p[c] - fe.w[c]) @ dc / (dc @ dc))
+        if fe.lo[c] < sc < fe.hi[c]:
+            q = fa.p[i] + sc * fa.d[i]
+            fa.marks[i].append((sc, q))
+            fe.marks[c].append((sc, q))
 
 
 # ---------------------------------------------------------------------- critical parts
@@ -445,16 +454,13 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     # the close samples around one breakpoint: their transition is pinned as is)
     gap = 1e-4 * (fam.hi - fam.lo)[c[:-1]]
     mid = np.flatnonzero((c[1:] == c[:-1]) & (t[1:] - t[:-1] > gap))
-    c = np.concatenate((c, c[mid]))
-    t = np.concatenate((t, t[mid] + _SPLIT * (t[mid + 1] - t[mid])))
-    order = np.lexsort((t, c))
-    c, t = c[order], t[order]
+    c, t = _insert_after(c, t, mid, t[mid] + _SPLIT * (t[mid + 1] - t[mid]))
     counts = np.bincount(c, minlength=m)
     first = np.cumsum(counts) - counts
     if fam.kind in "CDE":  # open ends at the vertex / domain ends: sample just inside
         eps = 1e-9 * (fam.hi[c] - fam.lo[c])
         t = np.clip(t, fam.lo[c] + eps, fam.hi[c] - eps)
-    free = rod_is_free_many(env, fam.points(c, t), fam.rod_angles(c, t), L)
+    free = _semi_free(env, fam, c, t)
     # transitions between consecutive samples of the same curve: pin them by bisection
     same = c[1:] == c[:-1]
     trans = np.flatnonzero(same & (free[1:] != free[:-1]))
@@ -489,12 +495,38 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     return out
 
 
+def _semi_free(env: Environment, fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Whether the event rod of curve ``c[k]`` at ``t[k]`` is semi-free, for samples sorted by
+    (curve, parameter); equal samples (a breakpoint found twice: a line through a vertex
+    crosses both of its edges) are tested once (the test is row by row: the same answers)."""
+    is_new = np.r_[True, (c[1:] != c[:-1]) | (t[1:] != t[:-1])]
+    cn, tn = c[is_new], t[is_new]
+    free = rod_is_free_many(env, fam.points(cn, tn), fam.rod_angles(cn, tn), fam.lss)
+    return free[np.cumsum(is_new) - 1]
+
+
+def _insert_after(c: np.ndarray, t: np.ndarray, at: np.ndarray, t_new: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Samples ``(c, t)`` sorted by (curve, parameter) with a sample ``(c[at[k]], t_new[k])``
+    inserted after each sample ``at[k]`` (increasing, distinct; ``t[at[k]] <= t_new[k] <=
+    t[at[k] + 1]``, same curve): the arrays a stable sort of all of them gives, without the
+    sort."""
+    n = len(c) + len(at)
+    pos = np.arange(len(c)) + np.searchsorted(at, np.arange(len(c)))  # earlier insertions
+    new = at + 1 + np.arange(len(at))
+    c2, t2 = np.empty(n, c.dtype), np.empty(n, t.dtype)
+    c2[pos], t2[pos] = c, t
+    c2[new], t2[new] = c[at], t_new
+    return c2, t2
+
+
 def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
     """Parameters where a curve's event rod can start or stop being semi-free.
 
     A, B, E: where the event rod passes through a vertex (the rod sweeps across it); C, D
     (rods on a fixed line): where the rod's target end or tip crosses an edge. Returns
-    (curve index, parameter) arrays.
+    (curve index, parameter) arrays (E: the edge crossings, then the vertices; the samples
+    placed at them are sorted, so only the set of breakpoints matters).
     """
     V = env.vertices
     L = fam.lss
@@ -539,17 +571,11 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
                 x = rel[hit] + u[hit, None] * e[hit]
                 cs.append(cc[hit])
                 ts.append(np.mod(np.arctan2(x[:, 1], x[:, 0]), 2 * math.pi))
-        elif fam.kind == "E":  # line through V_k and the pole meets the base edge at Q(s)
-            rel = V[vk] - fam.p[cc]
-            a_rel = fam.w[cc] - fam.p[cc]
-            d = fam.d[cc]
-            den = rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
-            ok = (np.abs(den) > 1e-300) & (np.hypot(rel[:, 0], rel[:, 1]) <= 2 * L)
+        elif fam.kind == "E":  # where the target end crosses the line of edge vk
             ec, et = _conchoid_edge_crossings(env, fam, cc, vk)
             cs.append(ec)
             ts.append(et)
+            continue
         else:  # C, D: the line o + τ w crosses edge (V_k, next) at τ; breakpoints τ and τ + L
             nk = env.next_vertex[vk]
             e = V[nk] - V[vk]
@@ -565,6 +591,20 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             continue
         cs.append(cc[ok])
         ts.append(t[ok])
+    if fam.kind == "E":  # and where the event rod passes through a vertex
+        pair_c, pair_v = _conchoid_vertex_pairs(env, fam)
+        for lo in range(0, len(pair_c), 200_000):  # bounded memory
+            cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
+            # the line through V_k and the pole meets the base edge at Q(t)
+            rel = V[vk] - fam.p[cc]
+            a_rel = fam.w[cc] - fam.p[cc]
+            d = fam.d[cc]
+            den = rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
+            ok = (np.abs(den) > 1e-300) & (np.hypot(rel[:, 0], rel[:, 1]) <= 2 * L)
+            cs.append(cc[ok])
+            ts.append(t[ok])
     c, t = np.concatenate(cs), np.concatenate(ts)
     # only breakpoints within 1e-5 of its span of a curve's domain place samples in it (most
     # conchoid ones fall outside: a tenth are kept at 1,000 map vertices); 2e-5 to spare
@@ -578,9 +618,11 @@ def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.nda
     ``(V_k, V_next)`` near the curve. Every breakpoint within ``1e-4`` of its domain's span of
     the domain (the only ones whose samples fall inside it) comes from a pair whose edge's
     bounding box meets the curve's box: A, the target segment padded by ``lss`` (a vertex on
-    the rod is within ``lss`` of the target); B, E, the vertex's or pole's box padded by
-    ``lss`` or ``2 lss``; C, D, the line's stretch ``[lo - lss, hi]`` (breakpoints ``τ`` and
-    ``τ + lss``). The test was of every curve against every vertex (quadratic)."""
+    the rod is within ``lss`` of the target); B, the vertex's box padded by ``lss``; C, D, the
+    line's stretch ``[lo - lss, hi]`` (breakpoints ``τ`` and ``τ + lss``); E, the pole's box
+    padded by ``lss`` (the edge crossings, of edges within ``lss`` of the pole; the vertices
+    are :func:`_conchoid_vertex_pairs`'). The test was of every curve against every vertex
+    (quadratic)."""
     V = env.vertices
     L = fam.lss
     m = len(fam)
@@ -594,8 +636,8 @@ def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.nda
         pad = (L if fam.kind == "A" else 0.0) + tiny
         x0, y0 = np.minimum(a, b).T - pad
         x1, y1 = np.maximum(a, b).T + pad
-    else:  # B: vertex circle of radius lss; E: vertices within 2 lss of the pole
-        pad = (L if fam.kind == "B" else 2 * L) + tiny
+    else:  # B: vertex circle of radius lss; E: edges within lss of the pole
+        pad = L + tiny
         x0, y0 = fam.p.T - pad
         x1, y1 = fam.p.T + pad
     tree = env.__dict__.get("_edge_box_tree")
@@ -609,20 +651,77 @@ def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.nda
     return ci[order].astype(np.int64), vi[order].astype(np.int64)
 
 
+def _conchoid_vertex_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]:
+    """The (conchoid, vertex) pairs :func:`_breakpoints` must test for an event rod through a
+    vertex, in (curve, vertex) order: a breakpoint ``t`` is where the line through the pole
+    and ``Q(t)`` passes through a vertex within ``2 lss`` of the pole, so a vertex of a
+    breakpoint in the domain (padded by ``1e-3`` of its span, 50 times the margin the samples
+    need) lies in the double sector of radius ``2 lss`` about the pole spanned by the
+    directions to ``Q(t)`` (under 4 % of the pole's box at 1,000 map vertices, against about
+    a quarter for these sectors' boxes, which are queried)."""
+    V = env.vertices
+    m = len(fam)
+    if m == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    x0, y0, x1, y1 = _sector_boxes(fam, 1e-3)
+    tiny = 1e-9 * env.diameter
+    px, py = fam.p[:, 0], fam.p[:, 1]
+    tree = env.__dict__.get("_vertex_tree")
+    if tree is None:
+        tree = env.__dict__["_vertex_tree"] = shapely.STRtree(shapely.points(V))
+    # the sector toward the base edge and the opposite one (the event rod's far side)
+    ca, va = tree.query(shapely.box(px + x0 - tiny, py + y0 - tiny, px + x1 + tiny,
+                                    py + y1 + tiny))
+    cb, vb = tree.query(shapely.box(px - x1 - tiny, py - y1 - tiny, px - x0 + tiny,
+                                    py - y0 + tiny))
+    key = np.concatenate((ca, cb)).astype(np.int64) * len(V) + np.concatenate((va, vb))
+    key.sort()
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # in both: once
+    return np.divmod(key, len(V))
+
+
+def _sector_boxes(fam: Family, pad: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bounding boxes (x0, y0, x1, y1, relative to the pole) of each conchoid's sector of
+    radius ``2 lss`` spanned by the directions from the pole to ``Q(t)``, ``t`` over the
+    domain padded by ``pad`` of its span: the pole, the two end directions and the axis
+    directions between them. A sector of 90 degrees or more (the base line close to the
+    pole) gets the whole box ``[-2 lss, 2 lss]^2``."""
+    R = 2 * fam.lss
+    span = fam.hi - fam.lo
+    q1 = fam.w + (fam.lo - pad * span)[:, None] * fam.d - fam.p
+    q2 = fam.w + (fam.hi + pad * span)[:, None] * fam.d - fam.p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u1 = q1 / np.hypot(q1[:, 0], q1[:, 1])[:, None]
+        u2 = q2 / np.hypot(q2[:, 0], q2[:, 1])[:, None]
+    turn = np.sign(u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0])
+    zero = np.zeros(len(fam))
+    xs, ys = [zero, R * u1[:, 0], R * u2[:, 0]], [zero, R * u1[:, 1], R * u2[:, 1]]
+    for ex, ey in ((1, 0), (0, 1), (-1, 0), (0, -1)):
+        # the axis direction lies between u1 and u2 (rounding: a slack, and a sector of no
+        # turn at all takes every axis)
+        between = ((turn * (u1[:, 0] * ey - u1[:, 1] * ex) >= -1e-9)
+                   & (turn * (ex * u2[:, 1] - ey * u2[:, 0]) >= -1e-9))
+        xs.append(np.where(between, R * ex, 0.0))
+        ys.append(np.where(between, R * ey, 0.0))
+    x0, y0 = np.minimum.reduce(xs), np.minimum.reduce(ys)
+    x1, y1 = np.maximum.reduce(xs), np.maximum.reduce(ys)
+    wide = ~(np.einsum("ij,ij->i", u1, u2) > 0)  # also nan directions
+    x0[wide], y0[wide], x1[wide], y1[wide] = -R, -R, R, R
+    return x0, y0, x1, y1
+
+
 def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: np.ndarray,
                              grid: int = 33) -> tuple[np.ndarray, np.ndarray]:
     """Parameters where a conchoid's target end q(s) crosses the line of edge ``vk`` (only
     edges within lss of the pole: the conchoid stays within lss of it). Sign changes of the
     side function on a grid, refined by bisection."""
     V = env.vertices
-    a, e = V[vk], V[env.next_vertex[vk]] - V[vk]
-    rel = fam.p[cc] - a
-    u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
-    near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
-    c, a, e = cc[near], a[near], e[near]
+    c, a, e = cc, V[vk], V[env.next_vertex[vk]] - V[vk]
     frac = np.linspace(0.0, 1.0, grid)
     # a pair whose edge line leaves the whole grid of its conchoid strictly on one side (by a
-    # margin above rounding) shows no sign change on it: dropped before the grid (most pairs)
+    # margin above rounding) shows no sign change on it: dropped before the grid (most pairs;
+    # before the distance test, which then measures a tenth of them)
     x0, y0, x1, y1 = _conchoid_grid_boxes(fam, frac)
     side = [e[:, 0] * (y - a[:, 1]) - e[:, 1] * (x - a[:, 0])
             for x, y in ((x0[c], y0[c]), (x0[c], y1[c]), (x1[c], y0[c]), (x1[c], y1[c]))]
@@ -630,6 +729,10 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     low, high = np.minimum.reduce(side), np.maximum.reduce(side)
     keep = ~((low > margin) | (high < -margin))
     c, a, e = c[keep], a[keep], e[keep]
+    rel = fam.p[c] - a
+    u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+    near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
+    c, a, e = c[near], a[near], e[near]
     if len(c) == 0:
         return np.zeros(0, int), np.zeros(0)
     lo, hi = fam.lo[c], fam.hi[c]
@@ -842,24 +945,18 @@ def _draw_conchoids(fam: Family, group: list[tuple[Family, int, list[tuple[float
         active[v[pair[split]]] = True
         if not split.any():
             break
-        iv = np.concatenate((iv, v[pair[split]]))
-        ts = np.concatenate((ts, mid_t[split]))
-        order = np.lexsort((ts, iv))
-        iv, ts = iv[order], ts[order]
+        # each middle right after its chord's first parameter (all rows of an active
+        # interval are among ``rows``, so the next row is the chord's other end)
+        iv, ts = _insert_after(iv, ts, rows[pair[split]], mid_t[split])
     pts = fam.points(c[iv], ts)
     n = np.bincount(iv, minlength=m)
-    stops = np.cumsum(n).tolist()
-    starts = [0] + stops[:-1]
-    at_lo = (lo == fam.lo[c]) & _pole_ends(fam, c, lo)
-    at_hi = (hi == fam.hi[c]) & _pole_ends(fam, c, hi)
-    drawn = []
-    for k, (ci, a0, b0) in enumerate(zip(c.tolist(), starts, stops, strict=True)):
-        t_k, p_k = _with_marks(fam, ci, ts[a0:b0].copy(), pts[a0:b0].copy())
-        if at_hi[k]:
-            p_k[-1] = fam.p[ci]
-        if at_lo[k]:
-            p_k[0] = fam.p[ci]
-        drawn.append((t_k, p_k))
+    ts, pts, first, n = _with_marks_many(fam, c, np.cumsum(n) - n, n, ts, pts)
+    at_lo = np.flatnonzero((lo == fam.lo[c]) & _pole_ends(fam, c, lo))
+    at_hi = np.flatnonzero((hi == fam.hi[c]) & _pole_ends(fam, c, hi))
+    pts[(first + n - 1)[at_hi]] = fam.p[c[at_hi]]
+    pts[first[at_lo]] = fam.p[c[at_lo]]
+    stops = (first + n).tolist()
+    drawn = [(ts[a:b], pts[a:b]) for a, b in zip(first.tolist(), stops, strict=True)]
     ends = np.cumsum(count).tolist()
     return [drawn[e - q:e] for q, e in zip(count, ends, strict=True)]
 
@@ -894,10 +991,9 @@ def _draw_simple(fam: Family, group: list[tuple[Family, int, list[tuple[float, f
     iv, ts = _linspace_many(lo, hi, n)
     first = np.cumsum(n) - n
     pts = fam.points(c[iv], ts)
+    ts, pts, first, n = _with_marks_many(fam, c, first, n, ts, pts)
     stops = (first + n).tolist()
-    firsts = first.tolist()
-    drawn = [_with_marks(fam, int(ci), ts[a:b], pts[a:b])
-             for ci, a, b in zip(c.tolist(), firsts, stops, strict=True)]
+    drawn = [(ts[a:b], pts[a:b]) for a, b in zip(first.tolist(), stops, strict=True)]
     ends = np.cumsum(count).tolist()
     return [drawn[e - m:e] for m, e in zip(count, ends, strict=True)]
 
@@ -984,6 +1080,47 @@ def _with_marks(fam: Family, c: int, ts: np.ndarray, pts: np.ndarray
     return ts[order], pts[order]
 
 
+def _with_marks_many(fam: Family, c: np.ndarray, first: np.ndarray, n: np.ndarray,
+                     ts: np.ndarray, pts: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_with_marks` of many polylines at once: polyline ``k`` of curve ``c[k]`` is
+    rows ``first[k]:first[k] + n[k]`` of ``ts``, ``pts`` (consecutive). Returns the new
+    ``ts, pts, first, n`` (the same numbers and order, polyline by polyline)."""
+    size = np.array([len(mk) for mk in fam.marks], dtype=np.int64)
+    if len(size) == 0 or size.sum() == 0:
+        return ts, pts, first, n
+    mark_t = np.array([t for mk in fam.marks for t, _ in mk], dtype=float)
+    mark_p = np.array([p for mk in fam.marks for _, p in mk], dtype=float).reshape(-1, 2)
+    shifts = np.array((-2 * math.pi, 0.0, 2 * math.pi) if fam.kind == "B" else (0.0,))
+    # (polyline, mark, shift) rows, mark-major as the loops of _with_marks
+    per = size[c]
+    row = np.repeat(np.repeat(np.arange(len(c)), per), len(shifts))
+    mark = np.repeat(ragged_arange((np.cumsum(size) - size)[c], per), len(shifts))
+    add_t = mark_t[mark] + np.tile(shifts, int(per.sum()))
+    inside = (ts[first][row] < add_t) & (add_t < ts[first + n - 1][row])
+    row, mark, add_t = row[inside], mark[inside], add_t[inside]
+    if len(row) == 0:
+        return ts, pts, first, n
+    # a mark replaces the samples of its polyline at the same parameter
+    near = ragged_arange(first[row], n[row])
+    thr = np.repeat(1e-15 * np.maximum(1.0, np.abs(add_t)), n[row])
+    keep = np.ones(len(ts), bool)
+    keep[near[~(np.abs(ts[near] - np.repeat(add_t, n[row])) > thr)]] = False
+    line = np.repeat(np.arange(len(c)), n)
+    kept = np.flatnonzero(keep)
+    all_line = np.concatenate((line[kept], row))
+    all_t = np.concatenate((ts[kept], add_t))
+    all_p = np.vstack((pts[kept], mark_p[mark]))
+    # polylines with marks sorted by parameter (stable: samples, then marks in order); the
+    # others keep their order
+    marked = np.zeros(len(c), bool)
+    marked[row] = True
+    key = np.where(marked[all_line], all_t, np.arange(len(all_t), dtype=float))
+    order = np.lexsort((key, all_line))
+    n2 = np.bincount(all_line, minlength=len(c))
+    return all_t[order], all_p[order], np.cumsum(n2) - n2, n2
+
+
 def _pole_end(fam: Family, c: int, t: float) -> bool:
     """Whether a conchoid's domain end ``t`` is where it reaches its pole (|V - Q| = lss)."""
     Q = fam.w[c] + t * fam.d[c]
@@ -1017,13 +1154,16 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     found = []
     for fam in candidate_families(env, lss):
         found += _overshoot_family(fam, _critical_intervals(env, fam), margin)
-    check_vertex_budget(sum(_vertex_estimate(fam, c, ivs, tol) for fam, c, ivs in found), lss)
+    check_vertex_budget(sum(_vertex_estimates(found, tol)), lss)
     drawn_all = _draw_all(found, tol)
+    domains = {id(fam): (fam.lo.tolist(), fam.hi.tolist())
+               for fam in {id(f): f for f, _, _ in found}.values()}
     for (fam, c, ivs), drawn in zip(found, drawn_all, strict=True):
-        curves.append(Curve(len(curves), fam.kind, fam.features[c],
-                            (float(fam.lo[c]), float(fam.hi[c])),
-                            tuple((float(a), float(b)) for a, b in ivs),
-                            tuple(p for _, p in drawn), tuple(t for t, _ in drawn), fam, c))
+        lo, hi = domains[id(fam)]
+        # ``ivs`` are pairs of floats already (:func:`_overshoot_family`)
+        curves.append(Curve(len(curves), fam.kind, fam.features[c], (lo[c], hi[c]),
+                            tuple(ivs), tuple(p for _, p in drawn),
+                            tuple(t for t, _ in drawn), fam, c))
     return _share_lines(curves, env.length_tol)
 
 
@@ -1048,40 +1188,93 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
     u[flip] *= -1
     theta = np.arctan2(u[:, 1], u[:, 0])  # in (-pi/2, pi/2]
     offset = u[:, 0] * fam_p[:, 1] - u[:, 1] * fam_p[:, 0]  # signed distance of the line to 0
+    groups = [g for g in _line_groups(theta, offset, tol) if len(g) >= 2]
+    if not groups:
+        return curves
+    members = [straight[g] for group in groups for g in group]  # curve numbers, by group
+    polys = [p for k in members for p in curves[k].polylines]
+    npoly = np.array([len(curves[k].polylines) for k in members], dtype=np.int64)
+    gsize = np.array([len(g) for g in groups], dtype=np.int64)
+    poly_group = np.repeat(np.repeat(np.arange(len(groups)), gsize), npoly)
+    size = np.array([len(p) for p in polys], dtype=np.int64)
+    pstart = np.cumsum(size) - size
+    pts = np.vstack(polys)
+    # every vertex's position along its group's line: the products of the former loops, one
+    # per group (its vertices) and one per polyline (its ends), so the very same bits
+    # whatever the BLAS kernel (a row's bits could depend on the matrix's size)
+    along = np.empty(len(pts))
+    a_poly = np.empty(len(pts))
+    gstop = np.cumsum(np.bincount(poly_group, weights=size, minlength=len(groups))
+                      ).astype(np.int64).tolist()
+    pstop = (pstart + size).tolist()
+    j = 0
+    for group, r0, r1 in zip(groups, [0] + gstop[:-1], gstop, strict=True):
+        base, uu = fam_p[group[0]], u[group[0]]
+        along[r0:r1] = (pts[r0:r1] - base) @ uu
+        while j < len(polys) and pstop[j] <= r1:
+            a_poly[pstop[j] - len(polys[j]):pstop[j]] = (polys[j] - base) @ uu
+            j += 1
+    row_poly = np.repeat(np.arange(len(polys)), size)
+    row_group = poly_group[row_poly]
+    # each group's vertices by position along the line (stable), one per tol
+    order = np.lexsort((along, row_group))
+    s_along, s_group = along[order], row_group[order]
+    distinct = np.r_[True, (np.diff(s_along) > tol) | (s_group[1:] != s_group[:-1])]
+    order = order[distinct]
+    d_along, d_group = along[order], row_group[order]
+    # each polyline's extreme vertices (the first of equals) and the group's vertices
+    # strictly inside (lo + tol, hi - tol)
+    lo = np.minimum.reduceat(a_poly, pstart)
+    hi = np.maximum.reduceat(a_poly, pstart)
+    first_lo = _first_per_group(np.flatnonzero(a_poly == lo[row_poly]), row_poly)
+    first_hi = _first_per_group(np.flatnonzero(a_poly == hi[row_poly]), row_poly)
+    i0 = _grouped_searchsorted(d_group, d_along, poly_group, lo + tol, "right")
+    i1 = np.maximum(i0, _grouped_searchsorted(d_group, d_along, poly_group, hi - tol, "left"))
+    count = i1 - i0 + 2
+    cstart = np.cumsum(count) - count
+    k = np.arange(int(count.sum())) - np.repeat(cstart, count)
+    backward = a_poly[pstart] > a_poly[pstart + size - 1]
+    k = np.where(np.repeat(backward, count), np.repeat(count - 1, count) - k, k)
+    src = np.where(k == 0, np.repeat(first_lo, count),
+                   np.where(k == np.repeat(count - 1, count), np.repeat(first_hi, count),
+                            order[np.minimum(np.repeat(i0 - 1, count) + k, len(order) - 1)]))
+    merged = pts[src]
+    stops = np.cumsum(count).tolist()
     out = list(curves)
-    for group in _line_groups(theta, offset, tol):
-        if len(group) < 2:
-            continue
-        base = fam_p[group[0]]
-        uu = u[group[0]]
-        # every vertex of the group's polylines, by position along the line
-        pts = np.vstack([p for g in group for p in curves[straight[g]].polylines])
-        along = (pts - base) @ uu
-        order = np.argsort(along, kind="stable")
-        pts, along = pts[order], along[order]
-        distinct = np.r_[True, np.diff(along) > tol]
-        pts, along = pts[distinct], along[distinct]
-        for g in group:
-            k = straight[g]
-            c = curves[k]
-            fam, i = c.family, c.index
-            dd = fam.d[i]
-            polys, params = [], []
-            for poly in c.polylines:
-                a = (poly - base) @ uu
-                lo, hi = a.min(), a.max()
-                # the group's vertices strictly inside (lo + tol, hi - tol): a slice of the
-                # sorted ``along`` (a mask over the whole group was quadratic in its size)
-                i0 = np.searchsorted(along, lo + tol, side="right")
-                i1 = max(i0, np.searchsorted(along, hi - tol, side="left"))
-                merged = np.vstack((poly[[int(np.argmin(a))]], pts[i0:i1],
-                                    poly[[int(np.argmax(a))]]))
-                if a[0] > a[-1]:
-                    merged = merged[::-1]
-                polys.append(merged)
-                params.append((merged - fam.p[i]) @ dd / (dd @ dd))
-            out[k] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(polys),
-                           tuple(params), fam, i, c.frame)
+    j = 0  # polyline number
+    for kk, n in zip(members, npoly.tolist(), strict=True):
+        c = curves[kk]
+        fam, i = c.family, c.index
+        dd, p = fam.d[i], fam.p[i]
+        den = dd @ dd
+        cuts = [stops[j - 1] if j else 0] + stops[j:j + n]
+        lines = [merged[x:y] for x, y in zip(cuts[:-1], cuts[1:], strict=True)]
+        out[kk] = Curve(c.id, c.kind, c.features, c.domain, c.intervals, tuple(lines),
+                        tuple((line - p) @ dd / den for line in lines), fam, i, c.frame)
+        j += n
+    return out
+
+
+def _first_per_group(rows: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """The first of ``rows`` (increasing) of each value of ``group[rows]`` (increasing)."""
+    g = group[rows]
+    return rows[np.r_[True, g[1:] != g[:-1]]]
+
+
+def _grouped_searchsorted(dg: np.ndarray, dv: np.ndarray, qg: np.ndarray, qv: np.ndarray,
+                          side: str) -> np.ndarray:
+    """``np.searchsorted`` of each ``qv[k]`` among the values of group ``qg[k]``, for values
+    ``dv`` sorted by (group ``dg``, value), as an index into ``dv``: the number of values of
+    earlier groups and of the group's values below (``left``) or not above (``right``) it.
+    One merged sort, exact comparisons."""
+    nd = len(dv)
+    data_first = side == "right"  # ties: a value equal to the query counts as below it
+    tie = np.r_[np.full(nd, not data_first), np.full(len(qv), data_first)]
+    order = np.lexsort((tie, np.r_[dv, qv], np.r_[dg, qg]))
+    is_data = order < nd
+    before = np.cumsum(is_data) - is_data
+    out = np.empty(len(qv), np.int64)
+    out[order[~is_data] - nd] = before[~is_data]
     return out
 
 
@@ -1094,16 +1287,13 @@ def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list
     th = np.where(theta > np.pi / 2 - 1e-9, theta - np.pi, theta)
     off = np.where(theta > np.pi / 2 - 1e-9, -offset, offset)
     order = np.argsort(th, kind="stable")
-    groups = []
-    start = 0
-    for j in range(1, len(order) + 1):
-        if j == len(order) or th[order[j]] - th[order[j - 1]] > ANGLE_TOL:
-            run = order[start:j]
-            run = run[np.argsort(off[run], kind="stable")]
-            cut = np.flatnonzero(np.diff(off[run]) > tol) + 1
-            groups += [g.tolist() for g in np.split(run, cut)]
-            start = j
-    return groups
+    run = np.r_[0, np.cumsum(np.diff(th[order]) > ANGLE_TOL)]  # runs of close angles
+    by_off = np.lexsort((off[order], run))  # each run by offset (stable)
+    idx, run = order[by_off], run[by_off]
+    cut = np.flatnonzero((np.diff(off[idx]) > tol) | (run[1:] != run[:-1])) + 1
+    flat = idx.tolist()
+    bounds = [0] + cut.tolist() + [len(flat)]
+    return [flat[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
@@ -1140,6 +1330,37 @@ def _vertex_estimate(fam: Family, c: int, ivs: list[tuple[float, float]], tol: f
         return span / step + 2 * len(ivs)
     per_param = fam.length_scale(np.array([c]))[0] / max(fam.hi[c] - fam.lo[c], 1e-300)
     return span * per_param / (fam.lss * step) + 17 * len(ivs)
+
+
+def _vertex_estimates(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: float
+                      ) -> list[float]:
+    """:func:`_vertex_estimate` of every ``(family, curve, intervals)`` of ``found`` (the same
+    numbers: the same operations, by family)."""
+    out: list[float] = []
+    k = 0
+    while k < len(found):
+        fam = found[k][0]
+        j = k
+        while j < len(found) and found[j][0] is fam:
+            j += 1
+        group = found[k:j]
+        c = np.array([g[1] for g in group], dtype=np.int64)
+        count = np.array([len(g[2]) for g in group], dtype=float)
+        if fam.kind in "ACD":
+            est = 2.0 * count
+            if fam.marks:
+                est = est + np.array([len(fam.marks[i]) for i in c.tolist()], dtype=float)
+        else:
+            step = math.sqrt(8.0 * tol / fam.lss)
+            span = np.array([sum(hi - lo for lo, hi in g[2]) for g in group], dtype=float)
+            if fam.kind == "B":
+                est = span / step + 2 * count
+            else:
+                per_param = fam.length_scale(c) / np.maximum(fam.hi[c] - fam.lo[c], 1e-300)
+                est = span * per_param / (fam.lss * step) + 17 * count
+        out += est.tolist()
+        k = j
+    return out
 
 
 def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray
@@ -1198,8 +1419,7 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
                 / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
     dist = np.hypot(*(a[seg] + u[:, None] * ab - q[row]).T)
-    order = np.lexsort((dist, row))
-    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]  # nearest segment per row
+    best = _first_nearest(row, dist)  # nearest segment per row
     s = seg[best]
     lo, hi = lo_all[s], hi_all[s]
     t = lo + u[best] * (hi - lo)
@@ -1207,19 +1427,33 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     c = np.array([curves[k].index for k in cid.tolist()], dtype=int)
     dlo = fam.lo[c]
     dhi = fam.hi[c]
+    sub = fam.rows(c)  # the same rows every step: gathered once
     for _ in range(12):
-        tangent = _tangents(fam, c, t, dlo, dhi)
+        tangent = _tangents(sub, None, t, dlo, dhi)
         tt = np.einsum("ij,ij->i", tangent, tangent)
-        step = np.where(tt > 0, np.einsum("ij,ij->i", fam.points(c, t) - q, tangent)
+        step = np.where(tt > 0, np.einsum("ij,ij->i", sub.points(None, t) - q, tangent)
                         / np.maximum(tt, 1e-300), 0.0)
         t_new = np.clip(t - step, lo, hi)
         done = np.abs(t_new - t) <= 1e-15 * np.maximum(1.0, np.abs(t))
         t = t_new
         if done.all():
             break
-    tangent = _tangents(fam, c, t, dlo, dhi)
+    tangent = _tangents(sub, None, t, dlo, dhi)
     tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
-    return t, fam.points(c, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+    return t, sub.points(None, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
+
+
+def _first_nearest(row: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """For rows ``row`` (increasing, each present), the index of each row's smallest
+    ``dist``, the first among equals (as a stable sort by (row, dist) picks it; a lexsort
+    if some distance is nan)."""
+    if np.isnan(dist).any():
+        order = np.lexsort((dist, row))
+        return order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    start = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+    least = np.minimum.reduceat(dist, start)
+    hit = np.flatnonzero(dist == np.repeat(least, np.diff(np.r_[start, len(row)])))
+    return _first_per_group(hit, row)
 
 
 #: Consecutive polyline segments per block in the pruned nearest-segment search.
@@ -1261,9 +1495,10 @@ def _near_segment_pairs(a: np.ndarray, b: np.ndarray, sc: np.ndarray, ncurves: i
     return np.repeat(rowb, size), ragged_arange(bstart[blk], size)
 
 
-def _tangents(fam: Family, c: np.ndarray, t: np.ndarray, dlo: np.ndarray, dhi: np.ndarray
-              ) -> np.ndarray:
-    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``)."""
+def _tangents(fam: Family, c: np.ndarray | None, t: np.ndarray, dlo: np.ndarray,
+              dhi: np.ndarray) -> np.ndarray:
+    """dq/dt of conchoids by finite differences inside the domain (as ``Curve._tangent``;
+    ``c`` as in :meth:`Family.points`)."""
     h = 1e-7 * np.maximum(np.maximum(1.0, np.abs(t)), dhi - dlo)
     a, b = np.maximum(t - h, dlo), np.minimum(t + h, dhi)
     return (fam.points(c, b) - fam.points(c, a)) / (b - a)[:, None]

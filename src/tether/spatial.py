@@ -165,6 +165,9 @@ class _Blocks:
     block: np.ndarray
     start: np.ndarray
     seg: np.ndarray
+    #: when the grid is small: ``slot[k]`` is ``t`` for block number ``k = block[t]``, -1
+    #: for an empty block (a lookup in place of a binary search)
+    slot: np.ndarray | None = None
 
     @classmethod
     def build(cls, grid: SegmentGrid, r: float, m: int = 1) -> _Blocks:
@@ -186,11 +189,16 @@ class _Blocks:
         shape = (int(span_x / cell) + 1 + m, int(span_y / cell) + 1 + m)
         key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1])
         key.sort()  # (block, segment) as one integer: a sort of values, fast
-        nseg = len(gx0)
-        block, seg = np.divmod(key, nseg)
+        block, seg = np.divmod(key, len(gx0))
+        seg = seg.astype(np.int32)
         head = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
         start = np.append(head, len(key))
-        return cls((ox, oy), cell, m, shape, block[head], start, seg.astype(np.int32))
+        block = block[head]
+        slot = None
+        if shape[0] * shape[1] <= len(key) + 4096:  # a table no larger than ``seg``
+            slot = np.full(shape[0] * shape[1], -1, np.int32)
+            slot[block] = np.arange(len(block), dtype=np.int32)
+        return cls((ox, oy), cell, m, shape, block, start, seg, slot)
 
     def contents(self, k: int) -> np.ndarray:
         """The segments of block number ``k`` (increasing; empty if none)."""
@@ -212,9 +220,14 @@ class _Blocks:
         bi = np.clip(cx0 + m, 0, self.shape[0] - 1).astype(np.int64)
         bj = np.clip(cy0 + m, 0, self.shape[1] - 1).astype(np.int64)
         b = bi * self.shape[1] + bj
-        t = np.searchsorted(self.block, b)
-        t = np.minimum(t, len(self.block) - 1)
-        held = self.block[t] == b
+        if self.slot is not None:
+            t = self.slot[b].astype(np.int64)
+            held = t >= 0
+            t[~held] = 0
+        else:
+            t = np.searchsorted(self.block, b)
+            t = np.minimum(t, len(self.block) - 1)
+            held = self.block[t] == b
         first = self.start[t]
         n = np.where(held, self.start[t + 1] - first, 0)
         return np.repeat(np.arange(len(lo)), n), self.seg[ragged_arange(first, n)]
