@@ -99,10 +99,10 @@ class UserFrame:
     def regions(self, regions: list) -> None:
         """Have the regions' structures read in the file's feature codes: the shared
         :class:`~tether.decomposition._Structures` they hold makes its frozensets so from now
-        on (else each region's structure is rewritten in place: they were just made and nothing
-        else holds them); their
-        area, point and cell names are the user's already, their polygons converted (and
-        prepared) all at once on the first read of any of them (``_make_regions``)."""
+        on (regions holding their own structure, just made and held by nothing else, have it
+        rewritten in place); their area, point and cell names are the user's already, their
+        polygons converted (and prepared) all at once on the first read of any of them
+        (``_make_regions``)."""
         if not regions or self.same:
             return
         held = regions[0]._structure
