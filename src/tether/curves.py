@@ -31,6 +31,7 @@ are merged later.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -901,19 +902,27 @@ def _draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: f
     vectorized pass per family (then their marks inserted curve by curve), conchoids one by
     one (adaptive)."""
     out: list[list[tuple[np.ndarray, np.ndarray]]] = []
+    for fam, group in _family_runs(found):
+        if fam.kind == "E":
+            out += _draw_conchoids(fam, group, tol)
+        else:
+            out += _draw_simple(fam, group, tol)
+    return out
+
+
+_Found = list[tuple["Family", int, list[tuple[float, float]]]]
+
+
+def _family_runs(found: _Found) -> Iterator[tuple[Family, _Found]]:
+    """The runs of consecutive items of ``found`` of one family: ``(family, its items)``."""
     k = 0
     while k < len(found):
         fam = found[k][0]
         j = k
         while j < len(found) and found[j][0] is fam:
             j += 1
-        group = found[k:j]
-        if fam.kind == "E":
-            out += _draw_conchoids(fam, group, tol)
-        else:
-            out += _draw_simple(fam, group, tol)
+        yield fam, found[k:j]
         k = j
-    return out
 
 
 def _draw_conchoids(fam: Family, group: list[tuple[Family, int, list[tuple[float, float]]]],
@@ -1337,13 +1346,7 @@ def _vertex_estimates(found: list[tuple[Family, int, list[tuple[float, float]]]]
     """:func:`_vertex_estimate` of every ``(family, curve, intervals)`` of ``found`` (the same
     numbers: the same operations, by family)."""
     out: list[float] = []
-    k = 0
-    while k < len(found):
-        fam = found[k][0]
-        j = k
-        while j < len(found) and found[j][0] is fam:
-            j += 1
-        group = found[k:j]
+    for fam, group in _family_runs(found):
         c = np.array([g[1] for g in group], dtype=np.int64)
         count = np.array([len(g[2]) for g in group], dtype=float)
         if fam.kind in "ACD":
@@ -1359,7 +1362,6 @@ def _vertex_estimates(found: list[tuple[Family, int, list[tuple[float, float]]]]
                 per_param = fam.length_scale(c) / np.maximum(fam.hi[c] - fam.lo[c], 1e-300)
                 est = span * per_param / (fam.lss * step) + 17 * count
         out += est.tolist()
-        k = j
     return out
 
 

@@ -382,15 +382,22 @@ class _CellTable:
         return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
 
 
-class _Cells(Sequence):
-    """:attr:`Decomposition.cells`: an immutable sequence of :class:`Cell` over the int
-    columns of a :class:`_CellTable`, each cell made when read (so ``cells[i] is cells[i]``
-    may be False; they are equal). Equal to the tuple of the same cells, and hashed as it."""
+class _RowSequence(Sequence):
+    """An immutable sequence over the rows of a column table, each item made when read (so
+    ``seq[i] is seq[i]`` may be False; they are equal). Equal to the tuple of the same items,
+    and hashed as it. Subclasses say how one item (``_one``) and a run (``_many``) are made."""
 
     __slots__ = ("_table",)
+    _what = "item"
 
-    def __init__(self, table: _CellTable) -> None:
+    def __init__(self, table: Any) -> None:
         self._table = table
+
+    def _one(self, i: int) -> Any:
+        raise NotImplementedError
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Any]:
+        raise NotImplementedError
 
     def __len__(self) -> int:
         return len(self._table)
@@ -400,25 +407,19 @@ class _Cells(Sequence):
         if isinstance(i, slice):
             lo, hi, step = i.indices(n)
             if step == 1:
-                return tuple(self._table.cells(lo, max(lo, hi)))
-            return tuple(self._table.cell(j) for j in range(lo, hi, step))
+                return tuple(self._many(lo, max(lo, hi)))
+            return tuple(self._one(j) for j in range(lo, hi, step))
         j = operator.index(i)
         j = j + n if j < 0 else j
         if not 0 <= j < n:
-            raise IndexError("cell index out of range")
-        return self._table.cell(j)
+            raise IndexError(f"{self._what} index out of range")
+        return self._one(j)
 
-    def __iter__(self) -> Iterator[Cell]:
-        return self._table.cells()
-
-    def __contains__(self, x: object) -> bool:
-        if not isinstance(x, Cell):
-            return False
-        i = self._table.index(x.id)
-        return i >= 0 and self._table.cell(i) == x
+    def __iter__(self) -> Iterator[Any]:
+        return self._many()
 
     def __eq__(self, other: object) -> bool:
-        if isinstance(other, (tuple, _Cells)):
+        if isinstance(other, (tuple, type(self))):
             return len(self) == len(other) and tuple(self) == tuple(other)
         return NotImplemented
 
@@ -427,6 +428,26 @@ class _Cells(Sequence):
 
     def __repr__(self) -> str:
         return repr(tuple(self))
+
+
+class _Cells(_RowSequence):
+    """:attr:`Decomposition.cells`: the :class:`Cell` s of a :class:`_CellTable`, each made
+    when read (see :class:`_RowSequence`)."""
+
+    __slots__ = ()
+    _what = "cell"
+
+    def _one(self, i: int) -> Cell:
+        return self._table.cell(i)
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Cell]:
+        return self._table.cells(lo, hi)
+
+    def __contains__(self, x: object) -> bool:
+        if not isinstance(x, Cell):
+            return False
+        i = self._table.index(x.id)
+        return i >= 0 and self._table.cell(i) == x
 
 
 class _CellsById(Mapping):
@@ -611,34 +632,18 @@ class _PieceTable:
 PIECE_BATCH = 16_384
 
 
-class _Pieces(Sequence):
-    """:attr:`Decomposition.pieces`: an immutable sequence of :class:`Piece` over the columns
-    of a :class:`_PieceTable`, each piece made when read (so ``pieces[i] is pieces[i]`` may be
-    False; they are equal). Equal to the tuple of the same pieces, and hashed as it."""
+class _Pieces(_RowSequence):
+    """:attr:`Decomposition.pieces`: the :class:`Piece` s of a :class:`_PieceTable`, each
+    made when read (see :class:`_RowSequence`)."""
 
-    __slots__ = ("_table",)
+    __slots__ = ()
+    _what = "piece"
 
-    def __init__(self, table: _PieceTable) -> None:
-        self._table = table
+    def _one(self, i: int) -> Piece:
+        return self._table.piece(i)
 
-    def __len__(self) -> int:
-        return len(self._table)
-
-    def __getitem__(self, i: Any) -> Any:
-        n = len(self._table)
-        if isinstance(i, slice):
-            lo, hi, step = i.indices(n)
-            if step == 1:
-                return tuple(self._table.pieces(lo, max(lo, hi)))
-            return tuple(self._table.piece(j) for j in range(lo, hi, step))
-        j = operator.index(i)
-        j = j + n if j < 0 else j
-        if not 0 <= j < n:
-            raise IndexError("piece index out of range")
-        return self._table.piece(j)
-
-    def __iter__(self) -> Iterator[Piece]:
-        return self._table.pieces()
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Piece]:
+        return self._table.pieces(lo, hi)
 
     def __contains__(self, x: object) -> bool:
         if not isinstance(x, Piece):
@@ -648,17 +653,6 @@ class _Pieces(Sequence):
         except TypeError:
             return False
         return 0 <= i < len(self) and self._table.piece(i) == x
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, (tuple, _Pieces)):
-            return len(self) == len(other) and tuple(self) == tuple(other)
-        return NotImplemented
-
-    def __hash__(self) -> int:
-        return hash(tuple(self))
-
-    def __repr__(self) -> str:
-        return repr(tuple(self))
 
 
 @dataclass(frozen=True, eq=False)
