@@ -204,6 +204,7 @@ def test_wall_rows_cover_every_contact_point_and_inclination():
     assert r.outcome == "held"
 
 
+@pytest.mark.slow
 def test_committed_rotation_turns_the_other_way_when_pinned():
     """Gallery, vt/vo = 0.3, safe start (4.078, 5.341, 3.17), random walker seed 1: the
     controller committed to a CW sweep for reflex vertex V4 (8, 9) while the rod lay on the
@@ -231,6 +232,7 @@ _ANG = st.floats(0.0, 2 * math.pi, exclude_max=True, allow_nan=False)
 @given(ks=_ANG, ke=_ANG, a=st.floats(-10.0, 10.0, allow_nan=False),
        goals=st.lists(st.tuples(_ANG, _ANG), min_size=0, max_size=3), pad=st.integers(0, 2),
        snap=st.booleans())
+@pytest.mark.slow
 def test_sweep_row_equals_the_vectorized_sweeps(ks, ke, a, goals, pad, snap):
     """The controller's scalar check of one row agrees with the vectorized table sweeps,
     including full circles (equal ends), NaN-padded goal lists and a rod exactly on an arc end."""

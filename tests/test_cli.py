@@ -92,6 +92,7 @@ def test_plot_motion_writes_a_png(tmp_path, kind):
     assert not list(tmp_path.glob("*.part*"))
 
 
+@pytest.mark.slow
 def test_bound_plot(tmp_path, capsys):
     out = tmp_path / "b.png"
     assert main(["bound", "--vt", "1", "--vo", "2", "--lss", "1", "--from", "0", "--to", "2",

@@ -92,6 +92,7 @@ def test_simulate_kernel_controller_with_saved_kernel(capsys, tmp_path):
     assert out["monitor"]["max_speed_ratio"] <= 1.0 + 1e-9
 
 
+@pytest.mark.slow
 def test_simulate_kernel_controller_on_demand(capsys):
     assert main(SIM) == 0
     out = json.loads(capsys.readouterr().out)

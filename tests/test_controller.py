@@ -78,6 +78,7 @@ def test_compliant_rate_is_the_arc_end_rate():
         assert cmd.rate == pytest.approx(exact, rel=20 * dt, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_infeasible_pivot_is_reported():
     # the follow law lets the rod graze a reflex vertex while the target rounds it closely:
     # no admissible rate once l_t < Lss·vt/(vo+vt), and the command says so

@@ -64,6 +64,7 @@ def followed_pairs(dec, piece, steps=60):
 @pytest.mark.parametrize("dec", [
     pytest.param(d, marks=pytest.mark.slow) if d.env.name in {"star_hole", "generic"} else d
     for d in DECS], ids=lambda d: d.env.name)
+@pytest.mark.slow
 def test_graph_edges_equal_arcs_followed_across_each_piece(dec):
     g = build_graph(dec)
     edges = {}

@@ -108,6 +108,7 @@ def test_share_lines_equals_reference(env, lss, monkeypatch):
     assert assert_same(C._share_lines(curves, tol), reference_share_lines(curves, tol)) >= 0
 
 
+@pytest.mark.slow
 def test_share_lines_shares_on_floor_plans(monkeypatch):
     """On a floor plan many lines carry several curves: vertices are shared, the same ones."""
     env = floor_plan(200, seed=4)
