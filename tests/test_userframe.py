@@ -233,3 +233,34 @@ def test_self_check_converts_only_the_regions_it_samples():
     assert _converted(dec) == (True, False)
     b = sample_in_regions(dec, 5, seed=3, regions=[1, 4])
     assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+
+def test_curves_converted_at_once_equal_each_curves_own_conversion():
+    """:meth:`UserFrame.curves` (all polylines and parameters converted in one array) gives,
+    bit for bit, the curves of :meth:`Curve.to_user` one by one, on a scaled, offset and
+    renumbered map (C and D parameters are lengths: scaled; the others kept)."""
+    from tether.curves import critical_curves
+    from tether.userframe import UserFrame
+
+    env, lss = _scaled_map()
+    frame = UserFrame(env, lss)
+    inner = critical_curves(env.internal, lss * env.frame.scale)
+    assert {c.kind for c in inner} >= {"A", "B", "C"}
+    mine = frame.curves(inner)
+    assert frame.curves([]) == ()
+    assert len(mine) == len(inner)
+
+    def same(x, y) -> bool:
+        if isinstance(x, np.ndarray):
+            return type(y) is np.ndarray and x.shape == y.shape and x.tobytes() == y.tobytes()
+        if isinstance(x, tuple):
+            return (type(y) is tuple and len(x) == len(y)
+                    and all(same(a, b) for a, b in zip(x, y, strict=True)))
+        return type(x) is type(y) and x == y
+
+    for c, got in zip(inner, mine, strict=True):
+        ref = c.to_user(env.frame, frame.names)
+        for f in ("id", "kind", "features", "domain", "intervals", "polylines", "params",
+                  "index"):
+            assert same(getattr(got, f), getattr(ref, f)), f
+        assert got.family is ref.family and got.frame is ref.frame
