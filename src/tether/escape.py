@@ -243,13 +243,18 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     """
     ncell = len(slot_ptr) - 1
     count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
+    slot_cell = np.repeat(np.arange(ncell, dtype=np.int32 if ncell < 2**31 else np.int64),
+                          np.diff(slot_ptr))  # the cell of every slot
+    entry_ptr = partner_ptr[slot_ptr]  # a cell's slots' partner entries, one run per cell
     zs = np.flatnonzero(count == 0)
-    zc = _slot_cell(slot_ptr, zs)
+    zc = slot_cell[zs].astype(np.int64)
     head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
     lvl_cell, lvl_slot = zc[head], zs[head]
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
     queued = np.zeros(ncell, dtype=bool)
     queued[lvl_cell] = True
+    slot_end = np.empty(len(count), np.int64)  # scratch, set where used
+    cell_end = np.empty(ncell, np.int64)
     out_cell, out_slot, out_round, out_because = [], [], [], []
     rnd = 0
     while len(lvl_cell):
@@ -261,28 +266,28 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         out_round.append(np.full(len(lvl_cell), rnd, dtype=np.int64))
         out_because.append(lvl_because)
         # every partner entry of every slot of the level's cells, in processing order
-        nslot = slot_ptr[lvl_cell + 1] - slot_ptr[lvl_cell]
-        slots = ragged_arange(slot_ptr[lvl_cell], nslot)
-        npart = partner_ptr[slots + 1] - partner_ptr[slots]
-        tgt = partner_slot[ragged_arange(partner_ptr[slots], npart)]
+        first = entry_ptr[lvl_cell]
+        nentry = entry_ptr[lvl_cell + 1] - first
+        tgt = partner_slot[ragged_arange(first, nentry)]
         _decrement(count, tgt)
         # a slot empties at its last entry of the round (its count never rises again)
         hit = np.flatnonzero(count[tgt] == 0)
-        rev = hit[::-1]
-        _, last = np.unique(tgt[rev], return_index=True)
-        pos = rev[last]  # entry position where each emptied slot reached 0
-        cell = _slot_cell(slot_ptr, tgt[pos])
+        slot = tgt[hit]
+        cell = slot_cell[slot].astype(np.int64)
         fresh = ~queued[cell]
-        pos, cell = pos[fresh], cell[fresh]
-        # a cell falls through the slot that emptied first in processing order
-        first = np.lexsort((pos, cell))
-        pos, cell = pos[first], cell[first]
-        keep = np.r_[True, cell[1:] != cell[:-1]] if len(cell) else np.zeros(0, bool)
-        pos, cell = pos[keep], cell[keep]
+        hit, slot, cell = hit[fresh], slot[fresh], cell[fresh]
+        # the entry position where each emptied slot reached 0 (its last), and each cell
+        # falls through its slot that emptied first
+        slot_end[slot] = -1
+        np.maximum.at(slot_end, slot, hit)
+        end = slot_end[slot]
+        cell_end[cell] = len(tgt)
+        np.minimum.at(cell_end, cell, end)
+        keep = (hit == end) & (cell_end[cell] == end)
+        pos, cell = hit[keep], cell[keep]
         queued[cell] = True
-        # the level's cell whose entries hold each position: its slot, then the slot's cell
-        src = lvl_cell[_slot_cell(np.r_[0, np.cumsum(nslot)],
-                                  _slot_cell(np.r_[0, np.cumsum(npart)], pos))]
+        # the level's cell whose run of entries holds each position
+        src = lvl_cell[np.searchsorted(np.cumsum(nentry), pos, side="right")]
         lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src
     alive = ~queued
     if out_cell:
