@@ -136,3 +136,47 @@ def test_arcs_across_in_batches_equal_one_table(monkeypatch):
             got, want = getattr(sides, f), getattr(rows, f)
             assert got.dtype == want.dtype and np.array_equal(got, want), f
     assert len(whole.point) > len(pts)
+
+
+def _project_on_sources_reference(curves, srcs, which, q0):
+    """:func:`_project_on_sources` as first written: a lexsort by (row, distance)."""
+    from tether.arrays import ragged_arange
+    from tether.curves import project_many
+
+    q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))
+    ptr, src = srcs
+    count = ptr[which + 1] - ptr[which]
+    if count.sum() == 0:
+        return q, n
+    row = np.repeat(np.arange(len(which)), count)
+    cid = src[ragged_arange(ptr[which], count)]
+    _, p, nrm = project_many(curves, cid, q0[row])
+    dist = np.hypot(*(p - q0[row]).T)
+    order = np.lexsort((dist, row))
+    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    q[row[best]] = p[best]
+    n[row[best]] = nrm[best]
+    return q, n
+
+
+def test_project_on_sources_equals_the_sorted_choice():
+    """Each point's nearest projection among its chain's curves (none, one or several, of
+    every kind, repeats included) equals the one a sort by (row, distance) picks, bit for
+    bit."""
+    from tether.curves import critical_curves
+
+    env = GENERIC.internal
+    curves = critical_curves(env, 2.5 * GENERIC.frame.scale)
+    assert {c.kind for c in curves} >= {"A", "B", "C", "E"}
+    rng = np.random.default_rng(3)
+    count = rng.integers(0, 4, 400)
+    ptr = np.r_[0, np.cumsum(count)]
+    src = rng.integers(0, len(curves), int(ptr[-1]))
+    which = rng.permutation(400)[:300]
+    q0 = np.vstack([c.polylines[0][len(c.polylines[0]) // 2] for c in curves])[
+        rng.integers(0, len(curves), 300)] + rng.normal(0, 1e-3, (300, 2))
+    got = D._project_on_sources(curves, (ptr, src), which, q0)
+    want = _project_on_sources_reference(curves, (ptr, src), which, q0)
+    for a, b in zip(got, want, strict=True):
+        assert a.tobytes() == b.tobytes()
+    assert not np.array_equal(got[0], q0)

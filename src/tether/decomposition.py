@@ -36,7 +36,7 @@ from tether.arcs import (
     join_tables,
 )
 from tether.arrays import ragged_arange
-from tether.curves import Curve, critical_curves, project_many
+from tether.curves import Curve, _first_nearest, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.spatial import SegmentGrid
@@ -2464,9 +2464,8 @@ def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray]
     row = np.repeat(np.arange(len(which)), count)
     cid = src[ragged_arange(ptr[which], count)]
     _, p, nrm = project_many(curves, cid, q0[row])
-    dist = np.hypot(*(p - q0[row]).T)
-    order = np.lexsort((dist, row))
-    best = order[np.r_[True, row[order][1:] != row[order][:-1]]]
+    # each row's nearest projection, the first among equals (no sort)
+    best = _first_nearest(row, np.hypot(*(p - q0[row]).T))
     q[row[best]] = p[best]
     n[row[best]] = nrm[best]
     return q, n
