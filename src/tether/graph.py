@@ -167,14 +167,18 @@ def _overlap(s1: Any, e1: Any, s2: Any, e2: Any, full1: Any = False, full2: Any 
     given as ``start + 2π`` is full too. Arcs are never recognized as full by comparing reduced
     ends: a free arc is always longer than ``ANGLE_TOL`` and shorter than ``2π - ANGLE_TOL``."""
     s1, e1, s2, e2 = (np.asarray(x, dtype=float) for x in (s1, e1, s2, e2))
-    l1 = _arc_length(s1, e1, full1)
-    l2 = _arc_length(s2, e2, full2)
+    out = _overlap_lengths(s1, _arc_length(s1, e1, full1), s2, _arc_length(s2, e2, full2))
+    return float(out) if out.ndim == 0 else out
+
+
+def _overlap_lengths(s1: np.ndarray, l1: np.ndarray, s2: np.ndarray, l2: np.ndarray
+                     ) -> np.ndarray:
+    """:func:`_overlap` of CCW arcs given by start and length (radians, :func:`_arc_length`)."""
     d21 = np.mod(s2 - s1, TWO_PI)  # arc 2 starting inside arc 1
     d12 = np.mod(s1 - s2, TWO_PI)  # arc 1 starting inside arc 2
     a = np.where(d21 < l1, np.minimum(l1 - d21, l2), 0.0)
     b = np.where(d12 < l2, np.minimum(l2 - d12, l1), 0.0)
-    out = np.maximum(a, b)
-    return float(out) if out.ndim == 0 else out
+    return np.maximum(a, b)
 
 
 def _arc_length(s: np.ndarray, e: np.ndarray, full: Any) -> np.ndarray:
@@ -251,8 +255,10 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if m == 0:
         return empty, empty, empty
     rows = _arc_rows(dec)
-    pair_a, pair_b = _candidate_pairs(rows, m)
-    keep = _overlapping(rows, pair_a, pair_b)
+    length = _arc_length(rows["start"], rows["end"], rows["full"])  # each arc's, once
+    pair_a, pair_b = _candidate_pairs(rows, m, length)
+    keep = _overlapping(rows["start"], length, pair_a, pair_b)
+    del length
     k = rows["point"][pair_a[keep]]
     regs = _piece_regions(dec)
     ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
@@ -268,15 +274,15 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 OVERLAP_CHUNK = 1 << 18
 
 
-def _overlapping(rows: dict[str, np.ndarray], pair_a: np.ndarray, pair_b: np.ndarray
-                 ) -> np.ndarray:
-    """Indices ``i`` of the pairs whose arcs ``pair_a[i]`` and ``pair_b[i]`` overlap by more
-    than ``ANGLE_TOL`` (:func:`_overlap`, chunk by chunk: the same numbers, a lower peak)."""
-    start, end, full = rows["start"], rows["end"], rows["full"]
+def _overlapping(start: np.ndarray, length: np.ndarray, pair_a: np.ndarray,
+                 pair_b: np.ndarray) -> np.ndarray:
+    """Indices ``i`` of the pairs whose arcs ``pair_a[i]`` and ``pair_b[i]`` (of starts
+    ``start`` and lengths ``length``, radians) overlap by more than ``ANGLE_TOL``
+    (:func:`_overlap`, chunk by chunk: the same numbers, a lower peak)."""
     out = []
     for lo in range(0, len(pair_a), OVERLAP_CHUNK):
         a, b = pair_a[lo:lo + OVERLAP_CHUNK], pair_b[lo:lo + OVERLAP_CHUNK]
-        ov = _overlap(start[a], end[a], start[b], end[b], full[a], full[b])
+        ov = _overlap_lengths(start[a], length[a], start[b], length[b])
         out.append(np.flatnonzero(ov > ANGLE_TOL) + lo)
     return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
 
@@ -286,12 +292,14 @@ def _overlapping(rows: dict[str, np.ndarray], pair_a: np.ndarray, pair_b: np.nda
 _SEARCH_MARGIN = 1e-6
 
 
-def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, np.ndarray]:
+def _candidate_pairs(rows: dict[str, np.ndarray], m: int, length: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Arc pairs (row on the side of ``regions[0]``, row on the other side) of each piece that
     may overlap, sorted by (a, b): every pair whose arcs overlap is among them, and their number
     is linear in the number of arcs. The arcs at a point are disjoint and sorted by start, so
     an arc ``a`` can only overlap the arc containing its start (the last one starting before
-    it, around the circle) and the arcs starting inside it."""
+    it, around the circle) and the arcs starting inside it. ``length``: the arcs' lengths
+    (:func:`_arc_length`), computed if not given."""
     point, start = rows["point"], rows["start"]
     counts = np.bincount(point, minlength=2 * m)
     first = np.cumsum(counts) - counts
@@ -302,7 +310,8 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, n
     a, pb = a[has], pb[has]
     s1 = start[a]
     lo = s1 - _SEARCH_MARGIN
-    hi = s1 + _arc_length(s1, rows["end"][a], rows["full"][a]) + _SEARCH_MARGIN
+    hi = s1 + (_arc_length(s1, rows["end"][a], rows["full"][a]) if length is None
+               else length[a]) + _SEARCH_MARGIN
     base = pb * 8.0
     del pb, s1
     # the arcs starting in [lo, hi] (wrapped around 2π: up to three ranges)
