@@ -246,8 +246,8 @@ def test_curves_converted_at_once_equal_each_curves_own_conversion():
     frame = UserFrame(env, lss)
     inner = critical_curves(env.internal, lss * env.frame.scale)
     assert {c.kind for c in inner} >= {"A", "B", "C"}
-    mine = frame.curves(inner)
-    assert frame.curves([]) == ()
+    mine = frame.converted_curves(inner)
+    assert frame.converted_curves([]) == ()
     assert len(mine) == len(inner)
 
     def same(x, y) -> bool:
@@ -264,3 +264,38 @@ def test_curves_converted_at_once_equal_each_curves_own_conversion():
                   "index"):
             assert same(getattr(got, f), getattr(ref, f)), f
         assert got.family is ref.family and got.frame is ref.frame
+
+
+def test_user_curves_converted_on_first_read_once():
+    """Decomposing in a user frame leaves the curves unconverted until one is read; then all
+    are converted once (the same objects on every read), equal to the eager conversion, and
+    the sequence behaves (and pickles) as the tuple of them."""
+    import pickle
+
+    from tether.decomposition import decompose
+
+    env, lss = _scaled_map()
+    dec = decompose(env, lss)
+    curves = dec.curves
+    assert curves._done is None and len(curves) > 10 and curves._done is None
+    assert dec.counts["curves"] == len(curves)
+    first = curves[0]
+    assert curves._done is not None and curves._inner is None
+    assert curves[0] is first and curves[-1] is tuple(curves)[-1]
+    assert curves[1:3] == tuple(curves)[1:3]
+    assert curves == tuple(curves) and hash(curves) == hash(tuple(curves))
+    assert [c.name for c in curves] == [c.name for c in pickle.loads(pickle.dumps(dec)).curves]
+    assert type(pickle.loads(pickle.dumps(curves))) is tuple
+    assert pickle.loads(pickle.dumps(dec)).curves[0].polylines[0].tolist() == \
+        first.polylines[0].tolist()
+    # the same numbers as converting each curve on its own
+    from tether.userframe import UserFrame
+
+    names = UserFrame(env, lss).names
+    fresh = decompose(env, lss)
+    ref = fresh.curves._inner
+    for c, mine in zip(ref, curves, strict=True):
+        want = c.to_user(env.frame, names)
+        assert mine.features == want.features and mine.intervals == want.intervals
+        assert all(np.array_equal(a, b) for a, b in zip(mine.polylines, want.polylines,
+                                                        strict=True))

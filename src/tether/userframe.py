@@ -13,6 +13,8 @@ and structures are left as they are."""
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -77,11 +79,15 @@ class UserFrame:
             return feats
         return tuple(self.names.get(f, f) for f in feats)
 
-    def curves(self, curves: list) -> tuple:
-        """The critical curves reported in map coordinates and file names: the curves of
-        :meth:`Curve.to_user`, their polylines and parameters converted all at once (each
-        polyline a view of one converted array). Lengths (C and D parameters) are divided by
-        the scale, other parameters kept (a division by 1 is exact)."""
+    def curves(self, curves: list) -> _UserCurves:
+        """The critical curves reported in map coordinates and file names, converted on the
+        first read of any of them (decompose and the analysis only count them)."""
+        return _UserCurves(self, list(curves))
+
+    def converted_curves(self, curves: list) -> tuple:
+        """The curves of :meth:`Curve.to_user`, their polylines and parameters converted all
+        at once (each polyline a view of one converted array). Lengths (C and D parameters)
+        are divided by the scale, other parameters kept (a division by 1 is exact)."""
         if not curves:
             return ()
         frame, names, scale = self.frame, self.names, self.scale
@@ -156,3 +162,48 @@ class UserFrame:
         return ArcTable(arcs.point, arcs.start, arcs.end, cm[arcs.start_code],
                         cm[arcs.end_code], arcs.full)
 
+
+
+class _UserCurves(Sequence):
+    """The critical curves in the map's frame (a tuple of :class:`Curve`), made all at once
+    by :meth:`UserFrame.converted_curves` on the first read of any item (their number is
+    known without), then kept: ``curves[i] is curves[i]``. Equal to the tuple of the same
+    curves and hashed as it; pickled as that tuple."""
+
+    def __init__(self, frame: UserFrame, inner: list) -> None:
+        self._frame: UserFrame | None = frame
+        self._inner: list | None = inner  # the internal curves, until converted
+        self._done: tuple | None = None
+        self._lock = threading.Lock()
+
+    def _all(self) -> tuple:
+        with self._lock:
+            if self._done is None:
+                assert self._frame is not None and self._inner is not None
+                self._done = self._frame.converted_curves(self._inner)
+                self._frame = self._inner = None
+            return self._done
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._done if self._done is not None else self._inner or ())
+
+    def __getitem__(self, i: Any) -> Any:
+        return self._all()[i]
+
+    def __iter__(self) -> Iterator[Curve]:
+        return iter(self._all())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, _UserCurves)):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all())
+
+    def __repr__(self) -> str:
+        return repr(self._all())
+
+    def __reduce__(self) -> tuple:
+        return (tuple, (self._all(),))
