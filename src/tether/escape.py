@@ -253,8 +253,8 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
     queued = np.zeros(ncell, dtype=bool)
     queued[lvl_cell] = True
-    slot_end = np.empty(len(count), np.int64)  # scratch, set where used
-    cell_end = np.empty(ncell, np.int64)
+    slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
+    cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
     out_cell, out_slot, out_round, out_because = [], [], [], []
     rnd = 0
     while len(lvl_cell):
@@ -295,12 +295,6 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
                 np.concatenate(out_round), np.concatenate(out_because))
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
-
-
-def _slot_cell(ptr: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The group of each item ``s`` of a CSR layout: ``g`` with ``ptr[g] <= s < ptr[g + 1]``
-    (``ptr`` nondecreasing; empty groups are skipped)."""
-    return np.searchsorted(ptr, s, side="right") - 1
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
