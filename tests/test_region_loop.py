@@ -108,7 +108,7 @@ def _number_regions_reference(arr, flat, size, pts, clear):
 
 def test_number_regions_equal_reference(arrangement):
     """Random groups of faces (some of 8 or more), clearances with ties: the same numbering
-    and, from ``_group_lists``, the same face lists."""
+    and the regions' face groups as the face lists give them."""
     rng = np.random.default_rng(5)
     nf = len(arrangement.faces)
     pts, clear = D._face_points(arrangement.faces, 1e-9)
@@ -118,12 +118,22 @@ def test_number_regions_equal_reference(arrangement):
     size = size[np.cumsum(size) <= len(faces)]
     flat = faces[: size.sum()]
     got = D._number_regions(arrangement, flat, size, pts, clear)
-    got["lists"] = D._group_lists(flat, size)
     want = _number_regions_reference(arrangement, flat, size, pts, clear)
     assert (size >= 8).any() and len(size) > 10
-    assert got["lists"] == want["lists"]
     for k in ("best", "area", "point", "rank", "face_region"):
         assert np.array_equal(got[k], want[k]), k
+    # the regions' polygons: each region's group of faces (first face, or all of a union)
+    shapes = D._region_shapes(arrangement, flat, size, got["rank"], None)
+    lists = want["lists"]
+    assert len(shapes._unions) == sum(len(lists[g]) > 1 for g in want["rank"]) > 10
+    for rid, g in enumerate(want["rank"].tolist()):
+        assert shapes._geoms[rid] is arrangement.faces[lists[g][0]]
+        if len(lists[g]) > 1:
+            assert shapes._unions[rid].tolist() == arrangement.faces[lists[g]].tolist()
+        else:
+            assert rid not in shapes._unions
+    empty = D._region_shapes(arrangement, flat[:0], size[:0], got["rank"][:0], None)
+    assert len(empty) == 0 and empty._unions is None
 
 
 def test_best_per_group_is_the_lexsort_head():

@@ -1613,7 +1613,7 @@ def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray,
             specks.setdefault(r, []).append(f)
         face_sid[faces_in] = -1
         _absorb_groups(list(specks.values()), adjacent, plen, uf, face_sid)
-    numbering["lists"] = _group_lists(flat, size)  # the last numbering's only: for the regions
+    numbering["flat"], numbering["size"] = flat, size  # the last numbering's: the regions'
     chains = _chains(arr, face_region)
     return numbering, chains, _crossing_candidates(arr, chains, tol, lss)
 
@@ -1785,7 +1785,7 @@ def _number_regions(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, pts: 
     group's count), numbered by representative point (x, then y): the point of the group's
     face farthest from its boundary. Returns the groups' best faces, areas and points, the
     group of each region id (``rank``) and the region of every face (-1: none); the groups'
-    face lists (``lists``, for the regions made) are added by :func:`_group_lists`."""
+    faces (``flat`` and ``size``, for the regions made) are added by :func:`_face_regions`."""
     face_area = arr.__dict__.get("_face_area")
     if face_area is None:
         face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
@@ -1816,14 +1816,6 @@ def _best_per_group(value: np.ndarray, group: np.ndarray) -> np.ndarray:
     return _first_max_per_group(value, group)
 
 
-def _group_lists(flat: np.ndarray, size: np.ndarray) -> list[list[int]]:
-    """The groups' face lists (``numbering["lists"]``), from ``flat`` and ``size`` as given
-    to :func:`_number_regions`."""
-    starts = (np.cumsum(size) - size).tolist()
-    flat_list = flat.tolist()
-    return [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
-
-
 def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any],
                   face_sid: np.ndarray, structs: _Structures, out: UserFrame | None = None
                   ) -> tuple[list[Region], _Cells, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -1839,9 +1831,9 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     regions are made, the polygons on their first read); the structure is converted once the
     pieces are made (:meth:`UserFrame.regions`: the pieces compare the structures with
     internal ones)."""
-    lists, best, area, point = (numbering[k] for k in ("lists", "best", "area", "point"))
+    best, area, point = (numbering[k] for k in ("best", "area", "point"))
     rank = numbering["rank"].tolist()
-    polys = _region_shapes(arr, lists, rank, out)
+    polys = _region_shapes(arr, numbering["flat"], numbering["size"], numbering["rank"], out)
     if out is not None:  # all at once, before any region is made
         area = area / (out.scale * out.scale)
         point = out.points(point)
@@ -1862,13 +1854,20 @@ def _make_regions(env: Environment, arr: _Arrangement, numbering: dict[str, Any]
     return regions, _Cells(table), (region, start, end)
 
 
-def _region_shapes(arr: _Arrangement, lists: list[list[int]], rank: list[int],
+def _region_shapes(arr: _Arrangement, flat: np.ndarray, size: np.ndarray, rank: np.ndarray,
                    out: UserFrame | None) -> _RegionShapes:
-    """The regions' polygons (region ``i`` is the group ``rank[i]`` of faces ``lists``):
-    single faces as they are, unions of several made on the first read."""
-    n = len(rank)
-    polys = arr.faces[[lists[g][0] for g in rank]] if n else np.zeros(0, dtype=object)
-    unions = {rid: arr.faces[lists[g]] for rid, g in enumerate(rank) if len(lists[g]) > 1}
+    """The regions' polygons (region ``i`` is the group ``rank[i]`` of the faces ``flat``,
+    group after group, ``size`` faces each): single faces as they are, unions of several
+    made on the first read (their faces gathered at once, each region's a slice)."""
+    first = (np.cumsum(size) - size)[rank]  # each region's first face, in ``flat``
+    count = size[rank]
+    polys = arr.faces[flat[first]]
+    multi = np.flatnonzero(count > 1)
+    k = count[multi]
+    faces = arr.faces[flat[ragged_arange(first[multi], k)]]
+    end = np.cumsum(k)
+    unions = {rid: faces[a:b] for rid, a, b in zip(multi.tolist(), (end - k).tolist(),
+                                                    end.tolist(), strict=True)}
     return _RegionShapes(polys, unions, None if out is None else out.frame)
 
 
