@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from tether.arcs import rod_is_free_many
+from tether.arcs import rod_is_free_many, rod_is_free_rows, rod_rows
 from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import TetherError
@@ -132,6 +132,24 @@ class Family:
         marks: for loops evaluating the same rows many times (``points(None, t)``)."""
         return Family(self.kind, self.lss, self.p[c], self.d[c], self.w[c], self.lo[c],
                       self.hi[c], [])
+
+    def motion_bound(self, ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on how far the event rods of every curve in order (one interval each, as
+        ``points(None, t)``) move over ``t`` in ``[ta, tb]`` from the rod at ``ta``: of the
+        target end (map units) and of the direction (radians; ``inf`` when unbounded)."""
+        span = np.abs(tb - ta)
+        if self.kind == "B":  # the target end on a circle of radius lss, the rod along its radius
+            return self.lss * span, span
+        step = span * np.hypot(self.d[:, 0], self.d[:, 1])  # the motion of q (A, C, D) or Q (E)
+        if self.kind in "ACD":  # fixed direction
+            return step, np.zeros(len(span))
+        # E: the rod from q to Q = w + t d points away from the pole p; seen from p, Q sweeps
+        # at most step / (least distance from p to Q) radians
+        near = np.minimum(np.hypot(*(self.w + ta[:, None] * self.d - self.p).T),
+                          np.hypot(*(self.w + tb[:, None] * self.d - self.p).T)) - step
+        with np.errstate(divide="ignore"):
+            du = np.where(near > 0, step / np.maximum(near, 0.0), np.inf)
+        return step + self.lss * du, du
 
     def length_scale(self, c: np.ndarray) -> np.ndarray:
         """Rough length of each curve's domain, map units (for sample counts)."""
@@ -465,16 +483,8 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     # transitions between consecutive samples of the same curve: pin them by bisection
     same = c[1:] == c[:-1]
     trans = np.flatnonzero(same & (free[1:] != free[:-1]))
-    ta, tb = t[trans].copy(), t[trans + 1].copy()
     fa = free[trans]
-    sub = fam.rows(c[trans])  # the same rows every round: gathered once
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (ta + tb)
-        fm = rod_is_free_many(env, sub.points(None, mid), sub.rod_angles(None, mid), L)
-        move_a = fm == fa
-        ta = np.where(move_a, mid, ta)
-        tb = np.where(move_a, tb, mid)
-    edge_t = np.where(fa, ta, tb)  # the last free parameter at each transition
+    edge_t = _bisect(env, fam.rows(c[trans]), t[trans], t[trans + 1], fa)
     # runs of free samples: a run starts at a curve's first sample or after a transition and
     # ends at a curve's last sample or before one; transitions give the exact ends
     bound = np.full(len(c), np.nan)
@@ -494,6 +504,31 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
                 ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
                 ivs.pop()
     return out
+
+
+def _bisect(env: Environment, sub: Family, ta: np.ndarray, tb: np.ndarray, fa: np.ndarray
+            ) -> np.ndarray:
+    """The last free parameter of each transition ``k`` of curve ``k`` of ``sub`` between
+    ``ta[k]`` (free iff ``fa[k]``) and ``tb[k]``, by ``_BISECTIONS`` halvings. Every round
+    tests rods within the interval: their candidate edges are found once, for every rod of
+    the interval (:func:`tether.arcs.rod_rows`; the rods moving too far keep the plain test),
+    and the targets that stay inside the free space: the same booleans as
+    :func:`rod_is_free_many` every round."""
+    L = sub.lss
+    dp, du = sub.motion_bound(ta, tb)
+    q = sub.points(None, ta)
+    pidx, eidx, ok, inside = rod_rows(env, q, sub.rod_angles(None, ta), L, dp, du)
+    far = np.flatnonzero(~ok)
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (ta + tb)
+        pts, ang = sub.points(None, mid), sub.rod_angles(None, mid)
+        fm = rod_is_free_rows(env, pts, ang, L, pidx, eidx, inside)
+        if len(far):
+            fm[far] = rod_is_free_many(env, pts[far], ang[far], L)
+        move_a = fm == fa
+        ta = np.where(move_a, mid, ta)
+        tb = np.where(move_a, tb, mid)
+    return np.where(fa, ta, tb)
 
 
 def _semi_free(env: Environment, fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
