@@ -404,6 +404,38 @@ def _family_e(env: Environment, L: float) -> Family:
                   s0[k].astype(float), s1[k].astype(float), feats)
 
 
+def curves_to_user(curves: list[Curve], frame: Any, names: dict[str, str]) -> list[Curve]:
+    """:meth:`Curve.to_user` of every curve, the polylines and parameters of all of them
+    converted at once (the same numbers: one element-wise operation each)."""
+    if not curves:
+        return []
+    lines = [p for c in curves for p in c.polylines]
+    params = [t for c in curves for t in c.params]
+    pts = frame.to_user(np.concatenate(lines)) if lines else np.zeros((0, 2))
+    k = [frame.scale if c.kind in "CD" else 1.0 for c in curves]
+    per = np.repeat(k, [len(c.params) for c in curves])
+    ts = (np.concatenate(params) / np.repeat(per, [len(t) for t in params]) if params
+          else np.zeros(0))
+    pts_each, ts_each = _pieces(pts, lines), _pieces(ts, params)
+    out, i = [], 0
+    for c, kc in zip(curves, k, strict=True):
+        n = len(c.polylines)
+        out.append(Curve(c.id, c.kind, tuple(names.get(f, f) for f in c.features),
+                         (c.domain[0] / kc, c.domain[1] / kc),
+                         tuple((a / kc, b / kc) for a, b in c.intervals),
+                         tuple(pts_each[i:i + n]), tuple(ts_each[i:i + n]), c.family,
+                         c.index, frame))
+        i += n
+    return out
+
+
+def _pieces(joined: np.ndarray, parts: list[np.ndarray]) -> list[np.ndarray]:
+    """``joined`` (the concatenation of arrays like ``parts``) cut back into pieces of their
+    lengths (views; ``np.split`` costs more per piece)."""
+    ends = np.cumsum([len(p) for p in parts]).tolist()
+    return [joined[a:b] for a, b in zip([0] + ends[:-1], ends, strict=True)]
+
+
 def candidate_families(env: Environment, lss: float) -> list[Family]:
     """All candidate curves of the five kinds for rod length ``lss`` (map units)."""
     fa, fe = _family_a(env, lss), _family_e(env, lss)
@@ -1190,8 +1222,8 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()
-        return [c.to_user(env.frame, names)
-                for c in critical_curves(env.internal, lss * env.frame.scale, rel_tol)]
+        return curves_to_user(critical_curves(env.internal, lss * env.frame.scale, rel_tol),
+                              env.frame, names)
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import ArcTable
+from tether.curves import curves_to_user
 from tether.decomposition import FREE, _PieceTable, _Shapes, _Structures
 from tether.environment import Environment
 
@@ -78,8 +79,7 @@ class UserFrame:
 
     def curves(self, curves: list) -> tuple:
         """The critical curves reported in map coordinates and file names."""
-        names = self.names
-        return tuple(c.to_user(self.frame, names) for c in curves)
+        return tuple(curves_to_user(curves, self.frame, self.names))
 
     def pieces(self, table: _PieceTable) -> None:
         """Convert the pieces' columns to the user's frame, in place (they were just made in
