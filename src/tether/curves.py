@@ -130,8 +130,8 @@ class Family:
     def rows(self, c: np.ndarray) -> Family:
         """The curves ``c`` (repeats allowed) as a family of their own, without features or
         marks: for loops evaluating the same rows many times (``points(None, t)``)."""
-        return Family(self.kind, self.lss, self.p[c], self.d[c], self.w[c], self.lo[c],
-                      self.hi[c], [])
+        return Family(self.kind, self.lss, _take(self.p, c), _take(self.d, c), _take(self.w, c),
+                      self.lo[c], self.hi[c], [])
 
     def motion_bound(self, ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bounds on how far the event rods of every curve in order (one interval each, as
@@ -164,8 +164,9 @@ class Family:
 
 
 def _take(a: np.ndarray, c: np.ndarray | None) -> np.ndarray:
-    """Rows ``c`` of ``a`` (all of them for ``None``)."""
-    return a if c is None else a[c]
+    """Rows ``c`` (integers) of ``a`` (all of them for ``None``). ``np.take`` gives the rows
+    of ``a[c]`` many times faster on (k, 2) arrays."""
+    return a if c is None else np.take(a, c, axis=0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -606,15 +607,15 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
     for lo in range(0, len(pair_c), 200_000):  # bounded memory
         cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
         if fam.kind == "A":  # rod = foot + λ n, foot = A + s d
-            a0 = fam.p[cc] - L * fam.w[cc]
-            rel = V[vk] - a0
-            lam = np.einsum("ij,ij->i", rel, fam.w[cc])
-            d = fam.d[cc]
+            a0 = _take(fam.p, cc) - L * _take(fam.w, cc)
+            rel = _take(V, vk) - a0
+            lam = np.einsum("ij,ij->i", rel, _take(fam.w, cc))
+            d = _take(fam.d, cc)
             t = np.einsum("ij,ij->i", rel, d) / np.einsum("ij,ij->i", d, d)
             ok = (lam > 0) & (lam <= L)
             # and where the target end q(s) = p + s d crosses an edge
-            e = V[env.next_vertex[vk]] - V[vk]
-            rel_q = V[vk] - fam.p[cc]
+            e = _take(V, env.next_vertex[vk]) - _take(V, vk)
+            rel_q = _take(V, vk) - _take(fam.p, cc)
             den = d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 sq = (rel_q[:, 0] * e[:, 1] - rel_q[:, 1] * e[:, 0]) / den
@@ -623,12 +624,12 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             cs.append(cc[hit])
             ts.append(sq[hit])
         elif fam.kind == "B":  # rod from V_j + L u(φ) to V_j
-            rel = V[vk] - fam.p[cc]
+            rel = _take(V, vk) - _take(fam.p, cc)
             r = np.hypot(rel[:, 0], rel[:, 1])
             t = np.mod(np.arctan2(rel[:, 1], rel[:, 0]), 2 * math.pi)
             ok = (r > 0) & (r <= L)
             # and where the target end crosses an edge: |V_k + u e - V_j| = L
-            e = V[env.next_vertex[vk]] - V[vk]
+            e = _take(V, env.next_vertex[vk]) - _take(V, vk)
             ee = np.einsum("ij,ij->i", e, e)
             b = np.einsum("ij,ij->i", e, rel)
             disc = b * b - ee * (np.einsum("ij,ij->i", rel, rel) - L * L)
@@ -646,9 +647,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             continue
         else:  # C, D: the line o + τ w crosses edge (V_k, next) at τ; breakpoints τ and τ + L
             nk = env.next_vertex[vk]
-            e = V[nk] - V[vk]
-            w = fam.d[cc]
-            rel = V[vk] - fam.p[cc]
+            e = _take(V, nk) - _take(V, vk)
+            w = _take(fam.d, cc)
+            rel = _take(V, vk) - _take(fam.p, cc)
             den = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 tau = (rel[:, 0] * e[:, 1] - rel[:, 1] * e[:, 0]) / den
@@ -664,9 +665,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
         for lo in range(0, len(pair_c), 200_000):  # bounded memory
             cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
             # the line through V_k and the pole meets the base edge at Q(t)
-            rel = V[vk] - fam.p[cc]
-            a_rel = fam.w[cc] - fam.p[cc]
-            d = fam.d[cc]
+            rel = _take(V, vk) - _take(fam.p, cc)
+            a_rel = _take(fam.w, cc) - _take(fam.p, cc)
+            d = _take(fam.d, cc)
             den = rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
@@ -785,7 +786,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     edges within lss of the pole: the conchoid stays within lss of it). Sign changes of the
     side function on a grid, refined by bisection."""
     V = env.vertices
-    c, a, e = cc, V[vk], V[env.next_vertex[vk]] - V[vk]
+    c, a, e = cc, _take(V, vk), _take(V, env.next_vertex[vk]) - _take(V, vk)
     frac = np.linspace(0.0, 1.0, grid)
     # a pair whose edge line leaves the whole grid of its conchoid strictly on one side (by a
     # margin above rounding) shows no sign change on it: dropped before the grid (most pairs;
@@ -797,7 +798,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     low, high = np.minimum.reduce(side), np.maximum.reduce(side)
     keep = ~((low > margin) | (high < -margin))
     c, a, e = c[keep], a[keep], e[keep]
-    rel = fam.p[c] - a
+    rel = _take(fam.p, c) - a
     u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
     near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
     c, a, e = c[near], a[near], e[near]
@@ -807,7 +808,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
 
     t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
     # the side function on the grid, each pair's rows broadcast (Family.points' arithmetic)
-    w, d, p = fam.w[c], fam.d[c], fam.p[c]
+    w, d, p = _take(fam.w, c), _take(fam.d, c), _take(fam.p, c)
     qx = w[:, :1] + t * d[:, :1]
     qy = w[:, 1:] + t * d[:, 1:]
     rx, ry = p[:, :1] - qx, p[:, 1:] - qy
@@ -926,8 +927,8 @@ def _norms(v: np.ndarray) -> np.ndarray:
 
 def _pole_ends(fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
     """:func:`_pole_end` for many (curve, parameter) pairs."""
-    Q = fam.w[c] + t[:, None] * fam.d[c]
-    r = fam.p[c] - Q
+    Q = _take(fam.w, c) + t[:, None] * _take(fam.d, c)
+    r = _take(fam.p, c) - Q
     dist = _norms(r)
     return np.abs(dist - fam.lss) <= 1e-9 * fam.lss
 
@@ -1452,16 +1453,16 @@ def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray
             continue
         c = index[cid[rows]]
         if kind in "ACD":
-            d = fam.d[c]
-            tt = np.einsum("ij,ij->i", q[rows] - fam.p[c], d) / np.einsum("ij,ij->i", d, d)
+            d = _take(fam.d, c)
+            tt = np.einsum("ij,ij->i", q[rows] - _take(fam.p, c), d) / np.einsum("ij,ij->i", d, d)
             t[rows] = tt
-            pts[rows] = fam.p[c] + tt[:, None] * d
+            pts[rows] = _take(fam.p, c) + tt[:, None] * d
             nrm[rows] = np.column_stack((-d[:, 1], d[:, 0])) / np.hypot(d[:, 0], d[:, 1])[:, None]
         elif kind == "B":
-            r = q[rows] - fam.p[c]
+            r = q[rows] - _take(fam.p, c)
             tt = np.arctan2(r[:, 1], r[:, 0])
             u = np.column_stack((np.cos(tt), np.sin(tt)))
-            t[rows], pts[rows], nrm[rows] = tt, fam.p[c] + fam.lss * u, u
+            t[rows], pts[rows], nrm[rows] = tt, _take(fam.p, c) + fam.lss * u, u
         else:
             t[rows], pts[rows], nrm[rows] = _project_conchoids(curves, cid[rows], q[rows])
     return t, pts, nrm
