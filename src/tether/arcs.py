@@ -188,6 +188,7 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     t1 = np.maximum(r1, 0.0)
     t2 = np.minimum(r2, 1.0)
     k = np.flatnonzero((side > env.length_tol * sdd[eidx]) & (disc > 0) & (t1 < t2))
+    del side, b, c, disc, sq  # (the batch's peak: the candidate rows' columns)
     # the rows' geometry taken to the k rows now; their point, edge and roots only at the
     # rows kept in the end (w)
     wx, wy, ex, ey, t1, t2 = (x[k] for x in (wx, wy, ex, ey, t1, t2))
