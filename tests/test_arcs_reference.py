@@ -13,17 +13,35 @@ from tether.arcs import (
     ArcTable,
     _edge_columns,
     _facing_index,
-    _in_cone,
     _merge,
     _order_by_point_angle,
     blocked_intervals,
     check_lss,
     rod_is_free_many,
+    rod_is_free_rows,
+    rod_rows,
 )
 from tether.decomposition import _clearance, _segment_tree, _segments_near
 from tether.environment import Environment
 from tether.floorplan import floor_plan
 from tether.tolerances import ANGLE_TOL
+
+
+def _in_cone(env, v, x):
+    """Whether unit directions ``x`` lie in the closed free cone at vertices ``v`` (the cone
+    test of the rod test before ``_leaves_cone``)."""
+    d_out, d_in = env.cone
+    do, di = d_out[v], d_in[v]
+    tol = ANGLE_TOL
+
+    def cr(p, q):
+        return p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
+
+    turn = cr(do, di)
+    convex_in = (cr(do, x) >= -tol) & (cr(x, di) >= -tol)
+    reflex_in = ~((cr(di, x) > tol) & (cr(x, do) > tol))
+    straight_in = cr(do, x) >= -tol
+    return np.where(turn > tol, convex_in, np.where(turn < -tol, reflex_in, straight_in))
 
 
 def _rod_reference(env, points, angles, lss):
@@ -268,3 +286,30 @@ def test_merge_matches_reference(n, seed, angle):
         wraps += int(np.sum(ref.end < ref.start))
         assert len(ref.point) > 0 and not ref.full.all()
     assert wraps > 0  # some arcs cross angle 0: the wrapped gap's start feature is tested
+
+
+@pytest.mark.parametrize("n, seed", [(40, 5), (300, 6)])
+def test_rod_rows_serve_moved_rods(n, seed):
+    """The rows of ``rod_rows`` for a rod and a motion bound answer, for rods moved within that
+    bound, as the plain rod test; targets flagged inside stay inside."""
+    env = floor_plan(n, seed=seed).internal
+    rng = np.random.default_rng(seed)
+    for lss in (0.02, 0.1):
+        pts, ang = _rods(env, lss, 3000, rng)
+        m = len(pts)
+        # motions from none to beyond MOVE_REACH (those rods get no rows)
+        dp = lss * rng.choice([0.0, 1e-9, 1e-5, 1e-3, 0.05, 0.3], m)
+        du = rng.choice([0.0, 1e-9, 1e-5, 1e-3, 0.1, 0.5], m)
+        pidx, eidx, ok, inside = rod_rows(env, pts, ang, lss, dp, du)
+        assert not np.any(inside & ~ok) and ok.sum() > m // 2 and inside.sum() > m // 10
+        assert np.all(np.isin(pidx, np.flatnonzero(ok)))
+        for _ in range(4):  # rods moved up to their bound (at the bound, or within)
+            r = rng.choice([1.0, 0.5, 1e-3], m)[:, None] * rng.random((m, 1)) ** 0.1
+            phi = rng.uniform(0, 2 * np.pi, m)
+            moved = pts + (r[:, 0] * dp)[:, None] * np.column_stack((np.cos(phi), np.sin(phi)))
+            a = ang + du * rng.uniform(-1, 1, m)
+            want = rod_is_free_many(env, moved, a, lss)
+            got = rod_is_free_rows(env, moved, a, lss, pidx, eidx, inside)
+            assert np.array_equal(got[ok], want[ok])
+            assert np.all(env.contains(moved[inside, 0], moved[inside, 1]))
+        assert 0 < want.sum() < m

@@ -157,3 +157,25 @@ def test_vertex_estimates_equal_the_scalar_ones(env, lss):
         found += _overshoot_family(fam, _critical_intervals(inner, fam), 20 * tol)
     assert _vertex_estimates(found, tol) == [_vertex_estimate(f, c, ivs, tol)
                                              for f, c, ivs in found]
+
+
+def test_curves_to_user_matches_each_curve():
+    """The curves converted to the user's frame all at once are those of ``Curve.to_user``,
+    curve by curve: the same names, domains, intervals, polylines and parameters, bit for bit."""
+    from tether.curves import critical_curves, curves_to_user
+
+    env = floor_plan(60, seed=3)
+    assert not env.is_internal
+    curves = critical_curves(env.internal, (env.bounds[2] - env.bounds[0]) / 8 * env.frame.scale)
+    names = env.feature_names_map()
+    got = curves_to_user(curves, env.frame, names)
+    want = [c.to_user(env.frame, names) for c in curves]
+    assert len(got) == len(want) > 50 and {c.kind for c in got} == set("ABCDE")
+    for g, w in zip(got, want, strict=True):
+        assert (g.id, g.kind, g.features, g.domain, g.intervals) == (
+            w.id, w.kind, w.features, w.domain, w.intervals)
+        assert g.family is w.family and g.index == w.index and g.frame is w.frame
+        assert len(g.polylines) == len(w.polylines) and len(g.params) == len(w.params)
+        for a, b in zip(g.polylines + g.params, w.polylines + w.params, strict=True):
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    assert curves_to_user([], env.frame, names) == []

@@ -173,22 +173,22 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     # its run of rows (a repeat, cheaper than a gather)
     wx = ax[eidx] - np.repeat(pts[:, 0], count)
     wy = ay[eidx] - np.repeat(pts[:, 1], count)
-    ex, ey = dx[eidx], dy[eidx]
-    side = ex * (-wy) - ey * (-wx)  # cross(d, p - a): > 0 on the free side
-    k = np.flatnonzero(side > env.length_tol * sdd[eidx])
-    pidx, eidx, wx, wy, ex, ey = pidx[k], eidx[k], wx[k], wy[k], ex[k], ey[k]
-    de = dd[eidx]
+    ex, ey, de = dx[eidx], dy[eidx], dd[eidx]
+    # the side, reach and overlap tests on every candidate row, then one compaction (the
+    # tests are row by row: the kept rows' numbers are those of compacting after each test;
+    # the side and reach tests drop few rows)
+    side = ey * wx - ex * wy  # cross(d, p - a), exactly ex * (-wy) - ey * (-wx): > 0 free side
     b = ex * wx + ey * wy
     c = (wx * wx + wy * wy) - lss * lss
     disc = b * b - de * c
-    k = np.flatnonzero(disc > 0)
-    pidx, eidx, wx, wy, ex, ey, de, b = (x[k] for x in (pidx, eidx, wx, wy, ex, ey, de, b))
-    sq = np.sqrt(disc[k])
-    r1 = (-b - sq) / de
-    r2 = (-b + sq) / de
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):  # rows dropped below
+        r1 = (-b - sq) / de
+        r2 = (-b + sq) / de
     t1 = np.maximum(r1, 0.0)
     t2 = np.minimum(r2, 1.0)
-    k = np.flatnonzero(t1 < t2)
+    k = np.flatnonzero((side > env.length_tol * sdd[eidx]) & (disc > 0) & (t1 < t2))
+    del side, b, c, disc, sq  # (the batch's peak: the candidate rows' columns)
     # the rows' geometry taken to the k rows now; their point, edge and roots only at the
     # rows kept in the end (w)
     wx, wy, ex, ey, t1, t2 = (x[k] for x in (wx, wy, ex, ey, t1, t2))
@@ -258,10 +258,13 @@ def _facing_index(env: Environment, lss: float) -> EdgeIndex:
 
 
 def _query(index: EdgeIndex, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:meth:`EdgeIndex.query` that also returns each point's number of rows."""
+    """:meth:`EdgeIndex.query` (the same rows, with less overhead on small chunks) that also
+    returns each point's number of rows."""
     nx, ny = index.shape
     g = np.floor((pts - index.origin) / index.cell).astype(np.int64)
-    c = np.clip(g[:, 0], 0, nx - 1) * ny + np.clip(g[:, 1], 0, ny - 1)
+    # np.minimum/np.maximum: np.clip's own overhead is most of the time on small chunks
+    c = (np.minimum(np.maximum(g[:, 0], 0), nx - 1) * ny
+         + np.minimum(np.maximum(g[:, 1], 0), ny - 1))
     first = index.start[c]
     count = index.start[c + 1] - first
     return np.repeat(np.arange(len(pts)), count), index.edges[ragged_arange(first, count)], count
@@ -300,10 +303,12 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     key = E + pt * _GROUP
     arg = np.maximum.accumulate(np.where(key >= np.maximum.accumulate(key), np.arange(m), 0))
     M = E[arg]
-    last = np.r_[pt[1:] != pt[:-1], True]
+    last = np.empty(m, dtype=bool)  # (no np.r_: its overhead counts on small chunks)
+    np.not_equal(pt[1:], pt[:-1], out=last[:-1])
+    last[-1] = True
     last_of = np.flatnonzero(last)
-    first_of = np.r_[0, last_of[:-1] + 1]
-    size = np.diff(np.r_[-1, last_of])
+    first_of = np.concatenate(([0], last_of[:-1] + 1))
+    size = np.diff(last_of, prepend=-1)
     # candidate gaps: after every row, to the next row's start (the last row: around the circle)
     nxt = np.arange(1, m + 1)
     nxt[last_of] = first_of
@@ -486,15 +491,39 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     if not env.is_internal:  # computed in the normalized frame, without straight vertices
         frame = env.frame
         return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)
-    tol = env.length_tol
-    A, B, tag_a, _ = env.oriented_edges
-    ax, ay, dx, dy, _, elen_all, _, _ = _edge_columns(env)
     ux, uy = np.cos(ang), np.sin(ang)
     # the rod lies in the disc of radius lss/2 about its midpoint: only edges within that
     # reach of the midpoint can touch it (a quarter of the candidates of a query at the target)
     half = 0.5 * lss
     mid = np.column_stack((pts[:, 0] + half * ux, pts[:, 1] + half * uy))
-    pidx, eidx = env.edge_index(half).query(mid)
+    pidx, eidx, _ = _query(env.edge_index(half), mid)
+    return _rods_free(env, pts, ux, uy, lss, pidx, eidx)
+
+
+def _rods_free(env: Environment, pts: np.ndarray, ux: np.ndarray, uy: np.ndarray, lss: float,
+               pidx: np.ndarray, eidx: np.ndarray, inside: np.ndarray | None = None
+               ) -> np.ndarray:
+    """The rod test of :func:`rod_is_free_many` (internal map) on candidate rows: rod
+    ``pidx[k]`` (target ``pts``, direction ``(ux, uy)``) against edge ``eidx[k]``. The rows
+    must hold every edge within ``lss / 2`` plus the length tolerance of the rod's midpoint;
+    more rows give the same booleans. ``inside``: the rods whose target is known to lie in
+    the free space (not tested again)."""
+    free = np.ones(len(pts), dtype=bool)
+    free[pidx[_rows_blocked(env, pts, ux, uy, lss, pidx, eidx)]] = False
+    # the point-in-map test only for the rods not blocked already (the same booleans)
+    k = np.flatnonzero(free if inside is None else free & ~inside)
+    free[k] = np.asarray(env.contains(pts[k, 0], pts[k, 1]), dtype=bool)
+    return free
+
+
+def _rows_blocked(env: Environment, pts: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                  lss: float, pidx: np.ndarray, eidx: np.ndarray) -> np.ndarray:
+    """The candidate rows (of :func:`_rods_free`) whose edge blocks their rod (the rows
+    kept by the side rejection, as indices into ``pidx``)."""
+    tol = env.length_tol
+    A, B, tag_a, _ = env.oriented_edges
+    ax, ay, dx, dy, _, elen_all, _, _ = _edge_columns(env)
+    rows = np.arange(len(pidx))
     # cheap rejection first: an edge with both ends strictly on one side of the rod's line can
     # neither cross it nor put its start vertex on it. Coordinate columns throughout (no (k, 2)
     # temporaries): the very numbers of the row-wise forms (x0*y0 + x1*y1 is einsum's sum)
@@ -504,7 +533,7 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     ca = ux * wy - uy * wx
     cb = ux * (B[:, 1][eidx] - py) - uy * (B[:, 0][eidx] - px)
     k = np.flatnonzero(~(((ca > tol) & (cb > tol)) | ((ca < -tol) & (cb < -tol))))
-    pidx, eidx, ca, ux, uy, wx, wy = (x[k] for x in (pidx, eidx, ca, ux, uy, wx, wy))
+    rows, eidx, ca, ux, uy, wx, wy = (x[k] for x in (rows, eidx, ca, ux, uy, wx, wy))
     ex, ey = dx[eidx], dy[eidx]  # B - A
     # 1. transversal crossing of the open edge strictly before the tip
     den = ux * ey - uy * ex
@@ -527,32 +556,102 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     blocked = cross
     hit = np.flatnonzero(at_v)  # only the few rods that meet the vertex need its cone
     if len(hit):
-        v = tag_a[eidx[hit]]
-        u = np.column_stack((ux[hit], uy[hit]))
-        bad = ~_in_cone(env, v, -u) | (through[hit] & ~_in_cone(env, v, u))
-        blocked[hit] |= bad
-    # the point-in-map test only for the rods not blocked already (the same booleans)
-    free = np.ones(len(pts), dtype=bool)
-    free[pidx[blocked]] = False
-    k = np.flatnonzero(free)
-    free[k] = np.asarray(env.contains(pts[k, 0], pts[k, 1]), dtype=bool)
-    return free
+        blocked[hit] |= _leaves_cone(env, tag_a[eidx[hit]], ux[hit], uy[hit], through[hit])
+    return rows[blocked]
 
 
-def _in_cone(env: Environment, v: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Whether unit directions ``x`` lie in the closed free cone at vertices ``v``."""
-    d_out, d_in = env.cone
-    do, di = d_out[v], d_in[v]
+#: How far a rod may move for :func:`rod_rows` (its midpoint, in rod lengths): the rows come
+#: from one edge index of reach ``(1/2 + MOVE_REACH) lss``.
+MOVE_REACH = 0.125
+
+
+def rod_rows(env: Environment, points: np.ndarray, angles: np.ndarray, lss: float,
+             dp: np.ndarray, du: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate rows ``(rod, edge)`` that serve the rod test of :func:`rod_is_free_rows` for
+    every rod ``k`` moved from ``(points[k], angles[k])`` by at most ``dp[k]`` (target end, map
+    units) and ``du[k]`` (direction, radians), on the internal map: for loops testing rods that
+    move little (a bisection), found once instead of at every test.
+
+    The rows are those of an edge index about the midpoint, less the edges that the rod test's
+    side rejection drops for every moved rod (both ends farther than the tolerance plus the
+    motion's bound on one side of the rod's line; with a margin far above rounding): the
+    moved rods' tests give the very booleans of :func:`rod_is_free_many`. Returns ``pidx,
+    eidx``, ``ok`` (rods moving more than ``MOVE_REACH lss`` get no rows) and ``inside``: the
+    rods whose moved targets all lie in the free space (inside, and no edge within ``dp``).
+    """
+    tol = env.length_tol
+    ax, ay, dx, dy, dd, _, _, _ = _edge_columns(env)
+    ux, uy = np.cos(angles), np.sin(angles)
+    half = 0.5 * lss
+    move = (dp + half * du) * (1 + 1e-6) + 1e-12 * lss
+    ok = move <= MOVE_REACH * lss
+    k = np.flatnonzero(ok)
+    mid = np.column_stack((points[k, 0] + half * ux[k], points[k, 1] + half * uy[k]))
+    pidx, eidx, _ = _query(env.edge_index(half + MOVE_REACH * lss), mid)
+    pidx = k[pidx]
+    ux, uy, px, py = ux[pidx], uy[pidx], points[pidx, 0], points[pidx, 1]
+    wx, wy = ax[eidx] - px, ay[eidx] - py
+    ex, ey = dx[eidx], dy[eidx]
+    vx, vy = wx + ex, wy + ey
+    ca = ux * wy - uy * wx
+    cb = ux * vy - uy * vx
+    # |side of X for a moved rod - side for this rod| <= du |X - p| + dp; 1e-9 for rounding
+    slack = tol + dp[pidx] * (1 + 1e-6) + 1e-9 * lss
+    ra = slack + (du[pidx] * (1 + 1e-6) + 1e-9) * np.hypot(wx, wy)
+    rb = slack + (du[pidx] * (1 + 1e-6) + 1e-9) * np.hypot(vx, vy)
+    keep = ~(((ca > ra) & (cb > rb)) | ((ca < -ra) & (cb < -rb)))
+    # the rows hold every edge within MOVE_REACH lss of the target (half lss from the
+    # midpoint): the target's clearance, if below that reach
+    s = np.clip(-(wx * ex + wy * ey) / dd[eidx], 0.0, 1.0)
+    clear = np.full(len(points), MOVE_REACH * lss * (1 - 1e-6))
+    np.minimum.at(clear, pidx, np.hypot(wx + s * ex, wy + s * ey))
+    inside = ok & (clear > dp * (1 + 1e-6) + 1e-9 * (lss + env.diameter))
+    k = np.flatnonzero(inside)
+    inside[k] = np.asarray(env.contains(points[k, 0], points[k, 1]), dtype=bool)
+    return pidx[keep], eidx[keep], ok, inside
+
+
+def rod_is_free_rows(env: Environment, points: np.ndarray, angles: np.ndarray, lss: float,
+                     pidx: np.ndarray, eidx: np.ndarray, inside: np.ndarray | None = None
+                     ) -> np.ndarray:
+    """:func:`rod_is_free_many` on the internal map with candidate rows given (from
+    :func:`rod_rows`, for rods within its motion of these): the same booleans. ``inside``
+    (optional, bool per rod): targets known to lie in the free space (not tested again)."""
+    return _rods_free(env, points, np.cos(angles), np.sin(angles), lss, pidx, eidx, inside)
+
+
+def _leaves_cone(env: Environment, v: np.ndarray, ux: np.ndarray, uy: np.ndarray,
+                 through: np.ndarray) -> np.ndarray:
+    """Whether rods at vertices ``v`` leave the closed free cone there: rods of unit direction
+    ``(ux, uy)`` ending at ``v`` (the direction back along the rod, ``-u``, must lie in the
+    cone) or passing through it (``through``: ``u`` too). Both directions from one pair of
+    cross products: ``cross(d, -u) = -cross(d, u)`` exactly in floating point."""
+    do_x, do_y, di_x, di_y, turn = _cone_columns(env)
     tol = ANGLE_TOL
+    a = do_x[v] * uy - do_y[v] * ux  # cross(d_out, u)
+    b = ux * di_y[v] - uy * di_x[v]  # cross(u, d_in)
+    k = turn[v]
+    back_in = np.where(k > 0, (a <= tol) & (b <= tol),
+                       np.where(k < 0, ~((b > tol) & (a > tol)), a <= tol))
+    ahead_in = np.where(k > 0, (a >= -tol) & (b >= -tol),
+                        np.where(k < 0, ~((b < -tol) & (a < -tol)), a >= -tol))
+    return ~back_in | (through & ~ahead_in)
 
-    def cr(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-        return p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
 
-    turn = cr(do, di)
-    convex_in = (cr(do, x) >= -tol) & (cr(x, di) >= -tol)
-    reflex_in = ~((cr(di, x) > tol) & (cr(x, do) > tol))
-    straight_in = cr(do, x) >= -tol
-    return np.where(turn > tol, convex_in, np.where(turn < -tol, reflex_in, straight_in))
+def _cone_columns(env: Environment) -> tuple[np.ndarray, ...]:
+    """Per vertex, computed once per map: the free cone's ``d_out`` and ``d_in``
+    (:attr:`Environment.cone`; x and y apart) and its turn: 1 convex, -1 reflex, 0 straight
+    (``cross(d_out, d_in)`` beyond ``ANGLE_TOL``)."""
+    got = env.__dict__.get("_cone_columns")
+    if got is None:
+        d_out, d_in = env.cone
+        turn = d_out[:, 0] * d_in[:, 1] - d_out[:, 1] * d_in[:, 0]
+        kind = np.where(turn > ANGLE_TOL, 1, np.where(turn < -ANGLE_TOL, -1, 0))
+        got = env.__dict__["_cone_columns"] = (
+            np.ascontiguousarray(d_out[:, 0]), np.ascontiguousarray(d_out[:, 1]),
+            np.ascontiguousarray(d_in[:, 0]), np.ascontiguousarray(d_in[:, 1]), kind)
+    return got
 
 
 def rod_is_free(env: Environment, point: Any, angle: float, lss: float) -> bool:

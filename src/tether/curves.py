@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from tether.arcs import rod_is_free_many
+from tether.arcs import rod_is_free_many, rod_is_free_rows, rod_rows
 from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import TetherError
@@ -130,8 +130,26 @@ class Family:
     def rows(self, c: np.ndarray) -> Family:
         """The curves ``c`` (repeats allowed) as a family of their own, without features or
         marks: for loops evaluating the same rows many times (``points(None, t)``)."""
-        return Family(self.kind, self.lss, self.p[c], self.d[c], self.w[c], self.lo[c],
-                      self.hi[c], [])
+        return Family(self.kind, self.lss, _take(self.p, c), _take(self.d, c), _take(self.w, c),
+                      self.lo[c], self.hi[c], [])
+
+    def motion_bound(self, ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on how far the event rods of every curve in order (one interval each, as
+        ``points(None, t)``) move over ``t`` in ``[ta, tb]`` from the rod at ``ta``: of the
+        target end (map units) and of the direction (radians; ``inf`` when unbounded)."""
+        span = np.abs(tb - ta)
+        if self.kind == "B":  # the target end on a circle of radius lss, the rod along its radius
+            return self.lss * span, span
+        step = span * np.hypot(self.d[:, 0], self.d[:, 1])  # the motion of q (A, C, D) or Q (E)
+        if self.kind in "ACD":  # fixed direction
+            return step, np.zeros(len(span))
+        # E: the rod from q to Q = w + t d points away from the pole p; seen from p, Q sweeps
+        # at most step / (least distance from p to Q) radians
+        near = np.minimum(np.hypot(*(self.w + ta[:, None] * self.d - self.p).T),
+                          np.hypot(*(self.w + tb[:, None] * self.d - self.p).T)) - step
+        with np.errstate(divide="ignore"):
+            du = np.where(near > 0, step / np.maximum(near, 0.0), np.inf)
+        return step + self.lss * du, du
 
     def length_scale(self, c: np.ndarray) -> np.ndarray:
         """Rough length of each curve's domain, map units (for sample counts)."""
@@ -146,8 +164,9 @@ class Family:
 
 
 def _take(a: np.ndarray, c: np.ndarray | None) -> np.ndarray:
-    """Rows ``c`` of ``a`` (all of them for ``None``)."""
-    return a if c is None else a[c]
+    """Rows ``c`` (integers) of ``a`` (all of them for ``None``). ``np.take`` gives the rows
+    of ``a[c]`` many times faster on (k, 2) arrays."""
+    return a if c is None else np.take(a, c, axis=0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -386,6 +405,38 @@ def _family_e(env: Environment, L: float) -> Family:
                   s0[k].astype(float), s1[k].astype(float), feats)
 
 
+def curves_to_user(curves: list[Curve], frame: Any, names: dict[str, str]) -> list[Curve]:
+    """:meth:`Curve.to_user` of every curve, the polylines and parameters of all of them
+    converted at once (the same numbers: one element-wise operation each)."""
+    if not curves:
+        return []
+    lines = [p for c in curves for p in c.polylines]
+    params = [t for c in curves for t in c.params]
+    pts = frame.to_user(np.concatenate(lines)) if lines else np.zeros((0, 2))
+    k = [frame.scale if c.kind in "CD" else 1.0 for c in curves]
+    per = np.repeat(k, [len(c.params) for c in curves])
+    ts = (np.concatenate(params) / np.repeat(per, [len(t) for t in params]) if params
+          else np.zeros(0))
+    pts_each, ts_each = _pieces(pts, lines), _pieces(ts, params)
+    out, i = [], 0
+    for c, kc in zip(curves, k, strict=True):
+        n = len(c.polylines)
+        out.append(Curve(c.id, c.kind, tuple(names.get(f, f) for f in c.features),
+                         (c.domain[0] / kc, c.domain[1] / kc),
+                         tuple((a / kc, b / kc) for a, b in c.intervals),
+                         tuple(pts_each[i:i + n]), tuple(ts_each[i:i + n]), c.family,
+                         c.index, frame))
+        i += n
+    return out
+
+
+def _pieces(joined: np.ndarray, parts: list[np.ndarray]) -> list[np.ndarray]:
+    """``joined`` (the concatenation of arrays like ``parts``) cut back into pieces of their
+    lengths (views; ``np.split`` costs more per piece)."""
+    ends = np.cumsum([len(p) for p in parts]).tolist()
+    return [joined[a:b] for a, b in zip([0] + ends[:-1], ends, strict=True)]
+
+
 def candidate_families(env: Environment, lss: float) -> list[Family]:
     """All candidate curves of the five kinds for rod length ``lss`` (map units)."""
     fa, fe = _family_a(env, lss), _family_e(env, lss)
@@ -465,16 +516,8 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     # transitions between consecutive samples of the same curve: pin them by bisection
     same = c[1:] == c[:-1]
     trans = np.flatnonzero(same & (free[1:] != free[:-1]))
-    ta, tb = t[trans].copy(), t[trans + 1].copy()
     fa = free[trans]
-    sub = fam.rows(c[trans])  # the same rows every round: gathered once
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (ta + tb)
-        fm = rod_is_free_many(env, sub.points(None, mid), sub.rod_angles(None, mid), L)
-        move_a = fm == fa
-        ta = np.where(move_a, mid, ta)
-        tb = np.where(move_a, tb, mid)
-    edge_t = np.where(fa, ta, tb)  # the last free parameter at each transition
+    edge_t = _bisect(env, fam.rows(c[trans]), t[trans], t[trans + 1], fa)
     # runs of free samples: a run starts at a curve's first sample or after a transition and
     # ends at a curve's last sample or before one; transitions give the exact ends
     bound = np.full(len(c), np.nan)
@@ -494,6 +537,31 @@ def _critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
                 ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
                 ivs.pop()
     return out
+
+
+def _bisect(env: Environment, sub: Family, ta: np.ndarray, tb: np.ndarray, fa: np.ndarray
+            ) -> np.ndarray:
+    """The last free parameter of each transition ``k`` of curve ``k`` of ``sub`` between
+    ``ta[k]`` (free iff ``fa[k]``) and ``tb[k]``, by ``_BISECTIONS`` halvings. Every round
+    tests rods within the interval: their candidate edges are found once, for every rod of
+    the interval (:func:`tether.arcs.rod_rows`; the rods moving too far keep the plain test),
+    and the targets that stay inside the free space: the same booleans as
+    :func:`rod_is_free_many` every round."""
+    L = sub.lss
+    dp, du = sub.motion_bound(ta, tb)
+    q = sub.points(None, ta)
+    pidx, eidx, ok, inside = rod_rows(env, q, sub.rod_angles(None, ta), L, dp, du)
+    far = np.flatnonzero(~ok)
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (ta + tb)
+        pts, ang = sub.points(None, mid), sub.rod_angles(None, mid)
+        fm = rod_is_free_rows(env, pts, ang, L, pidx, eidx, inside)
+        if len(far):
+            fm[far] = rod_is_free_many(env, pts[far], ang[far], L)
+        move_a = fm == fa
+        ta = np.where(move_a, mid, ta)
+        tb = np.where(move_a, tb, mid)
+    return np.where(fa, ta, tb)
 
 
 def _semi_free(env: Environment, fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -539,15 +607,15 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
     for lo in range(0, len(pair_c), 200_000):  # bounded memory
         cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
         if fam.kind == "A":  # rod = foot + λ n, foot = A + s d
-            a0 = fam.p[cc] - L * fam.w[cc]
-            rel = V[vk] - a0
-            lam = np.einsum("ij,ij->i", rel, fam.w[cc])
-            d = fam.d[cc]
+            a0 = _take(fam.p, cc) - L * _take(fam.w, cc)
+            rel = _take(V, vk) - a0
+            lam = np.einsum("ij,ij->i", rel, _take(fam.w, cc))
+            d = _take(fam.d, cc)
             t = np.einsum("ij,ij->i", rel, d) / np.einsum("ij,ij->i", d, d)
             ok = (lam > 0) & (lam <= L)
             # and where the target end q(s) = p + s d crosses an edge
-            e = V[env.next_vertex[vk]] - V[vk]
-            rel_q = V[vk] - fam.p[cc]
+            e = _take(V, env.next_vertex[vk]) - _take(V, vk)
+            rel_q = _take(V, vk) - _take(fam.p, cc)
             den = d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 sq = (rel_q[:, 0] * e[:, 1] - rel_q[:, 1] * e[:, 0]) / den
@@ -556,12 +624,12 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             cs.append(cc[hit])
             ts.append(sq[hit])
         elif fam.kind == "B":  # rod from V_j + L u(φ) to V_j
-            rel = V[vk] - fam.p[cc]
+            rel = _take(V, vk) - _take(fam.p, cc)
             r = np.hypot(rel[:, 0], rel[:, 1])
             t = np.mod(np.arctan2(rel[:, 1], rel[:, 0]), 2 * math.pi)
             ok = (r > 0) & (r <= L)
             # and where the target end crosses an edge: |V_k + u e - V_j| = L
-            e = V[env.next_vertex[vk]] - V[vk]
+            e = _take(V, env.next_vertex[vk]) - _take(V, vk)
             ee = np.einsum("ij,ij->i", e, e)
             b = np.einsum("ij,ij->i", e, rel)
             disc = b * b - ee * (np.einsum("ij,ij->i", rel, rel) - L * L)
@@ -579,9 +647,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
             continue
         else:  # C, D: the line o + τ w crosses edge (V_k, next) at τ; breakpoints τ and τ + L
             nk = env.next_vertex[vk]
-            e = V[nk] - V[vk]
-            w = fam.d[cc]
-            rel = V[vk] - fam.p[cc]
+            e = _take(V, nk) - _take(V, vk)
+            w = _take(fam.d, cc)
+            rel = _take(V, vk) - _take(fam.p, cc)
             den = w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 tau = (rel[:, 0] * e[:, 1] - rel[:, 1] * e[:, 0]) / den
@@ -597,9 +665,9 @@ def _breakpoints(env: Environment, fam: Family) -> tuple[np.ndarray, np.ndarray]
         for lo in range(0, len(pair_c), 200_000):  # bounded memory
             cc, vk = pair_c[lo:lo + 200_000], pair_v[lo:lo + 200_000]
             # the line through V_k and the pole meets the base edge at Q(t)
-            rel = V[vk] - fam.p[cc]
-            a_rel = fam.w[cc] - fam.p[cc]
-            d = fam.d[cc]
+            rel = _take(V, vk) - _take(fam.p, cc)
+            a_rel = _take(fam.w, cc) - _take(fam.p, cc)
+            d = _take(fam.d, cc)
             den = rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (a_rel[:, 0] * rel[:, 1] - a_rel[:, 1] * rel[:, 0]) / den
@@ -718,7 +786,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     edges within lss of the pole: the conchoid stays within lss of it). Sign changes of the
     side function on a grid, refined by bisection."""
     V = env.vertices
-    c, a, e = cc, V[vk], V[env.next_vertex[vk]] - V[vk]
+    c, a, e = cc, _take(V, vk), _take(V, env.next_vertex[vk]) - _take(V, vk)
     frac = np.linspace(0.0, 1.0, grid)
     # a pair whose edge line leaves the whole grid of its conchoid strictly on one side (by a
     # margin above rounding) shows no sign change on it: dropped before the grid (most pairs;
@@ -730,7 +798,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
     low, high = np.minimum.reduce(side), np.maximum.reduce(side)
     keep = ~((low > margin) | (high < -margin))
     c, a, e = c[keep], a[keep], e[keep]
-    rel = fam.p[c] - a
+    rel = _take(fam.p, c) - a
     u = np.clip(np.einsum("ij,ij->i", rel, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
     near = np.hypot(*(rel - u[:, None] * e).T) <= fam.lss
     c, a, e = c[near], a[near], e[near]
@@ -740,7 +808,7 @@ def _conchoid_edge_crossings(env: Environment, fam: Family, cc: np.ndarray, vk: 
 
     t = lo[:, None] + frac[None, :] * (hi - lo)[:, None]
     # the side function on the grid, each pair's rows broadcast (Family.points' arithmetic)
-    w, d, p = fam.w[c], fam.d[c], fam.p[c]
+    w, d, p = _take(fam.w, c), _take(fam.d, c), _take(fam.p, c)
     qx = w[:, :1] + t * d[:, :1]
     qy = w[:, 1:] + t * d[:, 1:]
     rx, ry = p[:, :1] - qx, p[:, 1:] - qy
@@ -859,8 +927,8 @@ def _norms(v: np.ndarray) -> np.ndarray:
 
 def _pole_ends(fam: Family, c: np.ndarray, t: np.ndarray) -> np.ndarray:
     """:func:`_pole_end` for many (curve, parameter) pairs."""
-    Q = fam.w[c] + t[:, None] * fam.d[c]
-    r = fam.p[c] - Q
+    Q = _take(fam.w, c) + t[:, None] * _take(fam.d, c)
+    r = _take(fam.p, c) - Q
     dist = _norms(r)
     return np.abs(dist - fam.lss) <= 1e-9 * fam.lss
 
@@ -1155,8 +1223,8 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()
-        return [c.to_user(env.frame, names)
-                for c in critical_curves(env.internal, lss * env.frame.scale, rel_tol)]
+        return curves_to_user(critical_curves(env.internal, lss * env.frame.scale, rel_tol),
+                              env.frame, names)
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []
@@ -1385,16 +1453,16 @@ def project_many(curves: list[Curve], cid: np.ndarray, q: np.ndarray
             continue
         c = index[cid[rows]]
         if kind in "ACD":
-            d = fam.d[c]
-            tt = np.einsum("ij,ij->i", q[rows] - fam.p[c], d) / np.einsum("ij,ij->i", d, d)
+            d = _take(fam.d, c)
+            tt = np.einsum("ij,ij->i", q[rows] - _take(fam.p, c), d) / np.einsum("ij,ij->i", d, d)
             t[rows] = tt
-            pts[rows] = fam.p[c] + tt[:, None] * d
+            pts[rows] = _take(fam.p, c) + tt[:, None] * d
             nrm[rows] = np.column_stack((-d[:, 1], d[:, 0])) / np.hypot(d[:, 0], d[:, 1])[:, None]
         elif kind == "B":
-            r = q[rows] - fam.p[c]
+            r = q[rows] - _take(fam.p, c)
             tt = np.arctan2(r[:, 1], r[:, 0])
             u = np.column_stack((np.cos(tt), np.sin(tt)))
-            t[rows], pts[rows], nrm[rows] = tt, fam.p[c] + fam.lss * u, u
+            t[rows], pts[rows], nrm[rows] = tt, _take(fam.p, c) + fam.lss * u, u
         else:
             t[rows], pts[rows], nrm[rows] = _project_conchoids(curves, cid[rows], q[rows])
     return t, pts, nrm

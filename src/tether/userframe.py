@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import ArcTable
-from tether.curves import Curve
+from tether.curves import Curve, curves_to_user
 from tether.decomposition import FREE, _PieceTable, _Shapes, _Structures
 from tether.environment import Environment
 
@@ -86,31 +86,8 @@ class UserFrame:
 
     def converted_curves(self, curves: list) -> tuple:
         """The curves of :meth:`Curve.to_user`, their polylines and parameters converted all
-        at once (each polyline a view of one converted array). Lengths (C and D parameters)
-        are divided by the scale, other parameters kept (a division by 1 is exact)."""
-        if not curves:
-            return ()
-        frame, names, scale = self.frame, self.names, self.scale
-        polys = [p for c in curves for p in c.polylines]
-        pts = frame.to_user(np.concatenate(polys)) if polys else np.zeros((0, 2))
-        cut = np.cumsum([len(p) for p in polys]).tolist()
-        lines = [pts[a:b] for a, b in zip([0] + cut[:-1], cut, strict=True)]
-        scaled = [c.kind in "CD" for c in curves]
-        params = [t / scale if s else t for c, s in zip(curves, scaled, strict=True)
-                  for t in c.params]
-        out = []
-        i = j = 0
-        for c, s in zip(curves, scaled, strict=True):
-            feats = tuple([names.get(f, f) for f in c.features])
-            domain, intervals = c.domain, c.intervals
-            if s:
-                domain = (domain[0] / scale, domain[1] / scale)
-                intervals = tuple((a / scale, b / scale) for a, b in intervals)
-            p, q = len(c.polylines), len(c.params)
-            out.append(Curve(c.id, c.kind, feats, domain, intervals, tuple(lines[i:i + p]),
-                             tuple(params[j:j + q]), c.family, c.index, frame))
-            i, j = i + p, j + q
-        return tuple(out)
+        at once (:func:`~tether.curves.curves_to_user`)."""
+        return tuple(curves_to_user(curves, self.frame, self.names))
 
     def pieces(self, table: _PieceTable) -> None:
         """Convert the pieces' columns to the user's frame, in place (they were just made in
