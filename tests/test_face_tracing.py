@@ -101,3 +101,30 @@ def test_exactly_overlapping_directions_fall_back():
     parts = [shapely.linestrings(c) for c in ([(0, 0), (1, 0), (1, 1)],
                                               [(0, 0), (2, 0), (2, 1)], [(1, 1), (2, 1)])]
     assert _trace_faces(np.asarray(parts, dtype=object)) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_origin_angle_order_is_the_lexsort(seed):
+    """The half-edges' order by origin then angle (one sort of a combined key, checked) is
+    the lexsort's: on random angles, on angles a few ulps apart (keys that round alike: the
+    lexsort is made), on equal angles, and on a subset of the half-edges."""
+    from tether.decomposition import _by_origin_then_angle
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    origin = rng.integers(0, 800, n)
+    angle = rng.uniform(-np.pi, np.pi, n)
+    angle[rng.random(n) < 0.02] = np.pi  # the ends of the range
+    angle[rng.random(n) < 0.02] = -np.pi
+    live = np.flatnonzero(rng.random(n) < 0.9)
+    want = live[np.lexsort((angle[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, angle, live), want)
+    near = angle.copy()
+    k = rng.integers(0, n, 50)
+    near[k] = np.nextafter(near[k - 1], 4.0)  # a neighbour's angle, one ulp up
+    origin[k] = origin[k - 1]
+    want = live[np.lexsort((near[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, near, live), want)
+    near[k] = near[k - 1]  # ties: the lexsort's order (stable) all the same
+    want = live[np.lexsort((near[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, near, live), want)

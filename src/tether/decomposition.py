@@ -914,7 +914,7 @@ class _Arrangement:
         :func:`_segments_near`), built once."""
         got = self.__dict__.get("_segments")
         if got is None:
-            a, b, owner = _ring_segments(self.parts)
+            a, b, owner = self.__dict__.pop("_part_segments", None) or _ring_segments(self.parts)
             got = (a, b, owner, SegmentGrid(a, b))
             self.__dict__["_segments"] = got
         return got
@@ -980,10 +980,10 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     del noded
     release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
     parts = parts[shapely.length(parts) > 0]
-    pa, pb, powner = _ring_segments(parts)
+    ends = _part_ends(parts)
+    pa, pb, powner = _part_segments(ends)
     seg_len = np.hypot(*(pb - pa).T)
     longest = _first_max_per_group(seg_len, powner)  # the longest segment of each part
-    ends = _part_ends(parts)
     traced = _trace_faces(parts, ends)
     if traced is not None:
         faces, part_faces = traced
@@ -1009,6 +1009,7 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
     arr = _Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
     arr.__dict__["_end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
+    arr.__dict__["_part_segments"] = (pa, pb, powner)  # for segments(): not made again
     return arr
 
 
@@ -1048,6 +1049,14 @@ def _part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
     start = np.cumsum(count) - count  # parts have 2 or more points
     last = start + count - 1
     return coords, count, start, last, _point_ids(np.vstack((coords[start], coords[last])))
+
+
+def _part_segments(ends: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_ring_segments` of the parts from their :func:`_part_ends` (the same arrays,
+    without reading the coordinates again)."""
+    coords, count, start = ends[:3]
+    i = ragged_arange(start, count - 1)
+    return coords[i], coords[i + 1], np.repeat(np.arange(len(count)), count - 1)
 
 
 def _trace_faces(parts: np.ndarray, ends: tuple | None = None
@@ -1205,7 +1214,7 @@ def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
     node, the outgoing half-edge just clockwise of its twin. None if two half-edges leave a
     node in exactly the same direction."""
     live = np.flatnonzero(alive)
-    order = live[np.lexsort((angle[live], origin[live]))]
+    order = _by_origin_then_angle(origin, angle, live)
     o, a = origin[order], angle[order]
     if np.any((o[1:] == o[:-1]) & (a[1:] == a[:-1])):
         return None
@@ -1220,6 +1229,22 @@ def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
     nxt = np.full(len(origin), -1)
     nxt[live] = order[prev]
     return nxt
+
+
+def _by_origin_then_angle(origin: np.ndarray, angle: np.ndarray, live: np.ndarray
+                          ) -> np.ndarray:
+    """``live[np.lexsort((angle[live], origin[live]))]`` (``origin``: integers from 0,
+    ``angle``: radians in ``[-pi, pi]``), by one sort of ``origin + (angle + pi) / (4 pi)``:
+    that key grows with the origin, then with the angle, but may round distinct angles of
+    one origin to equal keys. The order is the lexsort's if the angles then strictly
+    increase within each origin (no ties: the sorted order is unique), else the lexsort
+    is made."""
+    o, a = origin[live], angle[live]
+    order = live[np.argsort(o + (a + np.pi) * (0.25 / np.pi))]
+    o, a = origin[order], angle[order]
+    if np.all(o[1:] >= o[:-1]) and not np.any((o[1:] == o[:-1]) & (a[1:] <= a[:-1])):
+        return order
+    return live[np.lexsort((angle[live], origin[live]))]
 
 
 def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> np.ndarray:
