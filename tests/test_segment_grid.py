@@ -204,3 +204,23 @@ def test_block_table_lookup_equals_the_binary_search(r, cell):
     got, want = blk.query(c - w, c + w), sparse.query(c - w, c + w)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     assert len(got[1]) > 0
+
+
+def test_z_order_interleaves_the_cells_bits():
+    """The Z order: points sorted by their cells' x and y bits interleaved (built bit by bit
+    in Python), ties in input order; a permutation."""
+    from tether.spatial import z_order
+
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-3.0, 5.0, (3000, 2))
+    pts[::7] = pts[3::7][: len(pts[::7])]  # shared cells
+    cell = 0.01
+    g = ((pts - pts.min(axis=0)) / cell).astype(int)
+
+    def code(x, y):
+        return sum((((x >> i) & 1) << (2 * i)) | (((y >> i) & 1) << (2 * i + 1))
+                   for i in range(32))
+
+    want = sorted(range(len(pts)), key=lambda k: (code(*g[k].tolist()), k))
+    assert z_order(pts, cell).tolist() == want
+    assert len(z_order(np.zeros((0, 2)), 1.0)) == 0

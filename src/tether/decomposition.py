@@ -39,7 +39,7 @@ from tether.arrays import ragged_arange
 from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
-from tether.spatial import SegmentGrid
+from tether.spatial import SegmentGrid, z_order
 from tether.threads import map_chunks
 from tether.tolerances import REL_CURVE_TOL
 
@@ -1249,9 +1249,18 @@ def _by_origin_then_angle(origin: np.ndarray, angle: np.ndarray, live: np.ndarra
 
 def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> np.ndarray:
     """The smallest half-edge of each alive half-edge's cycle under ``nxt`` (dead ones: their
-    own index)."""
-    live = np.flatnonzero(alive)
-    return _components(len(nxt), live, nxt[live])
+    own index). Pointer doubling: ``label[h]`` is the least of the ``2^k`` half-edges from
+    ``h`` on, ``jump[h]`` the one after them; once a round changes no label, each label is
+    its cycle's least (following ``jump`` from ``h`` the labels cannot decrease, so they are
+    equal all around, and those windows cover the cycle)."""
+    label = np.arange(len(nxt))
+    jump = np.where(alive, nxt, label)
+    while True:
+        lower = np.minimum(label, label[jump])
+        if np.array_equal(lower, label):
+            return label
+        label = lower
+        jump = jump[jump]
 
 
 def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.ndarray:
@@ -2181,6 +2190,9 @@ CLEARANCE_BATCH = 20_000
 #: the next radius only if nothing of another part was found within the previous one.
 CLEARANCE_STAGES = (1 / 4, 1.0)
 
+#: The cells of the clearance's Z order of the points, in reaches (4 to 16 alike, measured).
+CLEARANCE_Z_CELL = 8.0
+
 
 def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
                sowner: np.ndarray, tree: shapely.STRtree | SegmentGrid, reach: float
@@ -2190,7 +2202,10 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
     (``CLEARANCE_STAGES``): a distance found within a radius is the nearest (every segment
     that close is among the radius's candidates), and most points have a neighbour much
     closer than ``reach``, so far fewer (point, segment) pairs are measured than in one search
-    within ``reach``; the same distances."""
+    within ``reach``; the same distances. The points are taken in Z order (batches of nearby
+    points: 1.4 -> 0.9 s at 1,000 map vertices, the segments' data read from cache)."""
+    order = z_order(pts, CLEARANCE_Z_CELL * reach)
+    pts, owner = pts[order], owner[order]
     clear = np.full(len(pts), reach)
     cols = tuple(np.ascontiguousarray(c) for c in (sa[:, 0], sa[:, 1], sb[:, 0], sb[:, 1]))
     todo = np.arange(len(pts))
@@ -2204,7 +2219,9 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
         hit = found <= r  # the nearest within r, if any (farther candidates do not lower it)
         clear[todo[hit]] = found[hit]
         todo = todo[~hit]
-    return clear
+    out = np.empty_like(clear)
+    out[order] = clear
+    return out
 
 
 def _other_distances(pts: np.ndarray, owner: np.ndarray, cols: tuple[np.ndarray, ...],

@@ -280,3 +280,23 @@ def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
         offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() * n
         keys.append((base[segs][:, None] + offs).ravel())
     return np.concatenate(keys)
+
+
+def z_order(pts: np.ndarray, cell: float) -> np.ndarray:
+    """An order of the points (m, 2) along a Z curve over square cells of side ``cell`` (map
+    units; stable within a cell): runs of it are compact patches of the plane, so a batch of
+    queries reads a small part of a grid's arrays (cache hits)."""
+    if len(pts) == 0:
+        return np.zeros(0, np.int64)
+    g = np.clip((pts - pts.min(axis=0)) / cell, 0, 2**31 - 1).astype(np.int64)
+    return np.argsort(_spread_bits(g[:, 0]) | (_spread_bits(g[:, 1]) << 1), kind="stable")
+
+
+def _spread_bits(v: np.ndarray) -> np.ndarray:
+    """Bit ``i`` of each value (below ``2**32``) moved to bit ``2 i``."""
+    v = v.astype(np.uint64)
+    for shift, mask in ((16, 0x0000FFFF0000FFFF), (8, 0x00FF00FF00FF00FF),
+                        (4, 0x0F0F0F0F0F0F0F0F), (2, 0x3333333333333333),
+                        (1, 0x5555555555555555)):
+        v = (v | (v << np.uint64(shift))) & np.uint64(mask)
+    return v
