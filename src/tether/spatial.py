@@ -219,10 +219,11 @@ class _Blocks:
                 break
             cell *= 2
         shape = (int(span_x / cell) + 1, int(span_y / cell) + 1)
-        key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1])
+        bits = max(1, (len(gx0) - 1).bit_length())
+        key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1], bits)
         key.sort()  # (block, segment) as one integer: a sort of values, fast
-        block, seg = np.divmod(key, len(gx0))
-        seg = seg.astype(np.int32)
+        block = key >> bits
+        seg = (key & ((1 << bits) - 1)).astype(np.int32)
         head = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
         start = np.append(head, len(key))
         block = block[head]
@@ -262,14 +263,14 @@ class _Blocks:
         return np.repeat(np.arange(len(lo)), n), self.seg[ragged_arange(first, n)]
 
 
-def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
+def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int, bits: int
                 ) -> np.ndarray:
-    """Every (block, segment) pair as the integer ``block * n + segment`` (``n`` segments):
-    segment ``k``'s blocks are ``first[k] + i * stride + j`` for ``i < nbx[k]``, ``j <
-    nby[k]``. Segments of one shape ``(nbx, nby)`` at a time (a few shapes hold nearly all
-    segments)."""
+    """Every (block, segment) pair as the integer ``block << bits | segment`` (segments
+    below ``2 ** bits``; shifts, not divisions, take it apart): segment ``k``'s blocks are
+    ``first[k] + i * stride + j`` for ``i < nbx[k]``, ``j < nby[k]``. Segments of one shape
+    ``(nbx, nby)`` at a time (a few shapes hold nearly all segments)."""
     n = len(first)
-    base = first * n + np.arange(n)
+    base = (first << bits) | np.arange(n)
     code = nbx * (int(nby.max()) + 1) + nby
     order = np.argsort(code, kind="stable")
     run = np.flatnonzero(np.r_[True, code[order][1:] != code[order][:-1], True])
@@ -277,7 +278,7 @@ def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
     for lo, hi in zip(run[:-1].tolist(), run[1:].tolist(), strict=True):
         segs = order[lo:hi]
         p, q = int(nbx[segs[0]]), int(nby[segs[0]])
-        offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() * n
+        offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() << bits
         keys.append((base[segs][:, None] + offs).ravel())
     return np.concatenate(keys)
 
