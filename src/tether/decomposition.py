@@ -950,10 +950,11 @@ class _Arrangement:
         return np.searchsorted(c, np.arange(len(chains) + 1)), s
 
 
-def _input_lines(env: Environment, curves: list[Curve]) -> tuple[np.ndarray, np.ndarray]:
+def _input_lines(env: Environment, curves: list[Curve]
+                 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """The arrangement's input: the map's rings (closed) and every curve polyline of at least
-    two distinct points, as linestrings (built in one call), and each line's source curve id
-    (-1: a ring)."""
+    two distinct points, as linestrings (built in one call), each line's source curve id
+    (-1: a ring), and the lines' segments (as :func:`_ring_segments` of the lines)."""
     polys = [np.vstack((r, r[:1])) for r in env.rings]
     src = [-1] * len(polys)
     for c in curves:
@@ -969,12 +970,14 @@ def _input_lines(env: Environment, curves: list[Curve]) -> tuple[np.ndarray, np.
     ok = (size >= 2) & (moves > 0)
     rows = ok[line]
     new_index = np.cumsum(ok) - 1
-    lines = shapely.linestrings(coords[rows], indices=new_index[line[rows]])
-    return np.asarray(lines, dtype=object), np.asarray(src)[ok]
+    xy, idx = coords[rows], new_index[line[rows]]
+    lines = shapely.linestrings(xy, indices=idx)
+    k = np.flatnonzero(idx[1:] == idx[:-1])
+    return np.asarray(lines, dtype=object), np.asarray(src)[ok], (xy[k], xy[k + 1], idx[k])
 
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
-    lines, source = _input_lines(env, curves)
+    lines, source, (la, lb, lowner) = _input_lines(env, curves)
     noded, grid = _node(lines, tol)
     parts = shapely.get_parts(noded)
     del noded
@@ -991,7 +994,6 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
         faces, part_faces = _polygonize_faces(parts, pa, pb, powner, longest)
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment grid: distances to whole long polylines would dominate the time)
-    la, lb, lowner = _ring_segments(lines)
     mid = 0.5 * (pa[longest] + pb[longest])
     tree = SegmentGrid(la, lb)
     source = np.asarray(source, dtype=np.int64)
