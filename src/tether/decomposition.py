@@ -2189,8 +2189,9 @@ CLEARANCE_BATCH = 20_000
 
 
 #: The clearance search's radii, as fractions of its reach: a point is searched again within
-#: the next radius only if nothing of another part was found within the previous one.
-CLEARANCE_STAGES = (1 / 4, 1.0)
+#: the next radius only if nothing of another part was found within the previous one (a
+#: first radius of 1/3: the fastest of 1/6 to 1/2, measured with the points in Z order).
+CLEARANCE_STAGES = (1 / 3, 1.0)
 
 #: The cells of the clearance's Z order of the points, in reaches (4 to 16 alike, measured).
 CLEARANCE_Z_CELL = 8.0
