@@ -133,8 +133,10 @@ def test_origin_angle_order_is_the_lexsort(seed):
 @pytest.mark.parametrize("seed", [0, 1])
 def test_cycle_labels_are_the_cycles_least_half_edge(seed):
     """Labels by pointer doubling: each alive half-edge's cycle's least member (checked by
-    walking each cycle), dead ones their own index; cycles of 1 to ~5,000 half-edges."""
-    from tether.decomposition import _cycle_labels
+    walking each cycle), dead ones their own index, and the steps to it; cycles of 1 to
+    ~5,000 half-edges. Laid out from those: the order of ``_cycle_order`` (list ranking,
+    sorted)."""
+    from tether.decomposition import _cycle_labels, _cycle_order, _cycles_laid_out
 
     rng = np.random.default_rng(seed)
     n = 20_000
@@ -143,8 +145,16 @@ def test_cycle_labels_are_the_cycles_least_half_edge(seed):
     cuts = np.unique(np.r_[0, rng.integers(0, len(live), 40), 5000, len(live)])
     nxt = np.arange(n)
     want = np.arange(n)
+    steps = np.zeros(n, np.int64)
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # one cycle per run of ``live``
         cyc = live[a:b]
         nxt[cyc] = np.roll(cyc, -1)
         want[cyc] = cyc.min()
-    assert np.array_equal(_cycle_labels(nxt, alive), want)
+        least = int(np.argmin(cyc))
+        steps[cyc] = (least - np.arange(len(cyc))) % len(cyc)
+    label, off = _cycle_labels(nxt, alive)
+    assert np.array_equal(label, want)
+    assert np.array_equal(off, steps)
+    assert np.array_equal(_cycles_laid_out(label, off, alive), _cycle_order(nxt, label, alive))
+    none = np.zeros(n, bool)
+    assert len(_cycles_laid_out(np.arange(n), np.zeros(n, np.int64), none)) == 0

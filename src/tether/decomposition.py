@@ -1090,18 +1090,21 @@ def _trace_faces(parts: np.ndarray, ends: tuple | None = None
             j += sign
         step[h] = coords[j] - coords[at]
     angle = np.arctan2(step[:, 1], step[:, 0])
-    label = None
+    label = off = None
     for _ in range(2):  # the second pass without the cut edges
         nxt = _next_half_edges(origin, angle, alive)
         if nxt is None:
             return None
-        label = _cycle_labels(nxt, alive)
+        label, off = _cycle_labels(nxt, alive)
         cut = alive[0::2] & (label[0::2] == label[1::2])  # one face on both sides
         if not cut.any():
             break
         alive[0::2] &= ~cut
         alive[1::2] &= ~cut
-    seq = _cycle_order(nxt, label, alive)  # alive half-edges, cycle after cycle, in order
+        off = None  # the labels are not those of the half-edges left
+    # alive half-edges, cycle after cycle, in order
+    seq = _cycle_order(nxt, label, alive) if off is None else _cycles_laid_out(label, off,
+                                                                                alive)
     at = np.where(np.arange(2 * n) % 2 == 0, np.repeat(start, 2), np.repeat(last, 2))
     inner = np.where(np.repeat(count, 2) > 2, np.repeat(start + 1, 2), -1)
     loop = _split_pinched(seq, label[seq], origin, at, inner)
@@ -1249,20 +1252,43 @@ def _by_origin_then_angle(origin: np.ndarray, angle: np.ndarray, live: np.ndarra
     return live[np.lexsort((angle[live], origin[live]))]
 
 
-def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> np.ndarray:
+def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The smallest half-edge of each alive half-edge's cycle under ``nxt`` (dead ones: their
-    own index). Pointer doubling: ``label[h]`` is the least of the ``2^k`` half-edges from
-    ``h`` on, ``jump[h]`` the one after them; once a round changes no label, each label is
-    its cycle's least (following ``jump`` from ``h`` the labels cannot decrease, so they are
-    equal all around, and those windows cover the cycle)."""
+    own index), and the steps from the half-edge to it along ``nxt`` (0 for itself).
+    Pointer doubling: ``label[h]`` is the least of the ``2^k`` half-edges from ``h`` on,
+    first met ``off[h]`` steps on, ``jump[h]`` the one after them; once a round changes no
+    label, each label is its cycle's least (following ``jump`` from ``h`` the labels cannot
+    decrease, so they are equal all around, and those windows cover the cycle)."""
     label = np.arange(len(nxt))
+    off = np.zeros(len(nxt), np.int64)
     jump = np.where(alive, nxt, label)
+    span = 1
     while True:
-        lower = np.minimum(label, label[jump])
-        if np.array_equal(lower, label):
-            return label
-        label = lower
+        ahead = label[jump]
+        take = np.flatnonzero(ahead < label)  # the least only in the window's second half
+        if len(take) == 0:
+            return label, off
+        label[take] = ahead[take]
+        off[take] = off[jump[take]] + span
         jump = jump[jump]
+        span *= 2
+
+
+def _cycles_laid_out(label: np.ndarray, off: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """:func:`_cycle_order` from the cycles' labels and each half-edge's steps to its label
+    (:func:`_cycle_labels`): every half-edge put at its place, no sort."""
+    live = np.flatnonzero(alive)
+    lab = label[live]
+    first = live[lab == live]  # the cycles' least half-edges, increasing
+    cycle = np.empty(len(label), np.int64)
+    cycle[first] = np.arange(len(first))
+    c = cycle[lab]
+    size = np.bincount(c, minlength=len(first))
+    n = size[c]
+    at = (n - off[live]) % np.maximum(n, 1)  # steps from the label to it
+    seq = np.empty(len(live), np.int64)
+    seq[(np.cumsum(size) - size)[c] + at] = live
+    return seq
 
 
 def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.ndarray:
