@@ -1164,20 +1164,22 @@ def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
     its shoelace sum about its first point where that exceeds the sum's rounding bound
     (nearly all), GEOS's robust ``is_ccw`` for the others (specks of ~1e-16 map units)."""
     nring = len(ptr) - 1
-    ring = np.repeat(np.arange(nring), np.diff(ptr))
-    d = xy - xy[ptr[:-1]][ring]
+    size = np.diff(ptr)
+    ring = np.repeat(np.arange(nring), size)
+    d = xy - np.repeat(xy[ptr[:-1]], size, axis=0)
     a = d[:-1, 0] * d[1:, 1]
     b = d[1:, 0] * d[:-1, 1]
+    # pairs of consecutive points, each summed in its first point's ring: a ring's last
+    # point (its first again: d = 0) and the next ring's first (d = 0) add 0 to its sums
     row = ring[:-1]
-    ok = ring[1:] == row  # pairs of consecutive points of one ring
-    total = np.bincount(row[ok], weights=(a - b)[ok], minlength=nring)
-    bound = np.bincount(row[ok], weights=(np.abs(a) + np.abs(b))[ok], minlength=nring)
+    total = np.bincount(row, weights=a - b, minlength=nring)
+    bound = np.bincount(row, weights=np.abs(a) + np.abs(b), minlength=nring)
     ccw = total > 0
     unsure = np.flatnonzero(np.abs(total) <= 8 * np.diff(ptr) * np.finfo(float).eps * bound)
     if len(unsure):
         idx = ragged_arange(ptr[unsure], ptr[unsure + 1] - ptr[unsure])
         rings = shapely.linearrings(xy[idx], indices=np.repeat(np.arange(len(unsure)),
-                                                                np.diff(ptr)[unsure]))
+                                                                size[unsure]))
         ccw[unsure] = shapely.is_ccw(rings)
     return ccw
 
