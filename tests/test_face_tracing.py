@@ -179,3 +179,51 @@ def test_rings_ccw_is_geos_is_ccw():
         np.arange(len(sizes)), sizes + 1)))
     got = _rings_ccw(np.vstack(rings), ptr)
     assert np.array_equal(got, want) and 0 < got.sum() < len(got)
+
+
+def _drop_dangles_reference(origin, nodes):
+    """The dangles' removal as it was (the half-edges leaving each tip found through a sort
+    of the origins)."""
+    from tether.arrays import ragged_arange
+
+    alive = np.ones(len(origin), bool)
+    deg = np.bincount(origin, minlength=nodes)
+    order = np.argsort(origin, kind="stable")
+    ptr = np.searchsorted(origin[order], np.arange(nodes + 1))
+    tip = np.flatnonzero(deg == 1)
+    while len(tip):
+        he = order[ragged_arange(ptr[tip], ptr[tip + 1] - ptr[tip])]
+        he = he[alive[he]]
+        part = np.unique(he // 2)
+        alive[2 * part] = alive[2 * part + 1] = False
+        end = origin[np.concatenate((2 * part, 2 * part + 1))]
+        np.subtract.at(deg, end, 1)
+        tip = np.unique(end[deg[end] == 1])
+    return alive
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_drop_dangles_equals_reference(seed):
+    """Random graphs of parts (a few dense nodes, long dangling paths, isolated parts,
+    loops at one node, paths ending on a loop): the same half-edges left."""
+    from tether.decomposition import _drop_dangles
+
+    rng = np.random.default_rng(seed)
+    nodes = 3000
+    u = rng.integers(0, 300, 2000)
+    v = rng.integers(0, 300, 2000)
+    path = np.arange(300, 1300)  # paths of 1..50 parts hanging from the dense nodes
+    cut = np.unique(rng.integers(0, len(path), 40))
+    hang = rng.integers(0, 300, len(path))
+    hang[np.r_[0, cut][1:] % len(path)] = -1
+    pu = np.where(np.r_[True, np.isin(np.arange(1, len(path)), cut)], hang, path - 1)
+    pu[pu < 0] = path[pu < 0] - 1
+    iso = np.arange(1400, 1600).reshape(-1, 2)
+    loops = rng.integers(0, 1600, 30)
+    a = np.concatenate((u, pu, iso[:, 0], loops))
+    b = np.concatenate((v, path, iso[:, 1], loops))
+    origin = np.empty(2 * len(a), np.int64)
+    origin[0::2], origin[1::2] = a, b
+    got = _drop_dangles(origin, nodes)
+    assert np.array_equal(got, _drop_dangles_reference(origin, nodes))
+    assert 0 < (~got).sum() < len(got) - 1000

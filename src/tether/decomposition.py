@@ -1200,17 +1200,17 @@ def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
     """Which half-edges (``origin``: each one's start node, twins ``2k``, ``2k + 1``) remain
     once dangles are removed: parts with an end of degree 1, repeatedly."""
     alive = np.ones(len(origin), bool)
-    deg = np.bincount(origin, minlength=nodes)
-    order = np.argsort(origin, kind="stable")
-    ptr = np.searchsorted(origin[order], np.arange(nodes + 1))
+    deg = np.bincount(origin, minlength=nodes)  # alive half-edges leaving each node
+    # and the sum of their indices (exact in floats): at a tip, its one half-edge
+    total = np.bincount(origin, weights=np.arange(len(origin), dtype=float), minlength=nodes)
     tip = np.flatnonzero(deg == 1)
     while len(tip):
-        he = order[ragged_arange(ptr[tip], ptr[tip + 1] - ptr[tip])]
-        he = he[alive[he]]
-        part = np.unique(he // 2)
+        part = np.unique(total[tip].astype(np.int64) // 2)
         alive[2 * part] = alive[2 * part + 1] = False
-        end = origin[np.concatenate((2 * part, 2 * part + 1))]
+        gone = np.concatenate((2 * part, 2 * part + 1))
+        end = origin[gone]
         np.subtract.at(deg, end, 1)
+        np.subtract.at(total, end, gone.astype(float))
         tip = np.unique(end[deg[end] == 1])
     return alive
 
