@@ -1115,12 +1115,14 @@ def _trace_faces(parts: np.ndarray, ends: tuple | None = None
     fwd = seq % 2 == 0
     k = seq // 2
     m = count[k] - 1
-    pos = ragged_arange(np.zeros(len(seq), np.int64), m)
-    he_rep = np.repeat(np.arange(len(seq)), m)
-    ci = np.where(fwd[he_rep], start[k][he_rep] + pos, last[k][he_rep] - pos)
-    ring_pt = ring_of[he_rep]
-    order = np.argsort(ring_pt, kind="stable")
-    ci, ring_pt = ci[order], ring_pt[order]
+    # a half-edge's j-th point: its first point's index, then forwards or backwards
+    ci = ragged_arange(np.zeros(len(seq), np.int64), m)
+    ci *= np.repeat(np.where(fwd, 1, -1), m)
+    ci += np.repeat(np.where(fwd, start[k], last[k]), m)
+    ring_pt = np.repeat(ring_of, m)
+    if np.any(ring_pt[1:] < ring_pt[:-1]):  # rings split off pinched cycles: numbered last
+        order = np.argsort(ring_pt, kind="stable")
+        ci, ring_pt = ci[order], ring_pt[order]
     nring = int(ring_of.max(initial=-1)) + 1
     first = np.searchsorted(ring_pt, np.arange(nring))
     ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
