@@ -1263,15 +1263,16 @@ def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.nd
     first met ``off[h]`` steps on, ``jump[h]`` the one after them; once a round changes no
     label, each label is its cycle's least (following ``jump`` from ``h`` the labels cannot
     decrease, so they are equal all around, and those windows cover the cycle)."""
-    label = np.arange(len(nxt))
-    off = np.zeros(len(nxt), np.int64)
-    jump = np.where(alive, nxt, label)
+    small = np.int32 if len(nxt) < 2**31 else np.int64  # less memory read per round
+    label = np.arange(len(nxt), dtype=small)
+    off = np.zeros(len(nxt), small)
+    jump = np.where(alive, nxt, np.arange(len(nxt)))
     span = 1
     while True:
         ahead = label[jump]
         take = np.flatnonzero(ahead < label)  # the least only in the window's second half
         if len(take) == 0:
-            return label, off
+            return label.astype(np.int64), off.astype(np.int64)
         label[take] = ahead[take]
         off[take] = off[jump[take]] + span
         jump = jump[jump]
