@@ -1229,14 +1229,11 @@ def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
         return None
     pos = np.empty(len(origin), np.int64)
     pos[order] = np.arange(len(order))
-    new = np.r_[True, o[1:] != o[:-1]]
-    gstart = np.flatnonzero(new)
-    gid = np.cumsum(new) - 1
-    gend = np.r_[gstart[1:], len(order)]
-    tp = pos[live ^ 1]  # each half-edge's twin, in the sorted order
-    prev = np.where(tp > gstart[gid[tp]], tp - 1, gend[gid[tp]] - 1)
+    gstart = np.flatnonzero(np.r_[True, o[1:] != o[:-1]])
+    prev = np.arange(-1, len(order) - 1)  # the one before in the sorted order, cyclic per node
+    prev[gstart] = np.r_[gstart[1:], len(order)] - 1
     nxt = np.full(len(origin), -1)
-    nxt[live] = order[prev]
+    nxt[live] = order[prev[pos[live ^ 1]]]  # from each half-edge's twin, in the sorted order
     return nxt
 
 
