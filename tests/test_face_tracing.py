@@ -101,3 +101,129 @@ def test_exactly_overlapping_directions_fall_back():
     parts = [shapely.linestrings(c) for c in ([(0, 0), (1, 0), (1, 1)],
                                               [(0, 0), (2, 0), (2, 1)], [(1, 1), (2, 1)])]
     assert _trace_faces(np.asarray(parts, dtype=object)) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_origin_angle_order_is_the_lexsort(seed):
+    """The half-edges' order by origin then angle (one sort of a combined key, checked) is
+    the lexsort's: on random angles, on angles a few ulps apart (keys that round alike: the
+    lexsort is made), on equal angles, and on a subset of the half-edges."""
+    from tether.decomposition import _by_origin_then_angle
+
+    rng = np.random.default_rng(seed)
+    n = 5000
+    origin = rng.integers(0, 800, n)
+    angle = rng.uniform(-np.pi, np.pi, n)
+    angle[rng.random(n) < 0.02] = np.pi  # the ends of the range
+    angle[rng.random(n) < 0.02] = -np.pi
+    live = np.flatnonzero(rng.random(n) < 0.9)
+    want = live[np.lexsort((angle[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, angle, live), want)
+    near = angle.copy()
+    k = rng.integers(0, n, 50)
+    near[k] = np.nextafter(near[k - 1], 4.0)  # a neighbour's angle, one ulp up
+    origin[k] = origin[k - 1]
+    want = live[np.lexsort((near[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, near, live), want)
+    near[k] = near[k - 1]  # ties: the lexsort's order (stable) all the same
+    want = live[np.lexsort((near[live], origin[live]))]
+    assert np.array_equal(_by_origin_then_angle(origin, near, live), want)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_cycle_labels_are_the_cycles_least_half_edge(seed):
+    """Labels by pointer doubling: each alive half-edge's cycle's least member (checked by
+    walking each cycle), dead ones their own index, and the steps to it; cycles of 1 to
+    ~5,000 half-edges. Laid out from those: the order of ``_cycle_order`` (list ranking,
+    sorted)."""
+    from tether.decomposition import _cycle_labels, _cycle_order, _cycles_laid_out
+
+    rng = np.random.default_rng(seed)
+    n = 20_000
+    alive = rng.random(n) < 0.8
+    live = rng.permutation(np.flatnonzero(alive))
+    cuts = np.unique(np.r_[0, rng.integers(0, len(live), 40), 5000, len(live)])
+    nxt = np.arange(n)
+    want = np.arange(n)
+    steps = np.zeros(n, np.int64)
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):  # one cycle per run of ``live``
+        cyc = live[a:b]
+        nxt[cyc] = np.roll(cyc, -1)
+        want[cyc] = cyc.min()
+        least = int(np.argmin(cyc))
+        steps[cyc] = (least - np.arange(len(cyc))) % len(cyc)
+    label, off = _cycle_labels(nxt, alive)
+    assert np.array_equal(label, want)
+    assert np.array_equal(off, steps)
+    assert np.array_equal(_cycles_laid_out(label, off, alive), _cycle_order(nxt, label, alive))
+    none = np.zeros(n, bool)
+    assert len(_cycles_laid_out(np.arange(n), np.zeros(n, np.int64), none)) == 0
+
+
+def test_rings_ccw_is_geos_is_ccw():
+    """The rings' orientation by shoelace sums (one bincount over all consecutive pairs) is
+    GEOS's ``is_ccw`` ring by ring: random simple rings (star-shaped) either way round,
+    specks of 1e-16 map units."""
+    from tether.decomposition import _rings_ccw
+
+    rng = np.random.default_rng(4)
+    sizes = rng.integers(4, 30, 3000)
+    rings = []
+    for k in sizes:
+        t = (np.arange(k) + rng.uniform(0, 0.8, k)) * (2 * np.pi / k) * rng.choice([-1, 1])
+        p = rng.uniform(0.2, 1.0, (k, 1)) * np.column_stack((np.cos(t), np.sin(t)))
+        p = p * 1e-16 if rng.random() < 0.05 else rng.normal(0, 5, 2) + p
+        rings.append(np.vstack((p, p[:1])))
+    ptr = np.r_[0, np.cumsum(sizes + 1)]
+    want = shapely.is_ccw(shapely.linearrings(np.vstack(rings), indices=np.repeat(
+        np.arange(len(sizes)), sizes + 1)))
+    got = _rings_ccw(np.vstack(rings), ptr)
+    assert np.array_equal(got, want) and 0 < got.sum() < len(got)
+
+
+def _drop_dangles_reference(origin, nodes):
+    """The dangles' removal as it was (the half-edges leaving each tip found through a sort
+    of the origins)."""
+    from tether.arrays import ragged_arange
+
+    alive = np.ones(len(origin), bool)
+    deg = np.bincount(origin, minlength=nodes)
+    order = np.argsort(origin, kind="stable")
+    ptr = np.searchsorted(origin[order], np.arange(nodes + 1))
+    tip = np.flatnonzero(deg == 1)
+    while len(tip):
+        he = order[ragged_arange(ptr[tip], ptr[tip + 1] - ptr[tip])]
+        he = he[alive[he]]
+        part = np.unique(he // 2)
+        alive[2 * part] = alive[2 * part + 1] = False
+        end = origin[np.concatenate((2 * part, 2 * part + 1))]
+        np.subtract.at(deg, end, 1)
+        tip = np.unique(end[deg[end] == 1])
+    return alive
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_drop_dangles_equals_reference(seed):
+    """Random graphs of parts (a few dense nodes, long dangling paths, isolated parts,
+    loops at one node, paths ending on a loop): the same half-edges left."""
+    from tether.decomposition import _drop_dangles
+
+    rng = np.random.default_rng(seed)
+    nodes = 3000
+    u = rng.integers(0, 300, 2000)
+    v = rng.integers(0, 300, 2000)
+    path = np.arange(300, 1300)  # paths of 1..50 parts hanging from the dense nodes
+    cut = np.unique(rng.integers(0, len(path), 40))
+    hang = rng.integers(0, 300, len(path))
+    hang[np.r_[0, cut][1:] % len(path)] = -1
+    pu = np.where(np.r_[True, np.isin(np.arange(1, len(path)), cut)], hang, path - 1)
+    pu[pu < 0] = path[pu < 0] - 1
+    iso = np.arange(1400, 1600).reshape(-1, 2)
+    loops = rng.integers(0, 1600, 30)
+    a = np.concatenate((u, pu, iso[:, 0], loops))
+    b = np.concatenate((v, path, iso[:, 1], loops))
+    origin = np.empty(2 * len(a), np.int64)
+    origin[0::2], origin[1::2] = a, b
+    got = _drop_dangles(origin, nodes)
+    assert np.array_equal(got, _drop_dangles_reference(origin, nodes))
+    assert 0 < (~got).sum() < len(got) - 1000

@@ -72,24 +72,43 @@ def test_meeting_is_strtree_query_on_rectangles():
 
 
 def test_blocks_hold_every_segment_of_their_cells():
-    """Block (i, j) holds exactly the segments whose cells meet cells i-m..i by j-m..j
-    (loops over the segments' cells, as a reference)."""
+    """Cell (i, j) holds exactly the segments whose bounding box, grown by the blocks' reach
+    to the left and below, meets it (loops over the segments' cells, as a reference), for
+    cells of the boxes' width and wider."""
     rng = np.random.default_rng(3)
     a, b = _segments(rng, 1500)
     grid = SegmentGrid(a, b)
-    for r, m in ((0.004, 1), (0.02, 1), (0.01, 2)):
-        blk = _Blocks.build(grid, r, m)
-        (ox, oy), c = blk.origin, blk.cell
-        gx0, gx1 = ((grid.x0 - ox) / c).astype(int), ((grid.x1 - ox) / c).astype(int)
-        gy0, gy1 = ((grid.y0 - oy) / c).astype(int), ((grid.y1 - oy) / c).astype(int)
+    for r, cell in ((0.004, 0.0), (0.02, 0.0), (0.01, 0.05), (1e-6, 0.003)):
+        blk = _Blocks.build(grid, r, cell)
+        (ox, oy), c, e = blk.origin, blk.cell, blk.reach
+        assert c >= max(cell, e) and e > 2 * r
+        gx0, gx1 = ((grid.x0 - e - ox) / c).astype(int), ((grid.x1 - ox) / c).astype(int)
+        gy0, gy1 = ((grid.y0 - e - oy) / c).astype(int), ((grid.y1 - oy) / c).astype(int)
         want = [[] for _ in range(blk.shape[0] * blk.shape[1])]
         for k in range(len(gx0)):
-            for i in range(gx0[k], gx1[k] + m + 1):
-                for j in range(gy0[k], gy1[k] + m + 1):
+            for i in range(gx0[k], gx1[k] + 1):
+                for j in range(gy0[k], gy1[k] + 1):
                     want[i * blk.shape[1] + j].append(k)
         assert blk.seg.tolist() == [k for w in want for k in w]
         assert blk.block.tolist() == [k for k, w in enumerate(want) if w]
-        assert all(blk.contents(k).tolist() == w for k, w in enumerate(want))
+        some = np.r_[blk.block, rng.integers(0, len(want), 500)].tolist()
+        assert all(blk.contents(k).tolist() == want[k] for k in some)
+
+
+@pytest.mark.parametrize("r", [1e-9, 1e-4, 0.01])
+def test_meeting_with_cells_wider_than_the_boxes(r):
+    """Cells of twice the segments' median extent, far wider than tiny boxes (the parts'
+    sources): the envelope pairs still, each once, in order."""
+    rng = np.random.default_rng(8)
+    a, b = _segments(rng, 1500)
+    grid = SegmentGrid(a, b)
+    pts = np.concatenate((0.5 * (a + b), b[:300], rng.uniform(-0.1, 1.1, (300, 2))))
+    qi, si = grid.meeting(pts - r, pts + r)
+    (blk,) = grid._blocks.values()
+    assert blk.cell >= grid._cell() > 4 * r or r == 0.01
+    got = list(zip(qi.tolist(), si.tolist(), strict=True))
+    assert got == sorted(set(got))
+    assert set(got) == _envelope_pairs(pts, a, b, r)
 
 
 def test_blocks_guard_many_long_segments():
@@ -169,8 +188,8 @@ def test_segment_pairs_grid_equals_strtree():
             sorted(zip(*(x.tolist() for x in want), strict=True))
 
 
-@pytest.mark.parametrize(("r", "m"), [(0.004, 1), (0.02, 1), (0.01, 2), (1e-6, 1)])
-def test_block_table_lookup_equals_the_binary_search(r, m):
+@pytest.mark.parametrize(("r", "cell"), [(0.004, 0.0), (0.02, 0.0), (0.01, 0.03), (1e-6, 0.0)])
+def test_block_table_lookup_equals_the_binary_search(r, cell):
     """Blocks found through the direct table (small grids) are those the binary search in
     the sorted block numbers finds (large sparse grids), for boxes in and around the grid."""
     import dataclasses
@@ -178,7 +197,7 @@ def test_block_table_lookup_equals_the_binary_search(r, m):
     rng = np.random.default_rng(6)
     a, b = _segments(rng, 1500)
     grid = SegmentGrid(a, b)
-    blk = _Blocks.build(grid, r, m)
+    blk = _Blocks.build(grid, r, cell)
     c = rng.uniform(-0.3, 1.3, (3000, 2))
     w = r * rng.uniform(0.0, 1.0, (3000, 2))
     sparse = dataclasses.replace(blk, slot=None)
@@ -186,3 +205,23 @@ def test_block_table_lookup_equals_the_binary_search(r, m):
     got, want = blk.query(c - w, c + w), sparse.query(c - w, c + w)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     assert len(got[1]) > 0
+
+
+def test_z_order_interleaves_the_cells_bits():
+    """The Z order: points sorted by their cells' x and y bits interleaved (built bit by bit
+    in Python), ties in input order; a permutation."""
+    from tether.spatial import z_order
+
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-3.0, 5.0, (3000, 2))
+    pts[::7] = pts[3::7][: len(pts[::7])]  # shared cells
+    cell = 0.01
+    g = ((pts - pts.min(axis=0)) / cell).astype(int)
+
+    def code(x, y):
+        return sum((((x >> i) & 1) << (2 * i)) | (((y >> i) & 1) << (2 * i + 1))
+                   for i in range(32))
+
+    want = sorted(range(len(pts)), key=lambda k: (code(*g[k].tolist()), k))
+    assert z_order(pts, cell).tolist() == want
+    assert len(z_order(np.zeros((0, 2)), 1.0)) == 0

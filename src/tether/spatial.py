@@ -128,6 +128,7 @@ class SegmentGrid:
         self.ex, self.ey = bx - self.ax, by - self.ay
         self.den = self.ex * self.ex + self.ey * self.ey
         self._blocks: dict[float, _Blocks] = {}
+        self._median: float | None = None
 
     def __len__(self) -> int:
         return len(self.ax)
@@ -136,31 +137,58 @@ class SegmentGrid:
         """Pairs (box index, segment index) of the boxes ``[lo[i], hi[i]]`` (shape (m, 2)
         each) and the segments whose bounding box meets them (bounds included, compared as
         given), each once, grouped by box in increasing order."""
+        bi, si = self.candidates(lo, hi)
+        meet = self.meets(lo, hi, bi, si)
+        meet = np.flatnonzero(meet)
+        return bi[meet], si[meet]
+
+    def candidates(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (box index, segment index) among which are those of :meth:`meeting` (and
+        more), grouped by box in increasing order, segments increasing within a box."""
         if len(lo) == 0 or len(self) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         half = 0.5 * float(np.max(hi - lo, initial=0.0))
         size = 2.0 ** (math.ceil(64 * math.log2(half)) / 64) if half > 0 else 0.0
         blocks = self._blocks.get(size)
         if blocks is None:
-            blocks = self._blocks[size] = _Blocks.build(self, size)
+            blocks = self._blocks[size] = _Blocks.build(self, size, self._cell())
         bi, si = blocks.query(lo, hi)
-        meet = np.flatnonzero((self.x0[si] <= hi[:, 0][bi]) & (self.x1[si] >= lo[:, 0][bi])
-                              & (self.y0[si] <= hi[:, 1][bi]) & (self.y1[si] >= lo[:, 1][bi]))
-        return bi[meet], si[meet].astype(np.int64)
+        return bi, si.astype(np.int64)
+
+    def meets(self, lo: np.ndarray, hi: np.ndarray, bi: np.ndarray, si: np.ndarray
+              ) -> np.ndarray:
+        """Whether segment ``si[k]``'s bounding box meets box ``bi[k]`` (bounds included)."""
+        meet = self.x0[si] <= hi[:, 0][bi]
+        meet &= self.x1[si] >= lo[:, 0][bi]
+        meet &= self.y0[si] <= hi[:, 1][bi]
+        meet &= self.y1[si] >= lo[:, 1][bi]
+        return meet
+
+    def _cell(self) -> float:
+        """The blocks' least cell side (map units): twice the segments' median extent (the
+        larger of width and height), where registrations and candidates per box cost about
+        alike (measured on the floor plans; boxes wider than that get cells of their
+        width)."""
+        if self._median is None:
+            self._median = 2.0 * float(np.median(np.maximum(self.x1 - self.x0,
+                                                            self.y1 - self.y0)))
+        return self._median
 
 
 @dataclass(frozen=True, eq=False)
 class _Blocks:
-    """The blocks of a :class:`SegmentGrid` for boxes of half-width ``r`` (CSR): block ``(i,
-    j)`` covers cells ``i - m .. i`` by ``j - m .. j`` (cells counted from the segments'
-    lower left corner ``origin``, of side ``cell``, map units). Only blocks holding segments
-    are kept: block number ``k = i * shape[1] + j`` is ``block[t]`` (increasing) and its
-    segments are ``seg[start[t]:start[t + 1]]``, increasing (sparse: the grid may have millions
-    of cells, a small map a few hundred segments)."""
+    """The blocks of a :class:`SegmentGrid` for boxes of width at most ``reach`` a side
+    (CSR): the plane is cut into square cells of side ``cell`` from ``origin`` (map units),
+    and cell ``(i, j)`` holds every segment whose bounding box, grown by ``reach`` to the
+    left and below, meets it. The cell of a box's lower left corner then holds every
+    segment whose bounding box meets the box. Only cells holding segments are kept: cell
+    number ``k = i * shape[1] + j`` is ``block[t]`` (increasing) and its segments are
+    ``seg[start[t]:start[t + 1]]``, increasing (sparse: the grid may have millions of cells,
+    a small map a few hundred segments)."""
 
     origin: tuple[float, float]
     cell: float
-    m: int
+    reach: float
     shape: tuple[int, int]
     block: np.ndarray
     start: np.ndarray
@@ -170,27 +198,32 @@ class _Blocks:
     slot: np.ndarray | None = None
 
     @classmethod
-    def build(cls, grid: SegmentGrid, r: float, m: int = 1) -> _Blocks:
-        ox, oy = float(grid.x0.min()), float(grid.y0.min())
-        span_x, span_y = float(grid.x1.max()) - ox, float(grid.y1.max()) - oy
-        # box bounds are rounded to the coordinates' precision: the cells allow for that
-        ulp = 4 * np.finfo(float).eps * max(abs(ox), abs(oy), abs(ox + span_x),
-                                            abs(oy + span_y), 1e-300)
-        cell = max(1.01 * (2 * r + 2 * ulp) / m, math.sqrt(span_x * span_y / MAX_CELLS),
+    def build(cls, grid: SegmentGrid, r: float, cell: float = 0.0) -> _Blocks:
+        """The blocks for boxes of half-width at most ``r``, in cells of side at least
+        ``cell`` and the boxes' width (grown for rounding)."""
+        x0, y0 = float(grid.x0.min()), float(grid.y0.min())
+        x1, y1 = float(grid.x1.max()), float(grid.y1.max())
+        # box bounds are rounded to the coordinates' precision: the reach allows for that
+        ulp = 4 * np.finfo(float).eps * max(abs(x0), abs(y0), abs(x1), abs(y1), 1e-300)
+        reach = 1.01 * (2 * r + 2 * ulp)
+        ox, oy = x0 - reach, y0 - reach
+        span_x, span_y = x1 - ox, y1 - oy
+        cell = max(reach, cell, math.sqrt(span_x * span_y / MAX_CELLS),
                    max(span_x, span_y) / MAX_CELLS, 1e-300)
         while True:
-            gx0 = ((grid.x0 - ox) / cell).astype(np.int64)
-            gy0 = ((grid.y0 - oy) / cell).astype(np.int64)
-            nbx = ((grid.x1 - ox) / cell).astype(np.int64) - gx0 + 1 + m  # blocks a side
-            nby = ((grid.y1 - oy) / cell).astype(np.int64) - gy0 + 1 + m
+            gx0 = np.maximum(((grid.x0 - reach - ox) / cell).astype(np.int64), 0)
+            gy0 = np.maximum(((grid.y0 - reach - oy) / cell).astype(np.int64), 0)
+            nbx = ((grid.x1 - ox) / cell).astype(np.int64) - gx0 + 1  # cells a side
+            nby = ((grid.y1 - oy) / cell).astype(np.int64) - gy0 + 1
             if int((nbx * nby).sum()) <= MAX_BLOCKS_PER_SEGMENT * len(nbx) + 1_000_000:
                 break
             cell *= 2
-        shape = (int(span_x / cell) + 1 + m, int(span_y / cell) + 1 + m)
-        key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1])
+        shape = (int(span_x / cell) + 1, int(span_y / cell) + 1)
+        bits = max(1, (len(gx0) - 1).bit_length())
+        key = _block_keys(gx0 * shape[1] + gy0, nbx, nby, shape[1], bits)
         key.sort()  # (block, segment) as one integer: a sort of values, fast
-        block, seg = np.divmod(key, len(gx0))
-        seg = seg.astype(np.int32)
+        block = key >> bits
+        seg = (key & ((1 << bits) - 1)).astype(np.int32)
         head = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
         start = np.append(head, len(key))
         block = block[head]
@@ -198,7 +231,7 @@ class _Blocks:
         if shape[0] * shape[1] <= len(key) + 4096:  # a table no larger than ``seg``
             slot = np.full(shape[0] * shape[1], -1, np.int32)
             slot[block] = np.arange(len(block), dtype=np.int32)
-        return cls((ox, oy), cell, m, shape, block, start, seg, slot)
+        return cls((ox, oy), cell, reach, shape, block, start, seg, slot)
 
     def contents(self, k: int) -> np.ndarray:
         """The segments of block number ``k`` (increasing; empty if none)."""
@@ -211,14 +244,11 @@ class _Blocks:
         """The segments of each box's block: (box index, segment index). A segment whose
         bounding box meets the box (as compared in floating point) is among them: cell
         numbers grow with the coordinates."""
-        (ox, oy), c, m = self.origin, self.cell, self.m
-        cx0 = np.floor((lo[:, 0] - ox) / c)  # the box's first cell a side
-        cy0 = np.floor((lo[:, 1] - oy) / c)
-        if np.any(np.floor((hi[:, 0] - ox) / c) - cx0 > m) or \
-                np.any(np.floor((hi[:, 1] - oy) / c) - cy0 > m):
-            raise ArithmeticError("a box spans more cells than a block")
-        bi = np.clip(cx0 + m, 0, self.shape[0] - 1).astype(np.int64)
-        bj = np.clip(cy0 + m, 0, self.shape[1] - 1).astype(np.int64)
+        (ox, oy), c = self.origin, self.cell
+        if np.any(hi - lo > self.reach / 1.01):
+            raise ArithmeticError("a box wider than the blocks' reach")
+        bi = np.clip(np.floor((lo[:, 0] - ox) / c), 0, self.shape[0] - 1).astype(np.int64)
+        bj = np.clip(np.floor((lo[:, 1] - oy) / c), 0, self.shape[1] - 1).astype(np.int64)
         b = bi * self.shape[1] + bj
         if self.slot is not None:
             t = self.slot[b].astype(np.int64)
@@ -233,14 +263,14 @@ class _Blocks:
         return np.repeat(np.arange(len(lo)), n), self.seg[ragged_arange(first, n)]
 
 
-def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
+def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int, bits: int
                 ) -> np.ndarray:
-    """Every (block, segment) pair as the integer ``block * n + segment`` (``n`` segments):
-    segment ``k``'s blocks are ``first[k] + i * stride + j`` for ``i < nbx[k]``, ``j <
-    nby[k]``. Segments of one shape ``(nbx, nby)`` at a time (a few shapes hold nearly all
-    segments)."""
+    """Every (block, segment) pair as the integer ``block << bits | segment`` (segments
+    below ``2 ** bits``; shifts, not divisions, take it apart): segment ``k``'s blocks are
+    ``first[k] + i * stride + j`` for ``i < nbx[k]``, ``j < nby[k]``. Segments of one shape
+    ``(nbx, nby)`` at a time (a few shapes hold nearly all segments)."""
     n = len(first)
-    base = first * n + np.arange(n)
+    base = (first << bits) | np.arange(n)
     code = nbx * (int(nby.max()) + 1) + nby
     order = np.argsort(code, kind="stable")
     run = np.flatnonzero(np.r_[True, code[order][1:] != code[order][:-1], True])
@@ -248,6 +278,26 @@ def _block_keys(first: np.ndarray, nbx: np.ndarray, nby: np.ndarray, stride: int
     for lo, hi in zip(run[:-1].tolist(), run[1:].tolist(), strict=True):
         segs = order[lo:hi]
         p, q = int(nbx[segs[0]]), int(nby[segs[0]])
-        offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() * n
+        offs = ((np.arange(p) * stride)[:, None] + np.arange(q)).ravel() << bits
         keys.append((base[segs][:, None] + offs).ravel())
     return np.concatenate(keys)
+
+
+def z_order(pts: np.ndarray, cell: float) -> np.ndarray:
+    """An order of the points (m, 2) along a Z curve over square cells of side ``cell`` (map
+    units; stable within a cell): runs of it are compact patches of the plane, so a batch of
+    queries reads a small part of a grid's arrays (cache hits)."""
+    if len(pts) == 0:
+        return np.zeros(0, np.int64)
+    g = np.clip((pts - pts.min(axis=0)) / cell, 0, 2**31 - 1).astype(np.int64)
+    return np.argsort(_spread_bits(g[:, 0]) | (_spread_bits(g[:, 1]) << 1), kind="stable")
+
+
+def _spread_bits(v: np.ndarray) -> np.ndarray:
+    """Bit ``i`` of each value (below ``2**32``) moved to bit ``2 i``."""
+    v = v.astype(np.uint64)
+    for shift, mask in ((16, 0x0000FFFF0000FFFF), (8, 0x00FF00FF00FF00FF),
+                        (4, 0x0F0F0F0F0F0F0F0F), (2, 0x3333333333333333),
+                        (1, 0x5555555555555555)):
+        v = (v | (v << np.uint64(shift))) & np.uint64(mask)
+    return v
