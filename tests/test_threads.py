@@ -65,3 +65,54 @@ def test_single_threaded_keeps_a_users_setting(monkeypatch):
     monkeypatch.setenv(THREADS_ENV, "3")
     single_threaded()
     assert thread_count() == 3
+
+
+@pytest.mark.parametrize("threads", ["1", "2", "5"])
+@pytest.mark.parametrize("count, batch", [(0, 3), (1, 3), (7, 3), (9, 3), (10, 100)])
+def test_map_batches_in_order(monkeypatch, threads, count, batch):
+    import threading
+
+    from tether.threads import map_batches
+    monkeypatch.setenv(THREADS_ENV, threads)
+    seen = set()
+
+    def span(lo, hi):
+        seen.add(threading.get_ident())
+        return (lo, hi)
+
+    got = map_batches(span, count, batch)
+    assert got == [(lo, min(lo + batch, count)) for lo in range(0, count, batch)]
+    if threads == "1" or len(got) <= 2:  # one thread, or one batch after the first
+        assert seen <= {threading.get_ident()}
+
+
+def _summary(dec, verdict):
+    """Everything a decomposition and its analysis report, as plain values."""
+    g = verdict.graph
+    return (dec.counts,
+            [(r.cells, r.area, r.point, sorted(r.structure)) for r in dec.regions],
+            [(p.regions, p.kind, p.features, p.sample, p.normal, p.eps, p.verified)
+             for p in dec.pieces],
+            [a.tolist() for a in (g.edge_a, g.edge_b, g.edge_piece)],
+            verdict.strategy_exists, sorted(verdict.surviving))
+
+
+def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
+    """Small batches, so that a small map's free arcs, rod tests and clearances run in many
+    batches in threads: every result equals that of one thread, exactly."""
+    import tether.arcs as arcs
+    import tether.decomposition as decomposition
+    from tether.escape import analyze
+    from tether.floorplan import floor_plan
+    monkeypatch.setattr(arcs, "POINT_BATCH", 300)
+    monkeypatch.setattr(decomposition, "ACROSS_BATCH", 200)
+    monkeypatch.setattr(decomposition, "CLEARANCE_BATCH", 250)
+    env = floor_plan(30, seed=2)
+    lss = (env.bounds[2] - env.bounds[0]) / 10
+    got = {}
+    for threads in ("1", "3"):
+        monkeypatch.setenv(THREADS_ENV, threads)
+        dec = decomposition.decompose(env, lss)
+        got[threads] = _summary(dec, analyze(dec))
+    assert got["1"][0]["pieces"] > 100  # many batches of each kind
+    assert got["1"] == got["3"]

@@ -22,6 +22,7 @@ from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
 from tether.spatial import EdgeIndex
+from tether.threads import map_batches
 from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
 TWO_PI = 2.0 * math.pi
@@ -400,8 +401,9 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
     if check:
         check_inside(env, pts)
     if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
-        return join_tables([free_arcs_many(env, pts[i:i + POINT_BATCH], lss, check=False)
-                            for i in range(0, len(pts), POINT_BATCH)])
+        return join_tables(map_batches(  # in threads: numpy's big calls release the GIL
+            lambda lo, hi: free_arcs_many(env, pts[lo:hi], lss, check=False), len(pts),
+            POINT_BATCH))
     inner, frame = env.internal, env.frame
     table = _merge(blocked_intervals(inner, frame.to_internal(pts), lss * frame.scale), len(pts))
     if inner is env:
@@ -485,9 +487,9 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     pts = _as_points(points)
     ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
     if len(pts) > POINT_BATCH:  # bounded memory: (point, edge) candidate rows per batch
-        return np.concatenate([rod_is_free_many(env, pts[i:i + POINT_BATCH],
-                                                ang[i:i + POINT_BATCH], lss)
-                               for i in range(0, len(pts), POINT_BATCH)])
+        return np.concatenate(map_batches(  # in threads: numpy's big calls release the GIL
+            lambda lo, hi: rod_is_free_many(env, pts[lo:hi], ang[lo:hi], lss), len(pts),
+            POINT_BATCH))
     if not env.is_internal:  # computed in the normalized frame, without straight vertices
         frame = env.frame
         return rod_is_free_many(env.internal, frame.to_internal(pts), ang, lss * frame.scale)

@@ -40,7 +40,7 @@ from tether.curves import Curve, _first_nearest, critical_curves, project_many
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.spatial import SegmentGrid, z_order
-from tether.threads import map_chunks
+from tether.threads import in_background, map_batches, map_chunks
 from tether.tolerances import REL_CURVE_TOL
 
 if TYPE_CHECKING:
@@ -978,7 +978,12 @@ def _input_lines(env: Environment, curves: list[Curve]
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
     lines, source, (la, lb, lowner) = _input_lines(env, curves)
+    # the sources' segment grid built while GEOS nodes (it releases the GIL); for the reach
+    # of floating-point noding (snap rounding's wider reach builds its own blocks)
+    tree = SegmentGrid(la, lb)
+    ready = in_background(tree.prepare, max(1e-3 * tol, 1e-12)) if len(la) else (lambda: None)
     noded, grid = _node(lines, tol)
+    ready()
     parts = shapely.get_parts(noded)
     del noded
     release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
@@ -995,7 +1000,6 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment grid: distances to whole long polylines would dominate the time)
     mid = 0.5 * (pa[longest] + pb[longest])
-    tree = SegmentGrid(la, lb)
     source = np.asarray(source, dtype=np.int64)
     base = int(source.max(initial=0)) + 2  # sources are -1 (wall) .. max
     keys = []  # (part, source) pairs as one integer key; in batches: their candidate pairs
@@ -1509,9 +1513,9 @@ def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
     among resolved faces, with each other) whose point is clear of the boundary by more than
     rounding and the noding ``grid`` (whether the face is in the free space is then the same
     at either point; specks of ~1e-16 map units, where it is not, get their circle: cheap)."""
-    inside = shapely.point_on_surface(faces)
+    inside = map_chunks(shapely.point_on_surface, faces)  # element-wise: on every core
     pts = shapely.get_coordinates(inside)
-    clear = shapely.distance(shapely.boundary(faces), inside)
+    clear = map_chunks(_boundary_distance, np.arange(len(faces)), faces=faces, points=inside)
     thin = np.flatnonzero(clear < 4 * tol)
     speck = clear[thin] < 1e-6 * tol + 2 * grid
     thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
@@ -1524,6 +1528,11 @@ def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
         pts[thin[better]] = c[better]
         clear[thin[better]] = r[better]
     return pts, clear
+
+
+def _boundary_distance(rows: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The distance from ``points[rows]`` to the boundaries of ``faces[rows]`` (map units)."""
+    return shapely.distance(shapely.boundary(faces[rows]), points[rows])
 
 
 #: Faces whose inradius bound (:func:`_inradius_bound`) is below this many curve tolerances
@@ -2241,11 +2250,16 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
     todo = np.arange(len(pts))
     for frac in CLEARANCE_STAGES:
         r = reach * frac
-        found = np.full(len(todo), np.inf)
-        for i in range(0, len(todo), CLEARANCE_BATCH):  # bounded memory: (point, segment) pairs
-            rows = todo[i:i + CLEARANCE_BATCH]
+
+        def batch(lo: int, hi: int, r: float = r, todo: np.ndarray = todo) -> np.ndarray:
+            rows = todo[lo:hi]  # bounded memory: (point, segment) pairs per batch
             qi, d = _other_distances(pts[rows], owner[rows], cols, sowner, r, tree)
-            np.minimum.at(found, i + qi, d)
+            nearest = np.full(len(rows), np.inf)
+            np.minimum.at(nearest, qi, d)
+            return nearest
+
+        # in threads (numpy's big calls release the GIL)
+        found = np.concatenate([np.zeros(0), *map_batches(batch, len(todo), CLEARANCE_BATCH)])
         hit = found <= r  # the nearest within r, if any (farther candidates do not lower it)
         clear[todo[hit]] = found[hit]
         todo = todo[~hit]
@@ -2455,16 +2469,18 @@ def _arcs_across(env: Environment, lss: float, q: np.ndarray, n: np.ndarray, eps
     ``q - eps n``) and the structures of those ``2k`` points. Computed in batches of
     :data:`ACROSS_BATCH` points, each batch's structures from its own table, the batches
     joined column by column with the freed memory returned to the system: the peak is the
-    table, its structures and one batch's temporaries."""
+    table, its structures and the temporaries of one batch per thread."""
     pts = crossing_points(q, n, eps)
-    tables, rows = [], []
-    for b, i in enumerate(range(0, max(len(pts), 1), ACROSS_BATCH)):
-        if b % 8 == 7:  # the batches' freed temporaries, scattered among the tables made
-            release_memory()
-        t = free_arcs_many(env, pts[i:i + ACROSS_BATCH], lss, check=False)
-        tables.append(t)
-        rows.append(_table_rows(env, t, len(t.full)))
-        del t
+
+    def batch(lo: int, hi: int) -> tuple[ArcTable, _StructureRows]:
+        if lo // ACROSS_BATCH % 8 == 7:  # the batches' freed temporaries, scattered among
+            release_memory()             # the tables made
+        t = free_arcs_many(env, pts[lo:hi], lss, check=False)
+        return t, _table_rows(env, t, len(t.full))
+
+    done = map_batches(batch, max(len(pts), 1), ACROSS_BATCH)  # in threads: numpy's big
+    tables, rows = [t for t, _ in done], [r for _, r in done]   # calls release the GIL
+    del done
     release_memory()
     return join_tables(tables, release_memory), _join_rows(rows)
 

@@ -11,6 +11,7 @@ half the reach, for a grid still of a few thousand cells.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,6 +129,7 @@ class SegmentGrid:
         self.ex, self.ey = bx - self.ax, by - self.ay
         self.den = self.ex * self.ex + self.ey * self.ey
         self._blocks: dict[float, _Blocks] = {}
+        self._building = threading.Lock()
         self._median: float | None = None
 
     def __len__(self) -> int:
@@ -147,13 +149,20 @@ class SegmentGrid:
         more), grouped by box in increasing order, segments increasing within a box."""
         if len(lo) == 0 or len(self) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        half = 0.5 * float(np.max(hi - lo, initial=0.0))
+        bi, si = self.prepare(0.5 * float(np.max(hi - lo, initial=0.0))).query(lo, hi)
+        return bi, si.astype(np.int64)
+
+    def prepare(self, half: float) -> _Blocks:
+        """The blocks for boxes of half-width ``half`` (map units), built on first use and
+        kept (sizes rounded up to 1 %): e.g. built in a thread ahead of the queries."""
         size = 2.0 ** (math.ceil(64 * math.log2(half)) / 64) if half > 0 else 0.0
         blocks = self._blocks.get(size)
         if blocks is None:
-            blocks = self._blocks[size] = _Blocks.build(self, size, self._cell())
-        bi, si = blocks.query(lo, hi)
-        return bi, si.astype(np.int64)
+            with self._building:  # queries in threads: one build per size
+                blocks = self._blocks.get(size)
+                if blocks is None:
+                    blocks = self._blocks[size] = _Blocks.build(self, size, self._cell())
+        return blocks
 
     def meets(self, lo: np.ndarray, hi: np.ndarray, bi: np.ndarray, si: np.ndarray
               ) -> np.ndarray:

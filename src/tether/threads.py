@@ -11,9 +11,11 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
+
+T = TypeVar("T")
 
 #: The environment variable giving the number of threads (a positive integer).
 THREADS_ENV = "TETHER_THREADS"
@@ -46,6 +48,40 @@ def map_chunks(func: Callable[..., np.ndarray], items: np.ndarray, **kwargs: Any
     with ThreadPoolExecutor(max_workers=n) as pool:
         parts = list(pool.map(lambda chunk: func(chunk, **kwargs), chunks))
     return np.concatenate(parts)
+
+
+def in_background(func: Callable[..., T], *args: Any) -> Callable[[], T]:
+    """Start ``func(*args)`` in a thread now and return a function giving its value (raising
+    its exception), waiting for it if need be: work overlapped with a long call that releases
+    the GIL (e.g. GEOS's noding). With one thread (``TETHER_THREADS=1``) ``func`` runs when
+    its value is first asked for."""
+    if thread_count() <= 1:
+        done: list = []
+
+        def inline() -> T:
+            if not done:
+                done.append(func(*args))
+            return done[0]
+        return inline
+    pool = ThreadPoolExecutor(max_workers=1)
+    future = pool.submit(func, *args)
+    pool.shutdown(wait=False)  # the thread ends with its one task
+    return future.result
+
+
+def map_batches(func: Callable[[int, int], T], count: int, batch: int) -> list[T]:
+    """``[func(lo, hi) for each batch lo:hi of range(count)]``, batches of ``batch`` items,
+    in order: for work whose numpy and shapely calls on large arrays release the GIL. The
+    first batch runs in the calling thread (it builds what the batches share and cache: edge
+    grids, the map's prepared polygon and its point locator, which GEOS builds lazily and not
+    thread-safely), the others in threads, at most ``thread_count()`` at a time."""
+    spans = [(lo, min(lo + batch, count)) for lo in range(0, count, batch)]
+    n = min(thread_count(), len(spans) - 1)
+    if n <= 1:
+        return [func(lo, hi) for lo, hi in spans]
+    first = func(*spans[0])
+    with ThreadPoolExecutor(max_workers=n) as pool:
+        return [first, *pool.map(lambda span: func(*span), spans[1:])]
 
 
 def single_threaded() -> None:
