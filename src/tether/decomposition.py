@@ -2220,8 +2220,8 @@ def _descending_within_runs(value: np.ndarray, start: np.ndarray, count: np.ndar
 
 
 #: Candidate points handled per batch when measuring their clearance: each brings one row per
-#: segment near it, so this bounds the working memory (not the speed).
-CLEARANCE_BATCH = 20_000
+#: segment near it, so this bounds the working memory (not the speed; one batch per thread).
+CLEARANCE_BATCH = 10_000
 
 
 #: The clearance search's radii, as fractions of its reach: a point is searched again within
