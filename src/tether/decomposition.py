@@ -888,7 +888,7 @@ def _ring_segments(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     coords, idx = shapely.get_coordinates(lines, return_index=True)
     same = idx[1:] == idx[:-1]
     k = np.flatnonzero(same)
-    return coords[k], coords[k + 1], owner[idx[k]]
+    return np.take(coords, k, axis=0), np.take(coords, k + 1, axis=0), owner[idx[k]]
 
 
 @dataclass
@@ -999,7 +999,7 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
         faces, part_faces = _polygonize_faces(parts, pa, pb, powner, longest)
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment grid: distances to whole long polylines would dominate the time)
-    mid = 0.5 * (pa[longest] + pb[longest])
+    mid = 0.5 * (np.take(pa, longest, axis=0) + np.take(pb, longest, axis=0))
     source = np.asarray(source, dtype=np.int64)
     base = int(source.max(initial=0)) + 2  # sources are -1 (wall) .. max
     keys = []  # (part, source) pairs as one integer key; in batches: their candidate pairs
@@ -1054,7 +1054,7 @@ def _part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
     count = np.bincount(idx, minlength=len(parts))
     start = np.cumsum(count) - count  # parts have 2 or more points
     last = start + count - 1
-    return coords, count, start, last, _point_ids(np.vstack((coords[start], coords[last])))
+    return coords, count, start, last, _point_ids(np.take(coords, np.r_[start, last], axis=0))
 
 
 def _part_segments(ends: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1062,7 +1062,8 @@ def _part_segments(ends: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     without reading the coordinates again)."""
     coords, count, start = ends[:3]
     i = ragged_arange(start, count - 1)
-    return coords[i], coords[i + 1], np.repeat(np.arange(len(count)), count - 1)
+    return (np.take(coords, i, axis=0), np.take(coords, i + 1, axis=0),
+            np.repeat(np.arange(len(count)), count - 1))
 
 
 def _trace_faces(parts: np.ndarray, ends: tuple | None = None
@@ -1172,7 +1173,7 @@ def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
     nring = len(ptr) - 1
     size = np.diff(ptr)
     ring = np.repeat(np.arange(nring), size)
-    d = xy - np.repeat(xy[ptr[:-1]], size, axis=0)
+    d = xy - np.repeat(np.take(xy, ptr[:-1], axis=0), size, axis=0)
     a = d[:-1, 0] * d[1:, 1]
     b = d[1:, 0] * d[:-1, 1]
     # pairs of consecutive points, each summed in its first point's ring: a ring's last
@@ -1714,7 +1715,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     keep = np.flatnonzero(inside)
     resolved = clear[keep] >= 2 * tol
     ok = keep[resolved]
-    table = free_arcs_many(env, pts[ok], lss, check=False)
+    table = free_arcs_many(env, np.take(pts, ok, axis=0), lss, check=False)
     sid, structs = structure_ids(env, table, len(ok))
     del table
     face_sid = np.full(len(arr.faces), -1, dtype=np.int64)  # the structure id of each face
@@ -2187,7 +2188,7 @@ def _crossing_candidates(arr: _Arrangement, chains: _Chains, tol: float, lss: fl
     cap = max(50 * tol, 1e-4 * lss)
     eps = np.minimum(0.25 * (clear[rows] - tol), cap)
     ptr = np.r_[0, np.cumsum(np.minimum(count, 8))]
-    return _Candidates(ptr, Q[rows].reshape(-1, 2), eps)
+    return _Candidates(ptr, np.take(Q, rows, axis=0).reshape(-1, 2), eps)
 
 
 def _descending_within_runs(value: np.ndarray, start: np.ndarray, count: np.ndarray,
@@ -2253,7 +2254,8 @@ def _clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarra
 
         def batch(lo: int, hi: int, r: float = r, todo: np.ndarray = todo) -> np.ndarray:
             rows = todo[lo:hi]  # bounded memory: (point, segment) pairs per batch
-            qi, d = _other_distances(pts[rows], owner[rows], cols, sowner, r, tree)
+            qi, d = _other_distances(np.take(pts, rows, axis=0), owner[rows], cols, sowner, r,
+                                     tree)
             nearest = np.full(len(rows), np.inf)
             np.minimum.at(nearest, qi, d)
             return nearest
@@ -2310,7 +2312,7 @@ def _part_candidates(arr: _Arrangement, need: np.ndarray, tol: float, lss: float
         rank = np.arange(len(order)) - np.repeat(head, count)
         keep = (rank < 6) & (ln[order] > 0)
         take = order[keep]
-        Q = 0.5 * (a[take] + b[take])
+        Q = 0.5 * (np.take(a, take, axis=0) + np.take(b, take, axis=0))
         mine = part[take]
         clear = _clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
         cache["Q"] = np.vstack((cache["Q"], Q))
@@ -2351,7 +2353,7 @@ def _pick_crossings(env: Environment, chains: _Chains, cands: _Candidates,
     rnd = 0
     while len(pending):
         row = cands.ptr[pending] + rnd
-        q, n = _project_on_sources(curves, chain_srcs, pending, cands.q[row])
+        q, n = _project_on_sources(curves, chain_srcs, pending, np.take(cands.q, row, axis=0))
         release_memory()  # the projection's temporaries, before the arcs allocate theirs
         eps = cands.eps[row]
         k = len(pending)
@@ -2551,9 +2553,10 @@ def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray]
         return q, n
     row = np.repeat(np.arange(len(which)), count)
     cid = src[ragged_arange(ptr[which], count)]
-    _, p, nrm = project_many(curves, cid, q0[row])
+    at = np.take(q0, row, axis=0)  # rows of a 2-d array: np.take (fancy indexing is slower)
+    _, p, nrm = project_many(curves, cid, at)
     # each row's nearest projection, the first among equals (no sort)
-    best = _first_nearest(row, np.hypot(*(p - q0[row]).T))
+    best = _first_nearest(row, np.hypot(*(p - at).T))
     q[row[best]] = p[best]
     n[row[best]] = nrm[best]
     return q, n
