@@ -1,6 +1,7 @@
-"""Element-wise work on several cores. shapely's vectorized functions release the GIL, so the
-chunks of one array of geometries, run in threads, give the same results (element by element,
-bit for bit) in less wall time.
+"""Work on several cores, in threads. shapely's vectorized functions and numpy's calls on large
+arrays release the GIL, so the chunks of one array of geometries (:func:`map_chunks`), the
+independent batches of a vectorized computation (:func:`map_batches`) and work overlapped with
+a long GEOS call (:func:`in_background`) give the same results, bit for bit, in less wall time.
 
 ``TETHER_THREADS`` sets the number of threads (``1`` turns threading off, e.g. inside worker
 processes of a sweep that already use every core); by default, the cores this process may use.
