@@ -116,3 +116,44 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
         got[threads] = _summary(dec, analyze(dec))
     assert got["1"][0]["pieces"] > 100  # many batches of each kind
     assert got["1"] == got["3"]
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_in_background_gives_the_value_once_or_raises(monkeypatch, threads):
+    import threading
+
+    from tether.threads import in_background
+    monkeypatch.setenv(THREADS_ENV, threads)
+    ran_in = []
+
+    def work(a, b):
+        ran_in.append(threading.get_ident())
+        return a + b
+
+    get = in_background(work, 2, 3)
+    assert get() == 5 and get() == 5
+    assert len(ran_in) == 1  # computed once, however often asked
+    if threads == "2":
+        assert ran_in[0] != threading.get_ident()  # in a thread of its own
+    else:
+        assert ran_in[0] == threading.get_ident()  # inline, when first asked
+    failing = in_background(lambda: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        failing()
+
+
+def test_prepared_grid_blocks_are_those_of_a_query():
+    """The blocks built ahead (as while GEOS nodes) are the ones the query then uses, built once."""
+    from tether.spatial import SegmentGrid
+    rng = np.random.default_rng(4)
+    a = rng.uniform(0, 10, (500, 2))
+    b = a + rng.normal(0, 0.3, (500, 2))
+    grid = SegmentGrid(a, b)
+    reach = 0.05
+    made = grid.prepare(reach)
+    pts = rng.uniform(0, 10, (200, 2))
+    got = grid.meeting(pts - reach, pts + reach)
+    want = SegmentGrid(a, b).meeting(pts - reach, pts + reach)  # blocks built by the query
+    assert all(np.array_equal(x, y) for x, y in zip(got, want, strict=True))
+    assert len(got[0]) > 0
+    assert list(grid._blocks.values()) == [made]  # the query found the prepared blocks
