@@ -38,17 +38,13 @@ from tether.arcs import (
 from tether.arrays import ragged_arange
 from tether.curves import Curve, _first_nearest, critical_curves, project_many
 from tether.environment import Environment
-from tether.errors import TetherError
+from tether.noding import ArrangementError, geos_message, node_lines
 from tether.spatial import SegmentGrid, z_order
 from tether.threads import in_background, map_batches, map_chunks
 from tether.tolerances import REL_CURVE_TOL
 
 if TYPE_CHECKING:
     from tether.userframe import UserFrame
-
-
-class ArrangementError(TetherError):
-    """The critical curves' arrangement could not be computed at tether's resolution."""
 
 
 Structure = Any  # frozenset of (start_code, end_code) pairs, or "FULL" / "EMPTY"
@@ -982,10 +978,8 @@ def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangem
     # of floating-point noding (snap rounding's wider reach builds its own blocks)
     tree = SegmentGrid(la, lb)
     ready = in_background(tree.prepare, max(1e-3 * tol, 1e-12)) if len(la) else (lambda: None)
-    noded, grid = _node(lines, tol)
+    parts, grid = node_lines(lines, tol, len(la))
     ready()
-    parts = shapely.get_parts(noded)
-    del noded
     release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
     parts = parts[shapely.length(parts) > 0]
     ends = _part_ends(parts)
@@ -1464,45 +1458,6 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
     return np.hypot(*(a + u[:, None] * ab - p).T)
 
 
-#: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
-#: tolerance: coarser grids only if a finer one fails too.
-SNAP_GRIDS = (0.25, 1.0, 4.0)
-
-
-def _node(lines: np.ndarray, tol: float) -> tuple[Any, float]:
-    """Node the lines: GEOS's floating-point noder first; if it fails to converge (nearly
-    coincident or tangent curves), snap rounding on a grid of ``SNAP_GRIDS * tol`` map units
-    (GEOS's fixed-precision overlay, robust by construction: every vertex moves by at most
-    half a grid cell, well inside the curves' own tolerance ``tol``). Returns the noded
-    geometry and the grid used (0 for exact floating-point noding).
-
-    Raises
-    ------
-    ArrangementError
-        If even the coarsest grid fails (the map is beyond tether's resolution).
-    """
-    try:
-        return shapely.node(shapely.multilinestrings(lines)), 0.0
-    except GEOSException:
-        pass
-    err = None
-    for frac in SNAP_GRIDS:
-        grid = frac * tol
-        try:
-            snapped = shapely.set_precision(lines, grid)
-            return shapely.union_all(snapped, grid_size=grid), grid
-        except GEOSException as exc:
-            err = exc
-    raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
-                           f"on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the curve "
-                           f"tolerance {tol:.2g}): {_geos_message(err)}")
-
-
-def _geos_message(exc: BaseException | None) -> str:
-    """The first line of a GEOS error, without its class prefix."""
-    return str(exc).splitlines()[0] if exc is not None else "unknown error"
-
-
 def _face_points(faces: np.ndarray, tol: float, grid: float = 0.0
                  ) -> tuple[np.ndarray, np.ndarray]:
     """A point well inside each face and its distance to the face's boundary (map units).
@@ -1593,7 +1548,7 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
             dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
-                               f"{_geos_message(exc)}") from exc
+                               f"{geos_message(exc)}") from exc
     if out is not None:
         release_memory()  # the arrangement and the internal frame's geometries, freed
     return dec
