@@ -8,6 +8,11 @@ vertices under 10 s and under 1 GB, decompose + analyze. The machine is shared: 
 noisy and its speed drifts over minutes: ``--repeat 3`` keeps each size's run of least CPU
 time, ``--base OLD/src`` runs the old code interleaved with the new and prints the ratio.
 
+The first line measures the machine (:func:`machine_speed`: a fixed pure-Python loop and a
+fixed numpy sort, best of 5): this VM's speed drifts by up to 2x between days (the same code
+took 16.1 s at 1,000 vertices on 2026-11-25 and 8.7 s on 2026-11-26), so compare figures of
+different days through it.
+
 Columns: vertices, pairs (vertex, edge) within lss, lss, stage CPU times in seconds (critical
 curves, arrangement, face structures, regions, pieces, the conversion back to the map's frame
 and names, graph G, elimination, self-check), total wall time and its CPU time (the machine
@@ -95,6 +100,25 @@ COLUMNS = [("vertices", "verts", 6, "d"), ("pairs", "pairs", 7, "d"), ("lss", "l
            ("pieces", "#pcs", 7, "d")]
 
 
+def machine_speed() -> tuple[float, float]:
+    """Seconds for a fixed pure-Python loop and a fixed numpy sort (best of 5 each): the
+    machine's speed at the time of the run, to compare benchmark tables of different days."""
+    import time
+
+    import numpy as np
+
+    def best(f) -> float:
+        times = []
+        for _ in range(5):
+            t = time.perf_counter()
+            f()
+            times.append(time.perf_counter() - t)
+        return min(times)
+
+    data = np.random.default_rng(0).random(2_000_000)
+    return (best(lambda: sum(i * i for i in range(1_000_000))), best(lambda: np.sort(data)))
+
+
 def run_size(n: int, src: str | None, timeout: float) -> dict | None:
     """One size in a fresh interpreter; None if it failed or timed out."""
     env = dict(os.environ)
@@ -124,6 +148,9 @@ def main() -> None:
                     help="runs per size (and code), the one of least CPU time printed")
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per size")
     args = ap.parse_args()
+    loop, sort = machine_speed()
+    print(f"machine: python loop {loop:.3f} s, numpy sort {sort:.3f} s (threads: "
+          f"{os.environ.get('TETHER_THREADS', 'all cores')}, {os.cpu_count()} cpus)", flush=True)
     label = "code  " if args.base else ""
     print(label + "".join(f"{h:>{w}}" for _, h, w, _ in COLUMNS), flush=True)
     for n in args.sizes:
