@@ -238,3 +238,15 @@ def test_a_failing_strip_falls_back_to_the_whole(monkeypatch):
     assert len(calls) >= 2
     assert got.counts == expected.counts
     assert [r.structure for r in got.regions] == [r.structure for r in expected.regions]
+
+
+def test_strips_do_not_depend_on_the_thread_count(monkeypatch):
+    rng = np.random.default_rng(3)
+    lines = np.asarray([shapely.linestrings(rng.uniform(0, 10, (5, 2))) for _ in range(30)],
+                       dtype=object)
+    got = {}
+    for threads in ("1", "3"):
+        monkeypatch.setenv("TETHER_THREADS", threads)
+        parts, _ = node_lines(lines, 1e-6, segments=STRIP_MIN_SEGMENTS)
+        got[threads] = shapely.to_wkb(parts)
+    assert len(got["1"]) > 30 and list(got["1"]) == list(got["3"])
