@@ -42,7 +42,9 @@ CUT_WINDOW = (0.45, 0.55)
 def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.ndarray, float]:
     """The noded parts (an array of linestrings) of ``lines`` (linestrings, map units) and the
     snap-rounding grid used (0: exact floating-point noding). ``segments`` (the lines' segment
-    count) selects the strip split (:data:`STRIP_MIN_SEGMENTS`).
+    count) selects the strip split (:data:`STRIP_MIN_SEGMENTS`). Snap rounding is GEOS's
+    fixed-precision overlay on a grid of ``SNAP_GRIDS * tol`` map units: every vertex moves by
+    at most half a grid cell, well inside the curves' own tolerance ``tol``.
 
     Raises
     ------
