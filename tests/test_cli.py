@@ -117,7 +117,7 @@ def test_decompose_json_shape(capsys, tmp_path):
 
 def test_check_command_exit_codes(capsys):
     assert main(["check", str(example_path("gallery")), "--lss", "2", "--samples", "5"]) == 0
-    assert "0 point and 0 piece disagreements" in capsys.readouterr().out
+    assert "0 point, 0 piece and 0 line disagreements" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("cmd", ["decompose", "analyze", "check"])

@@ -41,7 +41,7 @@ from tether.environment import Environment
 from tether.noding import ArrangementError, geos_message, node_lines
 from tether.spatial import SegmentGrid, z_order
 from tether.threads import in_background, map_batches, map_chunks
-from tether.tolerances import REL_CURVE_TOL
+from tether.tolerances import CHECK_LINES, REL_CURVE_TOL, SELF_CHECK_LINES
 
 if TYPE_CHECKING:
     from tether.userframe import UserFrame
@@ -255,7 +255,7 @@ class _RegionShapes(_Shapes):
     is item ``i``, all made at once on the first read of all (then prepared, converted),
     only those asked for by :meth:`some`. Building G and analyzing never pay for them."""
 
-    __slots__ = ("_unions",)
+    __slots__ = ("_unions", "_face_tree", "_face_owner")
 
     def __init__(self, geoms: np.ndarray, unions: dict[int, np.ndarray], frame: Any = None,
                  prepare: bool = True) -> None:
@@ -273,9 +273,34 @@ class _RegionShapes(_Shapes):
             for i, faces in self._unions.items():
                 geoms[i] = shapely.union_all(faces)
             self._geoms, self._unions = geoms, None
+            self._face_tree = None  # the faces' tree: no longer valid once converted
             if self._frame is None and self._prepare:
                 shapely.prepare(geoms)
         return super().all()
+
+    def crossing(self, geom: Any) -> np.ndarray:
+        """The ids of the regions whose polygon intersects ``geom`` (map coordinates), sorted,
+        found over the faces as made (a face tree built once) without making or converting
+        any region's polygon. Only while :attr:`converted` is False."""
+        if self._frame is not None:
+            geom = shapely.transform(geom, self._frame.to_internal)
+        hit = self._tree().query(geom, predicate="intersects")
+        return np.unique(self._face_owner[hit])
+
+    def _tree(self) -> shapely.STRtree:
+        """An STRtree of the single-face regions' polygons and the multi-face regions' faces
+        (``_face_owner``: the region of each), built on the first call."""
+        got = getattr(self, "_face_tree", None)
+        if got is None:
+            items, owner = [self._geoms], [np.arange(len(self._geoms))]
+            if self._unions:
+                items += list(self._unions.values())
+                owner += [np.full(len(f), i) for i, f in self._unions.items()]
+            geoms, owner_arr = np.concatenate(items), np.concatenate(owner)
+            keep = ~shapely.is_missing(geoms)
+            self._face_owner = owner_arr[keep]
+            got = self._face_tree = shapely.STRtree(geoms[keep])
+        return got
 
     def some(self, ids: Any) -> np.ndarray:
         if self._unions is None:
@@ -738,6 +763,24 @@ class Decomposition:
                                  check=False)
             self.__dict__["_crossing_arcs"] = got
         return got
+
+    def regions_crossing(self, geom: Any) -> np.ndarray:
+        """The sorted indices of the regions whose polygon intersects the shapely geometry
+        ``geom`` (map coordinates). Makes no region polygon that was not made yet."""
+        shapes = self.regions[0]._polygon if self.regions else None
+        if type(shapes) is _RegionShapes and not shapes.converted:
+            return shapes.crossing(geom)
+        return np.unique(self._tree.query(geom, predicate="intersects"))
+
+    def region_polygons(self, ids: Any) -> np.ndarray:
+        """The polygons of the regions ``ids`` (map coordinates, an object array), making and
+        converting only those if the regions' polygons were not read yet."""
+        ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+        shapes = self.regions[0]._polygon if self.regions else None
+        if isinstance(shapes, _Shapes) and not shapes.converted:
+            return shapes.some(ids)
+        return np.fromiter((self.regions[i].polygon for i in ids.tolist()), dtype=object,
+                           count=len(ids))
 
     def region_at(self, points: Any) -> np.ndarray:
         """Index of the region containing each point (``-1`` outside every region: outside the
@@ -2541,15 +2584,23 @@ class CheckReport:
     samples: int
     point_disagreements: tuple[dict, ...]
     piece_disagreements: tuple[dict, ...]
+    #: random lines scanned (:mod:`tether.scan`), points evaluated along them, and the
+    #: disagreements found there (kinds ``point``, ``change``, ``boundary``, ``uncovered``)
+    lines: int = 0
+    line_points: int = 0
+    line_disagreements: tuple[dict, ...] = ()
 
     @property
     def ok(self) -> bool:
-        return not self.point_disagreements and not self.piece_disagreements
+        return not (self.point_disagreements or self.piece_disagreements
+                    or self.line_disagreements)
 
     def to_dict(self) -> dict:
         return {"ok": self.ok, "samples": self.samples,
                 "point_disagreements": list(self.point_disagreements),
-                "piece_disagreements": list(self.piece_disagreements)}
+                "piece_disagreements": list(self.piece_disagreements),
+                "lines": self.lines, "line_points": self.line_points,
+                "line_disagreements": list(self.line_disagreements)}
 
 
 def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
@@ -2593,23 +2644,34 @@ def _polygons(regions: Any) -> list:
     return shapes.some([r.id for r in regions]).tolist()
 
 
-def check(dec: Decomposition, per_region: int = 20, seed: int = 0) -> CheckReport:
+def check(dec: Decomposition, per_region: int = 20, seed: int = 0, lines: int = CHECK_LINES
+          ) -> CheckReport:
     """Verify a decomposition by sampling: every sampled point's exact structure must equal its
-    region's, and across every piece the two sides must show the two regions' structures."""
+    region's, across every piece the two sides must show the two regions' structures, and
+    along ``lines`` random lines (:func:`tether.scan.scan`) every change of the exact
+    structure must be a region boundary and nothing else."""
+    from tether.scan import scan
+
     pts, owner = sample_in_regions(dec, per_region, seed)
+    npts, bad_lines = scan(dec, lines, seed)
     return CheckReport(len(pts), _point_disagreements(dec, pts, owner),
-                       _piece_disagreements(dec))
+                       _piece_disagreements(dec), lines, npts, bad_lines)
 
 
 #: Regions sampled by :func:`self_check` (one point each, chosen at random).
 SELF_CHECK_REGIONS = 200
 
 
-def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0
-               ) -> CheckReport:
+def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0,
+               lines: int | None = None) -> CheckReport:
     """The cheap check :func:`tether.escape.analyze` runs by default: one random point in
-    each of up to ``regions`` random regions against its region's structure, and every piece's
-    crossing as verified when the decomposition was built (no recomputation)."""
+    each of up to ``regions`` random regions against its region's structure, every piece's
+    crossing as verified when the decomposition was built (no recomputation), and a scan of
+    ``lines`` random lines (default :data:`tether.tolerances.SELF_CHECK_LINES`; see
+    :func:`tether.scan.scan`)."""
+    from tether.scan import scan
+
+    lines = SELF_CHECK_LINES if lines is None else lines
     rng = np.random.default_rng(seed)
     chosen = np.arange(len(dec.regions))
     if len(chosen) > regions:
@@ -2617,7 +2679,9 @@ def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int 
     pts, owner = sample_in_regions(dec, 1, seed, regions=chosen)
     bad_pieces = tuple({"piece": p.name, "regions": [f"R{r}" for r in p.regions],
                         "point": list(p.sample)} for p in _unverified(dec.pieces))
-    return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces)
+    npts, bad_lines = scan(dec, lines, seed)
+    return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces, lines,
+                       npts, bad_lines)
 
 
 def _unverified(pieces: Sequence[Piece]) -> list[Piece]:

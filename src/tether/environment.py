@@ -172,8 +172,9 @@ def _check_resolution(env: Environment) -> None:
     straight) closer than that to a wall it does not bound. A wall is a maximal run of edges
     joined by straight vertices, named after its first edge."""
     keep = ~env.straight
-    V = env.frame.to_internal(env.vertices)
-    limit = REL_FEATURE_TOL * env.diameter * env.frame.scale
+    frame = normalizing_frame(env.bounds)  # not env.frame: never cached during validation
+    V = frame.to_internal(env.vertices)
+    limit = REL_FEATURE_TOL * env.diameter * frame.scale
     wall = env.wall_of
     prev_kept = np.empty(env.n, dtype=int)
     start = 0
@@ -197,7 +198,7 @@ def _check_resolution(env: Environment) -> None:
     close = np.flatnonzero(dist < limit)
     if len(close):
         k = close[int(np.argmin(dist[close]))]
-        scale = env.frame.scale
+        scale = frame.scale
         raise InvalidMapError(
             f"V{j[k]} is {_fmt(dist[k] / scale)} from wall E{wall[ei[k]]}: a wall or gap "
             f"thinner than tether's resolution ({REL_FEATURE_TOL:g} x the map's diameter = "
@@ -240,6 +241,19 @@ class Frame:
     def geometry_to_user(self, geom: Any) -> Any:
         """A shapely geometry from internal to user coordinates."""
         return shapely.transform(geom, self.to_user)
+
+
+def normalizing_frame(bounds: tuple[float, float, float, float]) -> Frame:
+    """The internal frame of a map with these bounds ``(xmin, ymin, xmax, ymax)``: origin at
+    the box's centre, scale a power of two bringing the box's diagonal near 1 (so that scaling
+    is exact). A pure function of the bounds: a map scaled by ``2**k`` gets the scale times
+    ``2**-k`` and the same internal map."""
+    x0, y0, x1, y1 = bounds
+    origin = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+    # the diameter from the centred box: no cancellation at large offsets
+    diam = math.hypot(x1 - origin[0], y1 - origin[1]) + math.hypot(origin[0] - x0,
+                                                                   origin[1] - y0)
+    return Frame(origin, 2.0 ** -round(math.log2(diam)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,16 +436,11 @@ class Environment:
 
     @cached_property
     def frame(self) -> Frame:
-        """The normalized internal frame: origin at the bounding box's centre, scale a power of
-        two bringing the bounding box's diagonal near 1 (so that scaling is exact)."""
+        """The normalized internal frame (:func:`normalizing_frame` of the bounds); the
+        identity for the internal map itself, so that normalizing is idempotent."""
         if self.__dict__.get("_is_internal"):
             return Frame(np.zeros(2), 1.0)
-        x0, y0, x1, y1 = self.bounds
-        origin = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
-        # the diameter from the centred box: no cancellation at large offsets
-        diam = math.hypot(x1 - origin[0], y1 - origin[1]) + math.hypot(origin[0] - x0,
-                                                                       origin[1] - y0)
-        return Frame(origin, 2.0 ** -round(math.log2(diam)))
+        return normalizing_frame(self.bounds)
 
     @cached_property
     def internal(self) -> Environment:
@@ -446,11 +455,15 @@ class Environment:
         for r in self.rings:
             rings.append(self.frame.to_internal(r[keep[start:start + len(r)]]))
             start += len(r)
+        # Flagged before it is validated: validation must see the internal map's own (identity)
+        # frame, never cache one computed from its normalized bounds (a square of side 4 had
+        # frame scale 1/4, its internal copy 1/2: every lss was halved twice on that copy).
+        inner = object.__new__(Environment)
+        inner.__dict__["_is_internal"] = True
         try:
-            inner = Environment(rings[0], tuple(rings[1:]), self.name)
+            inner.__init__(rings[0], tuple(rings[1:]), self.name)
         except InvalidMapError as exc:  # pragma: no cover - removing straight vertices broke it
             raise InvalidMapError(f"without its straight vertices, {exc}") from None
-        inner.__dict__["_is_internal"] = True
         inner.__dict__["vertex_map"] = np.arange(inner.n)
         return inner
 

@@ -55,6 +55,13 @@ MAX_MAP_BYTES = 64 * 2**20
 #: ``tether check --samples`` per region.
 SAMPLES_RANGE = (1, 100_000)
 
+#: Random lines scanned (:mod:`tether.scan`): by ``tether check --lines`` (its range and
+#: default) and by ``analyze``'s self-check; points evaluated along a line per map diameter.
+LINES_RANGE = (0, 10_000)
+CHECK_LINES = 20
+SELF_CHECK_LINES = 6
+SCAN_POINTS_PER_DIAMETER = 2000
+
 #: Map coordinates are at most this in absolute value (squares of differences stay finite).
 COORD_MAX = 1e15
 

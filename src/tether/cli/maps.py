@@ -18,7 +18,7 @@ from tether.cli.common import (
     load_map_lss,
     print_json,
 )
-from tether.tolerances import SAMPLES_RANGE
+from tether.tolerances import CHECK_LINES, LINES_RANGE, SAMPLES_RANGE
 
 #: ``tether info`` lists at most this many vertices unless ``--all``.
 INFO_MAX_ROWS = 40
@@ -188,8 +188,9 @@ def format_verdict(verdict) -> str:
     lines += ["  " + s for s in verdict.story()]
     rep = verdict.self_check
     if rep is not None and not rep.ok:
-        lines.insert(0, f"SELF-CHECK FAILED: {len(rep.point_disagreements)} point and "
-                        f"{len(rep.piece_disagreements)} piece disagreements with exact "
+        lines.insert(0, f"SELF-CHECK FAILED: {len(rep.point_disagreements)} point, "
+                        f"{len(rep.piece_disagreements)} piece and "
+                        f"{len(rep.line_disagreements)} line disagreements with exact "
                         "evaluation; the verdict below is NOT verified (run `tether check`)")
     return "\n".join(lines)
 
@@ -198,21 +199,47 @@ def cmd_check(args: argparse.Namespace) -> int:
     from tether.decomposition import check
 
     dec = _decompose(args)
-    rep = check(dec, args.samples, args.seed)
+    rep = check(dec, args.samples, args.seed, args.lines)
     if args.json:
         print_json(rep.to_dict())
     else:
-        print(f"checked {rep.samples} sampled points in {len(dec.regions)} regions and "
-              f"{len(dec.pieces)} piece crossings: "
-              f"{len(rep.point_disagreements)} point and {len(rep.piece_disagreements)} piece "
-              "disagreements")
+        print(f"checked {rep.samples} sampled points in {len(dec.regions)} regions, "
+              f"{len(dec.pieces)} piece crossings and {rep.lines} random lines "
+              f"({rep.line_points} points): "
+              f"{len(rep.point_disagreements)} point, {len(rep.piece_disagreements)} piece "
+              f"and {len(rep.line_disagreements)} line disagreements")
         for d in rep.point_disagreements:
             print(f"  point ({d['point'][0]:.6g}, {d['point'][1]:.6g}) in {d['region']}: "
                   f"found {d['found']}, expected {d['expected']}")
         for d in rep.piece_disagreements:
             print(f"  piece {d['piece']} between {d['regions'][0]} and {d['regions'][1]} at "
                   f"({d['point'][0]:.6g}, {d['point'][1]:.6g})")
+        for d in rep.line_disagreements[:LINE_ROWS]:
+            print("  " + describe_line_disagreement(d))
+        if len(rep.line_disagreements) > LINE_ROWS:
+            print(f"  ... and {len(rep.line_disagreements) - LINE_ROWS} more line "
+                  "disagreements (--json lists all)")
     return 0 if rep.ok else 1
+
+
+#: Line disagreements printed by ``tether check`` (``--json`` has them all).
+LINE_ROWS = 20
+
+
+def describe_line_disagreement(d: dict) -> str:
+    """One line of text for a disagreement found along a scanned line."""
+    at = f"({d['point'][0]:.6g}, {d['point'][1]:.6g})"
+    kind = d["kind"]
+    if kind == "point":
+        return (f"line {d['line']}: point {at} in {d['region']}: found {d['found']}, "
+                f"expected {d['expected']}")
+    if kind == "change":
+        return (f"line {d['line']}: the exact structure changes at {at}, inside "
+                f"{d['region']} ({d['distance']:.3g} from its boundary)")
+    if kind == "boundary":
+        return (f"line {d['line']}: {d['regions'][0]} and {d['regions'][1]} meet at {at} "
+                "with equal structures")
+    return f"line {d['line']}: point {at} of the free space lies in no region"
 
 
 def register(add) -> None:
@@ -255,4 +282,7 @@ def register(add) -> None:
     sp.add_argument("--seed", type=int_range(0, 2**32 - 1), default=0,
                     help="seed of the random sample points, 0 to 2**32-1 (default 0): the same "
                     "seed gives the same points")
+    sp.add_argument("--lines", type=int_range(*LINES_RANGE), default=CHECK_LINES,
+                    help="random lines scanned for changes of the exact structure, "
+                    f"{LINES_RANGE[0]} to {LINES_RANGE[1]} (default {CHECK_LINES})")
     sp.add_argument("--json", action="store_true", help="print JSON")
