@@ -243,6 +243,9 @@ class Frame:
         return shapely.transform(geom, self.to_user)
 
 
+_SQRT_HALF = math.sqrt(0.5)
+
+
 def normalizing_frame(bounds: tuple[float, float, float, float]) -> Frame:
     """The internal frame of a map with these bounds ``(xmin, ymin, xmax, ymax)``: origin at
     the box's centre, scale a power of two bringing the box's diagonal near 1 (so that scaling
@@ -253,7 +256,11 @@ def normalizing_frame(bounds: tuple[float, float, float, float]) -> Frame:
     # the diameter from the centred box: no cancellation at large offsets
     diam = math.hypot(x1 - origin[0], y1 - origin[1]) + math.hypot(origin[0] - x0,
                                                                    origin[1] - y0)
-    return Frame(origin, 2.0 ** -round(math.log2(diam)))
+    # the nearest power of two on the log scale, decided on the mantissa (exact, and the same
+    # for the map scaled by any power of two; round(log2(diam)) was not, at half-way ties
+    # such as a square of side 2^k)
+    mantissa, exponent = math.frexp(diam)
+    return Frame(origin, 2.0 ** -(exponent if mantissa >= _SQRT_HALF else exponent - 1))
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 
 from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, feature_name_rank, gc_paused
+from tether.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
+from tether.critical import near_critical as critical_events
+from tether.decomposition import Decomposition, decompose, feature_name_rank, gc_paused
 from tether.graph import (
     ConnectivityGraph,
     _piece_regions,
@@ -27,6 +29,7 @@ from tether.graph import (
     cell_ids_of,
     cell_regions,
 )
+from tether.tolerances import REL_LENGTH_TOL
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,9 @@ class Verdict:
     #: the cheap self-check run by :func:`analyze` (a
     #: :class:`tether.decomposition.CheckReport`), or None if it was skipped
     self_check: Any = None
+    #: a :class:`tether.critical.CriticalLss` when ``lss`` is within tether's resolution of a
+    #: critical length of the map (the verdicts just below and above), else None
+    critical: Any = None
 
     @property
     def verified(self) -> bool | None:
@@ -108,6 +114,7 @@ class Verdict:
             },
             "self_check": None if self.self_check is None else self.self_check.to_dict(),
             "verified": self.verified,
+            "critical_lss": None if self.critical is None else self.critical.to_dict(),
         }
 
     def __repr__(self) -> str:
@@ -348,12 +355,15 @@ def _cell_key(cid: str) -> tuple:
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
-            self_check: bool = True) -> Verdict:
+            self_check: bool = True, near_critical: bool = True) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
     With ``self_check`` (the default) the decomposition is verified cheaply first (see
     :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
+    With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
+    a critical length of the map (:func:`tether.critical.near_critical`), the map is also
+    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
     """
     report = None
     if self_check:
@@ -370,7 +380,22 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
-    return Verdict(dec, graph, surviving, elim, witness, report)
+    critical = _beside_critical(dec, self_check) if near_critical else None
+    return Verdict(dec, graph, surviving, elim, witness, report, critical)
+
+
+def _beside_critical(dec: Decomposition, self_check: bool) -> CriticalLss | None:
+    """The verdicts just below and above ``dec.lss`` if it is near a critical length."""
+    rel_tol = dec.curve_tol / dec.env.diameter
+    events, value, delta = critical_events(dec.env, dec.lss, rel_tol)
+    if not events:
+        return None
+    sides = []
+    for lss in (value - delta, value + delta):
+        side = decompose(dec.env, lss, rel_tol)
+        sides.append(side_summary(analyze(side, self_check=self_check, near_critical=False)))
+    on = ON_CRITICAL_TOLS * REL_LENGTH_TOL * dec.env.diameter
+    return CriticalLss(dec.lss, value, delta, on, events, sides[0], sides[1])
 
 
 def _first_emptied(dec: Decomposition, elim: Eliminations) -> int | None:

@@ -162,7 +162,7 @@ def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | No
     try:
         env = Environment(env_data["boundary"], tuple(env_data["holes"]),
                           env_data.get("name", ""))
-        verdict = analyze(decompose(env, lss))
+        verdict = analyze(decompose(env, lss), near_critical=False)
     except Exception as exc:  # noqa: BLE001 - reported in the row
         return SweepRow(float(lss), None, {}, None, f"{type(exc).__name__}: {exc}",
                         refined=refined, seconds=time.perf_counter() - t0)

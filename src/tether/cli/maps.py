@@ -144,7 +144,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         print_json(dec.to_dict(geometry=args.geometry))
         return 0
     c = dec.counts
-    print(f"map {dec.env.name!r}, lss {dec.lss:g}: {c['curves']} critical curves, "
+    print(f"map {dec.env.name!r}, lss {dec.lss:.15g}: {c['curves']} critical curves, "
           f"{c['regions']} regions, {c['cells']} cells, {c['pieces']} boundary pieces")
     if dec.unresolved_pieces:
         print(f"({dec.unresolved_pieces} boundary stretches below the curve tolerance "
@@ -178,7 +178,7 @@ def format_verdict(verdict) -> str:
     c = verdict.counts()
     head = "a surveillance strategy CAN exist" if verdict.strategy_exists \
         else "NO surveillance strategy exists"
-    lines = [f"map {verdict.dec.env.name!r}, lss {verdict.dec.lss:g}: {head}",
+    lines = [f"map {verdict.dec.env.name!r}, lss {verdict.dec.lss:.15g}: {head}",
              f"  {c['regions']} regions, {c['cells']} cells, {c['edges']} edges in G; "
              f"{c['surviving_cells']} cells survive the elimination "
              f"({len(verdict.eliminated)} eliminated in {verdict.rounds} "
@@ -186,6 +186,8 @@ def format_verdict(verdict) -> str:
     if verdict.witness_region is not None:
         lines.append(f"  witness region: R{verdict.witness_region}")
     lines += ["  " + s for s in verdict.story()]
+    if verdict.critical is not None:
+        lines += ["  " + s for s in verdict.critical.describe()]
     rep = verdict.self_check
     if rep is not None and not rep.ok:
         lines.insert(0, f"SELF-CHECK FAILED: {len(rep.point_disagreements)} point, "

@@ -39,7 +39,7 @@ def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
     else:
         check_inside(env, np.array([start[:2]], dtype=float))
     dec = decompose(env, args.lss, progress=Progress("decompose"))
-    return World(env, args.lss, args.vt, args.vo, dec, analyze(dec))
+    return World(env, args.lss, args.vt, args.vo, dec, analyze(dec, near_critical=False))
 
 
 def _check_outputs(args: argparse.Namespace) -> None:

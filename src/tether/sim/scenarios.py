@@ -34,7 +34,7 @@ def _example(name: str) -> Path:
 def _world(name: str, lss: float, vt: float, vo: float) -> World:
     env = load_map(_example(name))
     dec = decompose(env, lss)
-    return World(env, lss, vt, vo, dec, analyze(dec))
+    return World(env, lss, vt, vo, dec, analyze(dec, near_critical=False))
 
 
 def fig7(controller: str = "paper", vt: float = 0.5, vo: float = 1.0, dt: float = 0.02

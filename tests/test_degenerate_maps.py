@@ -1,0 +1,202 @@
+"""Maps that are not in general position (issue 21): lattice coordinates, round ``lss``, walls
+exactly ``lss`` and ``2·lss`` apart, powers of two and ten. Every answer is checked against
+the exact free arcs along random lines (:mod:`tether.scan`), an evaluation independent of the
+decomposition, and against the same map moved, turned, mirrored and scaled."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from lattice_maps import ROUND_LSS, corridor, env_of, families, rasterized, room_with_pillars
+
+from tether.critical import distance_events, near_critical
+from tether.decomposition import check, decompose, self_check
+from tether.environment import Environment
+from tether.escape import analyze
+from tether.scan import scan
+
+
+def _square(side: float, x0: float = 0.0, y0: float = 0.0) -> Environment:
+    return Environment(np.array([[x0, y0], [x0 + side, y0], [x0 + side, y0 + side],
+                                 [x0, y0 + side]]), name=f"square{side:g}")
+
+
+def _clean(dec, lines: int = 12) -> None:
+    _, bad = scan(dec, lines)
+    assert bad == (), bad[:3]
+
+
+# ---------------------------------------------------------------- the frame
+@pytest.mark.parametrize("k", range(-4, 12))
+def test_internal_frame_is_the_identity_for_squares_of_side_two_to_the_k(k):
+    """A square of side 2^k has a box diagonal of 2^(k+1/2): log2 lands on a half, where the
+    rounding of the frame's exponent flipped between the map and its internal copy."""
+    env = _square(2.0**k, 3.0, -5.0)
+    inner = env.internal
+    assert inner.frame.scale == 1.0 and np.all(inner.frame.origin == 0.0)
+    assert inner.internal is inner
+    # the internal map is the same for the map scaled by 2
+    twice = Environment(env.boundary * 2.0)
+    assert np.array_equal(twice.internal.boundary, inner.boundary)
+    assert twice.frame.scale == env.frame.scale / 2
+
+
+@pytest.mark.parametrize("side", [0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 1024.0, 10.0, 1000.0])
+@pytest.mark.parametrize("offset", [0.0, 1e3, -12345.5, 2.0**20])
+def test_square_room_quarter_lss_same_answer_at_every_scale_and_offset(side, offset):
+    """The 4 x 4 room at lss 1 gave one region (the internal copy halved lss again); the same
+    room at any scale and place has 13 regions and 16 pieces, as the 2 x 2 room at 0.5."""
+    dec = decompose(_square(side, offset, offset), side / 4)
+    assert dec.counts == {"curves": 8, "regions": 13, "cells": 17, "pieces": 16}
+    _clean(dec, 6)
+
+
+def test_square_room_verdict_verified_and_scan_catches_the_old_answer():
+    dec = decompose(_square(4.0), 1.0)
+    v = analyze(dec)
+    assert v.verified and v.strategy_exists and v.critical is None
+    # the old, wrong answer: the decomposition of lss/2 presented as that of lss
+    wrong = dataclasses.replace(decompose(_square(4.0), 0.5), lss=1.0)
+    _, bad = scan(wrong, 6)
+    assert bad and {b["kind"] for b in bad} <= {"point", "change", "boundary"}
+    assert not self_check(wrong).ok
+
+
+@pytest.mark.parametrize("lss", ROUND_LSS)
+def test_room_with_pillar_exactly_lss_from_the_walls(lss):
+    """A 4·lss room with a pillar exactly lss from every wall: the self-check failed before."""
+    env = env_of(([(0, 0), (4 * lss, 0), (4 * lss, 4 * lss), (0, 4 * lss)],
+                  [[(lss, lss), (lss, 3 * lss), (3 * lss, 3 * lss), (3 * lss, lss)]]))
+    dec = decompose(env, lss)
+    v = analyze(dec)
+    assert v.verified
+    assert check(dec, 5).ok
+
+
+# ---------------------------------------------------------------- exact coincidences
+@pytest.mark.parametrize("lss", [0.5, 1.0])
+@pytest.mark.parametrize("name", sorted(families(1.0)))
+def test_lattice_families_agree_with_the_exact_free_arcs(name, lss):
+    dec = decompose(env_of(families(lss)[name], name), lss)
+    _clean(dec)
+    assert check(dec, 3, lines=0).ok
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("lss", [0.25, 0.5])
+def test_rasterized_shapes_agree_with_the_exact_free_arcs(seed, lss):
+    rings = rasterized(seed)
+    if rings is None:
+        pytest.skip("shape not usable")
+    _clean(decompose(env_of(rings), lss), 8)
+
+
+def _moved(rings, f):
+    b, hs = rings
+    return ([f(*p) for p in b], [[f(*p) for p in h] for h in hs])
+
+
+TRANSFORMS = {
+    "translate": lambda x, y: (x + 1000.05, y - 250.35),
+    "rotate90": lambda x, y: (-y, x),
+    "mirror": lambda x, y: (-x, y),
+    "far": lambda x, y: (x + 4.5e5, y + 5.4e6),
+}
+
+
+@pytest.mark.parametrize("name", ["corridor", "pillars_lss", "pillars_2lss", "steps"])
+@pytest.mark.parametrize("how", sorted(TRANSFORMS) + ["x2", "x1/8", "x10", "x0.1", "x1000"])
+def test_lattice_maps_same_answer_moved_turned_mirrored_scaled(name, how):
+    lss = 0.5
+    rings = families(lss)[name]
+    base = analyze(decompose(env_of(rings), lss), self_check=False, near_critical=False)
+    if how.startswith("x"):
+        k = 1 / 8 if how == "x1/8" else float(how[1:])
+        moved, mlss = _moved(rings, lambda x, y: (x * k, y * k)), lss * k
+    else:
+        moved, mlss = _moved(rings, TRANSFORMS[how]), lss
+    dec = decompose(env_of(moved), mlss)
+    v = analyze(dec, near_critical=False)
+    assert dec.counts == base.dec.counts
+    assert v.strategy_exists == base.strategy_exists
+    assert len(v.surviving) == len(base.surviving)
+    assert v.verified
+
+
+def test_renumbered_vertices_same_counts():
+    b, hs = room_with_pillars(0.5)
+    base = decompose(env_of((b, hs)), 0.5).counts
+    for k in range(1, 4):
+        rolled = (b[k:] + b[:k], [h[k:] + h[:k] for h in hs[::-1]])
+        assert decompose(env_of(rolled), 0.5).counts == base
+
+
+# ---------------------------------------------------------------- critical lengths
+def test_distance_events_of_a_square():
+    """The 4 x 4 room: sides 4 apart (events at 4 and 2), diagonals 4·sqrt(2)."""
+    ev = distance_events(_square(4.0), 4.0)
+    values = sorted({round(e.value, 12) for e in ev})
+    assert values == [2.0, round(2 * math.sqrt(2), 12), 4.0]
+    assert {(e.a, e.b) for e in ev if e.value == 2.0} == {("V0", "V1"), ("V1", "V2"),
+                                                          ("V2", "V3"), ("V0", "V3")}
+
+
+def test_critical_lss_reported_with_the_verdicts_on_both_sides():
+    """A 4 x 4 room at lss 2: opposite walls exactly 2·lss apart. Below, a strategy exists;
+    above, none (the rod no longer fits across): the two sides are decomposed independently
+    here and must match what analyze reports."""
+    env = _square(4.0)
+    v = analyze(decompose(env, 2.0))
+    c = v.critical
+    assert c is not None and c.events and not c.same_verdict
+    for side, lss in ((c.below, c.value - c.delta), (c.above, c.value + c.delta)):
+        ref = analyze(decompose(env, lss), near_critical=False)
+        assert side["lss"] == lss
+        assert side["strategy_exists"] == ref.strategy_exists
+        assert side["counts"] == ref.counts()
+    assert c.below["strategy_exists"] and not c.above["strategy_exists"]
+    d = v.to_dict()["critical_lss"]
+    assert d["delta"] == c.delta and d["events"][0]["multiple"] in (1, 2)
+
+
+def test_no_critical_report_away_from_critical_lengths():
+    env = _square(4.0)
+    assert near_critical(env, 1.9)[0] == ()
+    assert analyze(decompose(env, 1.9)).critical is None
+    assert analyze(decompose(env, 2.0 + 1e-3)).critical is None
+
+
+def test_corridor_exactly_two_lss_wide_is_critical_and_exact():
+    env = env_of(corridor(0.5), "corridor")
+    events, value, delta = near_critical(env, 0.5)
+    assert any(e.multiple == 2 for e in events) and delta > 0 and value == 0.5
+    _clean(decompose(env, 0.5))
+
+
+def test_lss_within_resolution_of_a_critical_length_reports_its_side():
+    """0.5 + 1e-7 in a corridor exactly 1 wide: the offsets of its two walls lie 2e-7 apart,
+    below resolution. analyze says which side of the critical length 0.5 lss is on, and the
+    verdicts on both sides are computed where everything is resolved (and verified)."""
+    env = env_of(corridor(0.5), "corridor")
+    v = analyze(decompose(env, 0.5 + 1e-7))
+    c = v.critical
+    assert c is not None and c.value == 0.5 and c.side == "above"
+    assert c.below["verified"] and c.above["verified"]
+    assert c.to_dict()["side"] == "above"
+    on = analyze(decompose(env, 0.5)).critical
+    assert on is not None and on.side == "on" and on.value == 0.5
+
+
+def test_a_long_boundary_left_without_a_piece_fails_the_self_check():
+    """G has no edge over a boundary stretch left without a crossing: a stretch longer than
+    the resolution must make the verdict unverified, never pass silently."""
+    dec = decompose(_square(4.0), 1.0)
+    assert self_check(dec).ok
+    longest = {"length": 100 * dec.curve_tol, "regions": ["R0", "R1"], "point": [1.0, 1.0]}
+    broken = dataclasses.replace(dec, unresolved_longest=longest)
+    rep = self_check(broken)
+    assert not rep.ok and rep.piece_disagreements[-1]["piece"] == "unresolved"
