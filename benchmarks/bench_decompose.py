@@ -65,10 +65,19 @@ from tether.escape import analyze
 g = build_graph(dec)
 t2 = time.process_time()
 try:
-    v = analyze(dec, g, self_check=False)
-except TypeError:  # before the self-check existed
-    v = analyze(dec, g)
+    v = analyze(dec, g, self_check=False, near_critical=False)
+except TypeError:  # before the critical lengths (or the self-check) existed
+    try:
+        v = analyze(dec, g, self_check=False)
+    except TypeError:
+        v = analyze(dec, g)
 t3 = time.process_time()
+try:  # the search for critical lengths near lss that analyze runs by default
+    from tether.critical import near_critical
+    critical = bool(near_critical(env, lss)[0])
+except ImportError:
+    critical = None
+t3b = time.process_time()
 try:
     from tether.decomposition import self_check
     ok = self_check(dec).ok
@@ -81,11 +90,13 @@ print(json.dumps({
     "curves_s": stages.get("critical curves", 0), "arrangement_s": stages.get("arrangement", 0),
     "faces_s": stages.get("face structures", 0), "regions_s": stages.get("regions", 0),
     "pieces_s": stages.get("pieces", 0), "graph_s": t2 - t1, "elim_s": t3 - t2,
-    "frame_s": t1 - mark[0], "selfcheck_s": t4 - t3, "total_s": time.perf_counter() - w0,
+    "frame_s": t1 - mark[0], "critical_s": t3b - t3, "selfcheck_s": t4 - t3b,
+    "total_s": time.perf_counter() - w0,
     "cpu_s": t4 - c0,
     "peak_mb": peak_mb,
     "curves": len(dec.curves), "regions": len(dec.regions), "cells": len(dec.cells),
-    "pieces": len(dec.pieces), "strategy": v.strategy_exists, "self_check": ok}))
+    "pieces": len(dec.pieces), "strategy": v.strategy_exists, "self_check": ok,
+    "near_critical": critical}))
 """
 
 COLUMNS = [("vertices", "verts", 6, "d"), ("pairs", "pairs", 7, "d"), ("lss", "lss", 5, ".2f"),
@@ -93,7 +104,8 @@ COLUMNS = [("vertices", "verts", 6, "d"), ("pairs", "pairs", 7, "d"), ("lss", "l
            ("faces_s", "faces", 6, ".2f"), ("regions_s", "regions", 8, ".2f"),
            ("pieces_s", "pieces", 7, ".2f"), ("frame_s", "frame", 6, ".2f"),
            ("graph_s", "G", 6, ".2f"),
-           ("elim_s", "elim", 6, ".2f"), ("selfcheck_s", "selfck", 7, ".2f"),
+           ("elim_s", "elim", 6, ".2f"), ("critical_s", "crit", 6, ".2f"),
+           ("selfcheck_s", "selfck", 7, ".2f"),
            ("total_s", "TOTAL s", 8, ".2f"), ("cpu_s", "CPU s", 7, ".2f"),
            ("peak_mb", "peak MB", 8, ".0f"),
            ("curves", "#curv", 7, "d"), ("regions", "#reg", 7, "d"), ("cells", "#cells", 7, "d"),

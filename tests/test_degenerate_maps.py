@@ -196,7 +196,7 @@ def test_a_long_boundary_left_without_a_piece_fails_the_self_check():
     the resolution must make the verdict unverified, never pass silently."""
     dec = decompose(_square(4.0), 1.0)
     assert self_check(dec).ok
-    longest = {"length": 100 * dec.curve_tol, "regions": ["R0", "R1"], "point": [1.0, 1.0]}
+    longest = {"length": 0.5, "regions": ["R0", "R1"], "point": [1.0, 1.0]}  # half a wall
     broken = dataclasses.replace(dec, unresolved_longest=longest)
     rep = self_check(broken)
     assert not rep.ok and rep.piece_disagreements[-1]["piece"] == "unresolved"
