@@ -659,7 +659,7 @@ def _through_one_wedge(env: Environment, v: np.ndarray, ux: np.ndarray, uy: np.n
     the other ring's obstacle. Each cone test alone takes a rod from one wedge to another
     (both directions lie in both rings' cones); but the obstacles meet at the point, so no rod
     passes between them: it is free only if ``-u`` and ``u`` lie in one closed wedge."""
-    members, wo, wi, kind = _wedge_columns(env)
+    members, wo, wi, kind = wedge_columns(env)
     tol = ANGLE_TOL
     ok = np.zeros(len(v), dtype=bool)
     for col in range(members.shape[1]):
@@ -679,7 +679,7 @@ def _through_one_wedge(env: Environment, v: np.ndarray, ux: np.ndarray, uy: np.n
     return ok
 
 
-def _wedge_columns(env: Environment) -> tuple[np.ndarray, ...]:
+def wedge_columns(env: Environment) -> tuple[np.ndarray, ...]:
     """The free wedges at the points where rings touch, computed once per map. Wedge ``w``
     (one per touching vertex ``w``) runs CCW from ``d_out`` of vertex ``w`` to ``d_in`` of the
     touching vertex whose obstacle comes next CCW around the point (the obstacles' wedges are
