@@ -252,11 +252,14 @@ def test_no_free_cell_and_bad_options(tmp_path):
 
 
 def test_hole_messages_give_locations():
-    with pytest.raises(InvalidMapError, match=r"inside the boundary: vertex V4 \(0, 1\) lies on"):
+    with pytest.raises(InvalidMapError, match=r"vertex V4 \(0, 1\) of hole 0 lies on edge E3"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]], ([[0, 1], [1, 1], [1, 2]],))
-    with pytest.raises(InvalidMapError, match=r"overlap or touch near \(2, 2\)"):
+    with pytest.raises(InvalidMapError, match=r"holes 0 and 1 overlap near \(1.75, 1.75\)"):
         Environment([[0, 0], [4, 0], [4, 4], [0, 4]],
-                    ([[1, 1], [2, 1], [2, 2], [1, 2]], [[2, 2], [3, 2], [3, 3], [2, 3]]))
+                    ([[1, 1], [2, 1], [2, 2], [1, 2]], [[1.5, 1.5], [3, 1.5], [3, 3], [1.5, 3]]))
+    # diagonal obstacle cells touching at a corner (a vertex of both): a valid map
+    Environment([[0, 0], [4, 0], [4, 4], [0, 4]],
+                ([[1, 1], [2, 1], [2, 2], [1, 2]], [[2, 2], [3, 2], [3, 3], [2, 3]]))
 
 
 # ---------------------------------------------------------------------- round trips

@@ -100,8 +100,11 @@ def test_wkt_types_not_taken(in_tmp, capsys, wkt, fragment):
     ({"boundary": [[0, 0], [4, 0], [4, 4], [0, 4]], "holes": [[[3, 1], [5, 1], [5, 2]]]},
      "vertex V5 (5, 1) lies outside the boundary"),
     ({"boundary": [[0, 0], [9, 0], [9, 9], [0, 9]],
-      "holes": [[[1, 1], [3, 1], [3, 3]], [[3, 1], [5, 1], [5, 3]]]},
-     "holes 0 and 1 overlap or touch near (3, 1)"),
+      "holes": [[[1, 1], [3, 1], [3, 3]], [[2, 1.5], [4, 1.5], [4, 4]]]},
+     "holes 0 and 1 overlap near ("),
+    ({"boundary": [[0, 0], [9, 0], [9, 9], [0, 9]],
+      "holes": [[[1, 1], [3, 1], [3, 3]], [[3, 1], [5, 1], [5, 3], [3, 3]]]},
+     "hole 0 and hole 1 touch along a segment from (3, "),
     ({"boundary": [[0, 0], [2, 2], [2, 0], [0, 2]]}, "intersects itself near (1, 1)"),
     ({"boundary": [[0, 0], [1e300, 0], [1e300, 1e300]]}, "V1 (1e+300, 0) is beyond"),
 ])

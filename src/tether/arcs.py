@@ -164,7 +164,9 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
 
     Returns a dict of arrays, one row per nonempty interval: ``point`` (index), ``edge``,
     ``start`` (radians in [0, 2pi), CW end), ``length`` (radians, in (0, pi)),
-    ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends), sorted by point.
+    ``cw_code`` and ``ccw_code`` (feature codes of the CW and CCW ends; a vertex where rings
+    touch is coded as the first vertex at its point, :attr:`Environment.coincident`), sorted
+    by point.
     Tangencies (intervals narrower than ``ANGLE_TOL`` whose edge part inside the disc is
     shorter than ``env.length_tol``) are dropped.
     """
@@ -207,13 +209,17 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     wide = (length > ANGLE_TOL) | ((length > 0.0) & (chord > env.length_tol))
     w = k[wide]
     e = eidx[w]
+    # a vertex where rings touch is named by the first vertex at that point: grazing it, the
+    # edges of both rings end their intervals at the very same angle (which one reaches
+    # farther is rounding), and both vertices are the one feature of the free space there
+    first = env.coincident
     return {
         "point": pidx[w],
         "edge": e,
         "start": start[wide],
         "length": length[wide],
-        "cw_code": np.where(r1[w] <= 0, env.n + tag_a[e], e),
-        "ccw_code": np.where(r2[w] >= 1, env.n + tag_b[e], e),
+        "cw_code": np.where(r1[w] <= 0, env.n + first[tag_a[e]], e),
+        "ccw_code": np.where(r2[w] >= 1, env.n + first[tag_b[e]], e),
     }
 
 
@@ -638,7 +644,75 @@ def _leaves_cone(env: Environment, v: np.ndarray, ux: np.ndarray, uy: np.ndarray
                        np.where(k < 0, ~((b > tol) & (a > tol)), a <= tol))
     ahead_in = np.where(k > 0, (a >= -tol) & (b >= -tol),
                         np.where(k < 0, ~((b < -tol) & (a < -tol)), a >= -tol))
-    return ~back_in | (through & ~ahead_in)
+    out = ~back_in | (through & ~ahead_in)
+    touch = np.flatnonzero(through & env.touching[v])
+    if len(touch):
+        out[touch] |= ~_through_one_wedge(env, v[touch], ux[touch], uy[touch])
+    return out
+
+
+def _through_one_wedge(env: Environment, v: np.ndarray, ux: np.ndarray, uy: np.ndarray
+                       ) -> np.ndarray:
+    """Whether rods passing through touching vertices ``v`` (unit directions ``(ux, uy)``)
+    stay in one free wedge there: where rings touch, the free space near the point is several
+    wedges (between the obstacles meeting there), each the cone of a vertex of one ring cut by
+    the other ring's obstacle. Each cone test alone takes a rod from one wedge to another
+    (both directions lie in both rings' cones); but the obstacles meet at the point, so no rod
+    passes between them: it is free only if ``-u`` and ``u`` lie in one closed wedge."""
+    members, wo, wi, kind = wedge_columns(env)
+    tol = ANGLE_TOL
+    ok = np.zeros(len(v), dtype=bool)
+    for col in range(members.shape[1]):
+        w = members[v, col]
+        k = np.flatnonzero(w >= 0)
+        if not len(k):
+            continue
+        w = w[k]
+        a = wo[w, 0] * uy[k] - wo[w, 1] * ux[k]  # cross(d_out, u)
+        b = ux[k] * wi[w, 1] - uy[k] * wi[w, 0]  # cross(u, d_in)
+        t = kind[w]
+        ahead = np.where(t > 0, (a >= -tol) & (b >= -tol),
+                         np.where(t < 0, ~((b < -tol) & (a < -tol)), a >= -tol))
+        back = np.where(t > 0, (a <= tol) & (b <= tol),
+                        np.where(t < 0, ~((b > tol) & (a > tol)), a <= tol))
+        ok[k] |= ahead & back
+    return ok
+
+
+def wedge_columns(env: Environment) -> tuple[np.ndarray, ...]:
+    """The free wedges at the points where rings touch, computed once per map. Wedge ``w``
+    (one per touching vertex ``w``) runs CCW from ``d_out`` of vertex ``w`` to ``d_in`` of the
+    touching vertex whose obstacle comes next CCW around the point (the obstacles' wedges are
+    disjoint: a valid map). Returns ``members`` (n, g): the touching vertices at each vertex's
+    point (-1 padded, all -1 for other vertices), the wedges' ``d_out`` and ``d_in`` (n, 2)
+    and their turn (1 convex, -1 reflex, 0 straight, as :func:`_cone_columns`)."""
+    got = env.__dict__.get("_wedge_columns")
+    if got is not None:
+        return got
+    d_out, d_in = env.cone
+    n = env.n
+    wo, wi = d_out.copy(), d_in.copy()
+    first = env.coincident
+    groups: dict[int, list[int]] = {}
+    for j in np.flatnonzero(env.touching).tolist():
+        groups.setdefault(int(first[j]), []).append(j)
+    g = max((len(x) for x in groups.values()), default=1)
+    members = np.full((n, g), -1, dtype=np.int64)
+    for vs in groups.values():
+        # each obstacle's wedge runs CCW from d_in to d_out: order them by d_in's angle
+        ang = [math.atan2(d_in[j, 1], d_in[j, 0]) for j in vs]
+        order = [vs[i] for i in np.argsort(ang, kind="stable")]
+        for i, j in enumerate(order):
+            wi[j] = d_in[order[(i + 1) % len(order)]]
+        for j in vs:
+            members[j, :len(vs)] = vs
+    turn = wo[:, 0] * wi[:, 1] - wo[:, 1] * wi[:, 0]
+    dot = wo[:, 0] * wi[:, 0] + wo[:, 1] * wi[:, 1]
+    # a wedge wider than pi with cross ~ 0 is straight only if d_out and d_in are opposite
+    kind = np.where(turn > ANGLE_TOL, 1,
+                    np.where(turn < -ANGLE_TOL, -1, np.where(dot < 0, 0, 1)))
+    got = env.__dict__["_wedge_columns"] = (members, wo, wi, kind)
+    return got
 
 
 def _cone_columns(env: Environment) -> tuple[np.ndarray, ...]:

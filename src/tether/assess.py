@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.arcs import feature_name, free_arcs_many, rod_is_free
+from tether.arcs import feature_name, free_arcs_many, rod_is_free, wedge_columns
 from tether.bounds import check_speeds, distance_bound
 from tether.decomposition import FREE, cell_name
 from tether.escape import Verdict
@@ -326,7 +326,7 @@ def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTa
             rows_piece.append(k)
             rows_k.append(_widened(table, int(inside[i]), karc[0][0], karc[0][1]))
             rows_g.append([g[:2] for g in goals])
-    refl = np.asarray(env.reflex_indices, dtype=int)
+    refl = _pivot_vertices(env)
     vq, vgoal = _vertex_goals(env, dec.lss, refl)
     n_piece_rows = len(rows_q)
     for j, q, goals in zip(refl, vq, vgoal, strict=True):
@@ -351,6 +351,17 @@ def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTa
                        env.vertices[refl].reshape(-1, 2))
 
 
+def _pivot_vertices(env: Any) -> np.ndarray:
+    """The reflex vertices a target can round. Where rings touch, a vertex's own cone holds
+    the other ring's obstacle: what matters is the free wedge that follows the vertex's
+    obstacle (:func:`tether.arcs.wedge_columns`, one per touching vertex), kept when that
+    wedge is reflex."""
+    refl = np.asarray(env.reflex_indices, dtype=int)
+    _, _, _, kind = wedge_columns(env)
+    touch = env.touching[refl]
+    return refl[~touch | (kind[refl] < 0)]
+
+
 def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
                   ) -> tuple[np.ndarray, list[list[tuple[float, float]]]]:
     """For each reflex vertex: a point just off it inside its free cone, and the goal there:
@@ -359,7 +370,7 @@ def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
     the target rounds it. Falls back to the free arcs at the point when that set is empty."""
     if not len(refl):
         return np.zeros((0, 2)), []
-    d_out, d_in = env.cone
+    _, d_out, d_in, _ = wedge_columns(env)  # the free cone; at a touching vertex, its wedge
     a_out = np.arctan2(d_out[refl, 1], d_out[refl, 0])
     width = np.mod(np.arctan2(d_in[refl, 1], d_in[refl, 0]) - a_out, TWO_PI)
     mid = a_out + 0.5 * width

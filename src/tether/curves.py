@@ -323,22 +323,35 @@ def _family_b(env: Environment, L: float) -> Family:
     t0, t1 = _tangent_points(env, L)
     n = env.free_normals
     marks: list[list[tuple[float, np.ndarray]]] = [[] for _ in range(m)]
+    # where rings touch, the circles of the coincident vertices are one curve: the first
+    # vertex's (the others are dropped in :func:`critical_curves`), which takes the tangent
+    # points of every edge meeting there
+    first = env.coincident
     for i in range(m):
         phi = math.atan2(n[i, 1], n[i, 0]) % (2 * math.pi)
-        marks[tag_a[i]].append((phi, t0[i]))
-        marks[tag_b[i]].append((phi, t1[i]))
+        marks[first[tag_a[i]]].append((phi, t0[i]))
+        marks[first[tag_b[i]]].append((phi, t1[i]))
     return Family("B", L, env.vertices.copy(), z, z, np.zeros(m), np.full(m, 2 * math.pi),
                   [(f"V{j}",) for j in range(m)], marks)
 
 
 def _family_c(env: Environment, L: float) -> Family:
+    """Extensions of the edges through each reflex vertex. Where rings touch, an extension
+    that runs along an edge of another ring from the same point is left out: it lies on that
+    wall (the obstacle on one side, so it separates no two faces), and where it goes on past
+    the wall's far end it is that end's own extension (the same event rods)."""
     V = env.vertices
     p, d, feats = [], [], []
+    along = _touching_directions(env)
     for j in env.reflex_indices:
         for k, edge in ((env.next_vertex[j], j), (env.prev_vertex[j], env.prev_vertex[j])):
             u = V[j] - V[k]
+            u = u / np.linalg.norm(u)
+            if any(abs(u[0] * w[1] - u[1] * w[0]) <= 1e-12 and u @ w > 0
+                   for w in along.get(j, ())):
+                continue
             p.append(V[j])
-            d.append(u / np.linalg.norm(u))
+            d.append(u)
             feats.append((f"V{j}", f"E{edge}"))
     m = len(p)
     p_ = np.array(p).reshape(m, 2)
@@ -351,17 +364,23 @@ def _family_d(env: Environment, L: float) -> Family:
     length tolerance), not adjacent: the rod on the line beyond ``V2``, ``τ`` in
     ``[0, L - |V1 V2|]`` (vectorized over the pairs, in row-major order)."""
     V = env.vertices
-    R = np.asarray(env.reflex_indices, dtype=np.int64)
+    R = _poles(env)
     a = b = np.zeros(0, np.int64)
     diff, dist = np.zeros((0, 0, 2)), np.zeros((0, 0))
     if len(R) > 1:
         diff = V[R][:, None, :] - V[R][None, :, :]
         dist = np.linalg.norm(diff, axis=2)
-        # the two vertices must be within lss by more than the tolerance
+        # the two vertices must be within lss by more than the tolerance; dist > 0: no pair
+        # of coincident vertices (touching rings: |V1 V2| = 0 has no line; :func:`_poles`
+        # keeps one vertex per point anyway)
         a, b = np.nonzero((dist < L - env.length_tol) & (dist > 0))
         v1, v2 = R[a], R[b]
-        # adjacent: that line is an edge, its extension is type C
-        keep = (env.next_vertex[v1] != v2) & (env.next_vertex[v2] != v1)
+        # adjacent: that line is an edge, its extension is type C (an edge of any ring
+        # through the point, where rings touch)
+        first, nxt = env.coincident, env.next_vertex
+        n = env.n
+        edges = np.concatenate((first * n + first[nxt], first[nxt] * n + first))
+        keep = ~np.isin(first[v1] * n + first[v2], edges)
         a, b = a[keep], b[keep]
     d = diff[a, b] / dist[a, b][:, None]
     feats = [(f"V{x}", f"V{y}") for x, y in zip(R[a].tolist(), R[b].tolist(), strict=True)]
@@ -375,9 +394,10 @@ def _family_e(env: Environment, L: float) -> Family:
     strictly on the edge's free side; parameter ``s`` along the edge where ``|V_j - Q(s)| < L``
     (vectorized over the (pole, edge) pairs, in the order of the edge index's query)."""
     A, B, tag_a, tag_b = env.oriented_edges
-    R = env.reflex_indices
+    R = _poles(env)
     V = env.vertices
     tol = env.length_tol
+    first = env.coincident
     pidx, eidx = env.edge_index(L).query(V[R]) if len(R) else (np.zeros(0, int),) * 2
     j, i = np.asarray(R)[pidx].astype(np.int64), np.asarray(eidx, dtype=np.int64)
     a, e = A[i], B[i] - A[i]
@@ -394,6 +414,10 @@ def _family_e(env: Environment, L: float) -> Family:
     s0 = np.maximum(0.0, (b - sq) / ee)
     s1 = np.minimum(1.0, (b + sq) / ee)
     keep = ((j != tag_a[i]) & (j != tag_b[i])
+            # nor at an end of it through touching rings: the pole on the base's line (c = 0),
+            # the conchoid degenerates to that line (the edge and the C extension through
+            # the point); the side test below drops it too, this says why
+            & (first[j] != first[tag_a[i]]) & (first[j] != first[tag_b[i]])
             # the pole strictly on the free side of the base edge
             & (ex * ry - ey * rx > tol * np.sqrt(ee))
             # within lss of the edge by more than the tolerance
@@ -403,6 +427,33 @@ def _family_e(env: Environment, L: float) -> Family:
     feats = [(f"V{jj}", f"E{ii}") for jj, ii in zip(j[k].tolist(), i[k].tolist(), strict=True)]
     return Family("E", L, V[j[k]].reshape(-1, 2), e[k].reshape(-1, 2), a[k].reshape(-1, 2),
                   s0[k].astype(float), s1[k].astype(float), feats)
+
+
+def _poles(env: Environment) -> np.ndarray:
+    """The reflex vertices that D lines and E conchoids start from: one per point. Where
+    rings touch, the coincident vertices give the very same curves; only the first one's are
+    made. (If the first one is not reflex for its ring, no free wedge at the point is reflex,
+    no rod grazes it there, and its curves would have no critical part.)"""
+    R = np.asarray(env.reflex_indices, dtype=np.int64)
+    return R[env.coincident[R] == R]
+
+
+def _touching_directions(env: Environment) -> dict[int, list[np.ndarray]]:
+    """For each vertex where rings touch, the unit directions of the edges leaving that
+    point from the other coincident vertices (the other rings' walls)."""
+    V = env.vertices
+    first = env.coincident
+    out: dict[int, list[np.ndarray]] = {}
+    touch = np.flatnonzero(env.touching).tolist()
+    for j in touch:
+        dirs = []
+        for k in touch:
+            if k != j and first[k] == first[j]:
+                for w in (env.next_vertex[k], env.prev_vertex[k]):
+                    u = V[w] - V[k]
+                    dirs.append(u / np.linalg.norm(u))
+        out[j] = dirs
+    return out
 
 
 def curves_to_user(curves: list[Curve], frame: Any, names: dict[str, str]) -> list[Curve]:
@@ -1229,8 +1280,12 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     margin = 20 * tol
     curves: list[Curve] = []
     found = []
+    first = env.coincident
     for fam in candidate_families(env, lss):
-        found += _overshoot_family(fam, _critical_intervals(env, fam), margin)
+        ivs = _critical_intervals(env, fam)
+        if fam.kind == "B":  # touching rings: one circle per point (see :func:`_family_b`)
+            ivs = [iv if first[c] == c else [] for c, iv in enumerate(ivs)]
+        found += _overshoot_family(fam, ivs, margin)
     check_vertex_budget(sum(_vertex_estimates(found, tol)), lss)
     drawn_all = _draw_all(found, tol)
     domains = {id(fam): (fam.lo.tolist(), fam.hi.tolist())

@@ -107,24 +107,90 @@ def _check_coordinate_range(pts: np.ndarray) -> None:
 
 
 def _hole_outside_where(outer: Polygon, hole: np.ndarray, first: int) -> str:
-    """Where a hole leaves the boundary: its first vertex outside, or a point it touches."""
-    inside = shapely.contains_xy(outer, hole[:, 0], hole[:, 1])
+    """Where a hole leaves the boundary: its first vertex outside, or a point where it crosses
+    the boundary."""
+    inside = shapely.intersects_xy(outer, hole[:, 0], hole[:, 1])
     if not np.all(inside):
         j = int(np.flatnonzero(~inside)[0])
-        on = outer.exterior.distance(shapely.Point(hole[j])) == 0
-        return (f"vertex V{first + j} ({_fmt(hole[j, 0])}, {_fmt(hole[j, 1])}) lies "
-                f"{'on' if on else 'outside'} the boundary")
+        return (f"vertex V{first + j} ({_fmt(hole[j, 0])}, {_fmt(hole[j, 1])}) lies outside "
+                "the boundary")
     at = outer.exterior.intersection(LinearRing(hole)).representative_point()
-    return f"it touches the boundary near ({_fmt(at.x)}, {_fmt(at.y)})"
+    return f"it crosses the boundary near ({_fmt(at.x)}, {_fmt(at.y)})"
 
 
-def _straight_flags(ring: np.ndarray) -> np.ndarray:
+def _ring_name(k: int) -> str:
+    return "the boundary" if k == 0 else f"hole {k - 1}"
+
+
+def _check_touch(rings: list[np.ndarray], firsts: list[int], ka: int, kb: int) -> None:
+    """Two rings (indices into ``rings``; 0 is the boundary) whose interiors do not overlap
+    may meet only at single points that are a vertex of both (coincident vertices: holes
+    touching the boundary or each other, as in maps traced from occupancy grids). Refuse a
+    shared segment, and a vertex of one ring lying inside an edge of the other (naming the
+    vertex and the edge: a vertex added there makes the map acceptable)."""
+    a, b = rings[ka], rings[kb]
+    ra, rb = LinearRing(a), LinearRing(b)
+    if not ra.intersects(rb):
+        return
+    both = f"{_ring_name(ka)} and {_ring_name(kb)}"
+    meet = ra.intersection(rb)
+    for part in shapely.get_parts(meet):
+        if shapely.get_dimensions(part) > 0:
+            xy = shapely.get_coordinates(part)
+            raise InvalidMapError(
+                f"{both} touch along a segment from ({_fmt(xy[0, 0])}, {_fmt(xy[0, 1])}) to "
+                f"({_fmt(xy[-1, 0])}, {_fmt(xy[-1, 1])}): rings may touch only at single "
+                "points where both have a vertex")
+    for (kp, p, fp), (ke, e, fe) in (((ka, a, firsts[ka]), (kb, b, firsts[kb])),
+                                     ((kb, b, firsts[kb]), (ka, a, firsts[ka]))):
+        ring_e = LinearRing(e)
+        on = np.flatnonzero(shapely.intersects_xy(ring_e, p[:, 0], p[:, 1]))
+        for j in on.tolist():
+            if np.any(np.all(e == p[j], axis=1)):
+                continue  # a vertex of both rings: the touch tether takes
+            segs = shapely.linestrings(np.stack((e, np.roll(e, -1, axis=0)), axis=1))
+            d = shapely.distance(segs, shapely.points(p[j]))
+            i = int(np.argmin(d))
+            x, y = _fmt(p[j, 0]), _fmt(p[j, 1])
+            raise InvalidMapError(
+                f"vertex V{fp + j} ({x}, {y}) of {_ring_name(kp)} lies on edge E{fe + i} of "
+                f"{_ring_name(ke)}, between the edge's ends: rings may touch only at a vertex "
+                f"of both; add a vertex at ({x}, {y}) to E{fe + i}")
+    # (two edges crossing at a point inside both would make the interiors overlap: refused
+    # before this check)
+
+
+def _check_polygon_valid(boundary: np.ndarray, holes: tuple[np.ndarray, ...]) -> None:
+    """The last check of a map whose rings meet only at coincident vertices: the free space
+    must be a valid polygon (OGC, as shapely tests it), i.e. its interior connected. Rings
+    touching each other in a loop (a hole touching the boundary twice, two holes touching at
+    two points, a chain of holes from wall to wall) cut it in pieces."""
+    poly = Polygon(boundary, list(holes))
+    if shapely.is_valid(poly):
+        return
+    reason = shapely.is_valid_reason(poly)
+    m = re.search(r"\[([^\]]+)\]", reason)
+    at = ""
+    if m:
+        xs = m.group(1).split()
+        at = " near (" + ", ".join(_fmt(float(v)) for v in xs[:2]) + ")"
+    what = reason.split("[")[0].strip().lower()
+    if "disconnected" in what:
+        raise InvalidMapError(f"the rings touch in a loop that cuts the free space in two{at}: "
+                              "remove one of the touching points")
+    raise InvalidMapError(f"the free space is not a valid polygon ({what}){at}")
+
+
+def _straight_flags(ring: np.ndarray, keep: np.ndarray | None = None) -> np.ndarray:
     """Straight vertices of one ring (see :attr:`Environment.straight`): first each vertex
     against its neighbours, then each run of straight vertices against the chord of the kept
-    vertices around it (so that a long, gently curving chain is not flattened)."""
+    vertices around it (so that a long, gently curving chain is not flattened). Vertices
+    flagged in ``keep`` are never straight."""
     k = len(ring)
     prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
     flags = _near_chord(ring, prev, nxt)
+    if keep is not None:
+        flags &= ~keep
     for _ in range(k):
         if flags.all() or not flags.any():
             break
@@ -190,6 +256,11 @@ def _check_resolution(env: Environment) -> None:
                                          distance=limit)
     j = pts[pi]
     ok = (wall[ei] != j) & (wall[ei] != prev_kept[j])
+    # rings touching at a vertex of both: that vertex lies on the other ring's edges from the
+    # coincident vertex (exactly, distance 0): no gap, exempt. Any other vertex near a wall
+    # (the other ring's next vertices included) is still checked.
+    at_end = (np.all(V[j] == V[ei], axis=1) | np.all(V[j] == V[nxt[ei]], axis=1))
+    ok &= ~at_end
     j, ei = j[ok], ei[ok]
     a, b = V[ei], V[nxt[ei]]
     ab = b - a
@@ -272,7 +343,9 @@ class Environment:
     boundary : array_like, shape (k, 2)
         Outer ring, any orientation, without or with a repeated closing vertex. Map units.
     holes : sequence of array_like
-        Obstacle rings strictly inside the boundary, pairwise disjoint.
+        Obstacle rings inside the boundary, with disjoint interiors. A hole may touch the
+        boundary or another hole at single points where both rings have a vertex (coincident
+        vertices), as long as the free space stays a valid polygon (connected interior).
     name : str
         A label for reports.
 
@@ -280,7 +353,9 @@ class Environment:
     ------
     InvalidMapError
         If a ring is degenerate or self-intersecting, a coordinate is not finite, a hole is not
-        strictly inside the boundary, or two holes overlap or touch.
+        inside the boundary, two holes overlap, two rings touch along a segment or at a
+        vertex of one ring lying inside an edge of the other (the message names both and says
+        where to add a vertex), or touching rings cut the free space in two.
     """
 
     boundary: np.ndarray
@@ -301,21 +376,26 @@ class Environment:
             raise InvalidMapError(f"{len(allpts)} vertices, more than tether takes "
                                   f"({MAX_VERTICES})")
         outer = Polygon(boundary)
-        hole_polys = []
-        first = len(boundary)
+        hole_polys: list[Polygon] = []
+        rings = [boundary, *holes]
+        firsts = np.cumsum([0] + [len(r) for r in rings]).tolist()
         for k, h in enumerate(holes):
             _validate_ring(h, f"hole {k}", tol)
             hp = Polygon(h)
-            if not outer.contains(hp) or outer.exterior.intersects(LinearRing(h)):
-                raise InvalidMapError(f"hole {k}: not strictly inside the boundary: "
-                                      f"{_hole_outside_where(outer, h, first)}")
+            if not outer.covers(hp):
+                raise InvalidMapError(f"hole {k}: not inside the boundary: "
+                                      f"{_hole_outside_where(outer, h, firsts[k + 1])}")
+            _check_touch(rings, firsts, 0, k + 1)
             for j, other in enumerate(hole_polys):
                 if hp.intersects(other):
-                    at = hp.intersection(other).representative_point()
-                    raise InvalidMapError(f"holes {j} and {k} overlap or touch near "
-                                          f"({_fmt(at.x)}, {_fmt(at.y)})")
+                    if shapely.relate_pattern(hp, other, "T********"):
+                        at = hp.intersection(other).representative_point()
+                        raise InvalidMapError(f"holes {j} and {k} overlap near "
+                                              f"({_fmt(at.x)}, {_fmt(at.y)})")
+                    _check_touch(rings, firsts, j + 1, k + 1)
             hole_polys.append(hp)
-            first += len(h)
+        if holes:
+            _check_polygon_valid(boundary, holes)
         _check_resolution(self)
 
     # ------------------------------------------------------------------ structure
@@ -419,11 +499,39 @@ class Environment:
         vertex is no feature of the free space: it gets no curves and no regions, and the
         computation runs on the map without it (:attr:`internal`)."""
         out = np.zeros(self.n, dtype=bool)
+        touch = self.touching
         start = 0
         for r in self.rings:
-            out[start:start + len(r)] = _straight_flags(r - r.mean(axis=0))
+            out[start:start + len(r)] = _straight_flags(r - r.mean(axis=0),
+                                                        touch[start:start + len(r)])
             start += len(r)
         return out
+
+    @cached_property
+    def coincident(self) -> np.ndarray:
+        """For each vertex, the smallest index of a vertex at exactly the same point (itself
+        when it is alone there), shape (n,). Vertices of different rings coincide where rings
+        touch (a hole touching the boundary or another hole at a vertex of both); such a point
+        is one feature of the free space: free-arc labels name it by this first vertex."""
+        V = self.vertices
+        order = np.lexsort((V[:, 1], V[:, 0]))
+        s = V[order]
+        new = np.r_[True, np.any(s[1:] != s[:-1], axis=1)]  # == on floats: -0.0 is 0.0
+        group = np.empty(self.n, dtype=np.int64)
+        group[order] = np.cumsum(new) - 1
+        first = np.full(int(group.max()) + 1, self.n, dtype=np.int64)
+        np.minimum.at(first, group, np.arange(self.n))
+        return first[group]
+
+    @cached_property
+    def touching(self) -> np.ndarray:
+        """Whether each vertex coincides with a vertex of another ring (rings touching there),
+        shape (n,). A touching vertex is never straight (it is a vertex of the free space's
+        pinch), and no rod passes through it from one side of the touching obstacles to the
+        other (:func:`tether.arcs.rod_is_free_many`)."""
+        c = self.coincident
+        counts = np.bincount(c, minlength=self.n)
+        return counts[c] > 1
 
     @cached_property
     def wall_of(self) -> np.ndarray:

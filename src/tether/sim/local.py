@@ -60,8 +60,9 @@ class LocalArcs:
         A, B, tag_a, tag_b = env.oriented_edges
         self._a = [tuple(map(float, x)) for x in A]
         self._b = [tuple(map(float, x)) for x in B]
-        self._va = [env.vertex_name(int(t)) for t in tag_a]
-        self._vb = [env.vertex_name(int(t)) for t in tag_b]
+        first = env.coincident  # touching rings: one name per point (as tether.arcs)
+        self._va = [env.vertex_name(int(first[t])) for t in tag_a]
+        self._vb = [env.vertex_name(int(first[t])) for t in tag_b]
         self._edge = [env.edge_name(i) for i in self._edge_ids(env)]
         reach = self.lss + max(pad, 0.0)
         idx = EdgeIndex.build(A, B, reach)
