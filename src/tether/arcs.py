@@ -223,6 +223,32 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     }
 
 
+def near_edge_lines(env: Environment, pts: np.ndarray, lss: float) -> np.ndarray:
+    """Whether each point (internal frame, (m, 2)) lies on the free side of an edge within
+    reach ``lss`` but no farther than ``env.length_tol`` from the edge's supporting line: there
+    :func:`blocked_intervals` takes the point as on the line and skips the edge (its interval
+    has no width on the line), so the free arcs at such a point can differ from those on both
+    sides of the line by a sliver arc. A point that stands for a whole face must not lie there
+    (:func:`tether.decomposition._decompose` moves such points off the line)."""
+    out = np.zeros(len(pts), dtype=bool)
+    if len(pts) == 0:
+        return out
+    ax, ay, dx, dy, dd, sdd, _, _ = _edge_columns(env)
+    pidx, eidx, _ = _query(env.edge_index(lss), pts)
+    wx = ax[eidx] - pts[pidx, 0]
+    wy = ay[eidx] - pts[pidx, 1]
+    side = dy[eidx] * wx - dx[eidx] * wy
+    band = (side > 0) & (side <= env.length_tol * sdd[eidx])
+    k = np.flatnonzero(band)
+    if len(k) == 0:
+        return out
+    e = eidx[k]
+    t = np.clip(-(dx[e] * wx[k] + dy[e] * wy[k]) / dd[e], 0.0, 1.0)
+    near = np.hypot(wx[k] + t * dx[e], wy[k] + t * dy[e]) < lss
+    out[pidx[k[near]]] = True
+    return out
+
+
 def _facing_index(env: Environment, lss: float) -> EdgeIndex:
     """The edge index of :meth:`Environment.edge_index` for ``lss`` without the edges that no
     point of a grid cell sees from their free side (cached per map and ``lss``): about 45 %

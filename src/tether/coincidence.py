@@ -20,6 +20,8 @@ all their sources. Each vertex moves by at most ``COLLINEAR_TOL``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 #: Two segments are on one line when their directions agree within this angle (radians) and
@@ -158,4 +160,56 @@ def _merge_group(members: np.ndarray, k: np.ndarray, a: np.ndarray, b: np.ndarra
             inserts.append((int(k[m]), rank, reps[c]))
 
 
-__all__ = ["COLLINEAR_TOL", "merge_collinear"]
+#: A curve's end inside the free space this close to a wall (curve tolerances) is joined to
+#: the wall by a stub reaching ``STUB_PAST_TOLS`` past it.
+STUB_REACH_TOLS = 40.0
+STUB_PAST_TOLS = 20.0
+
+
+def wall_stubs(ends: np.ndarray, free: np.ndarray, wa: np.ndarray, wb: np.ndarray,
+               tol: float, inside: Any = None) -> np.ndarray:
+    """Stubs (k, 2, 2) joining curve ends that stop just short of a wall to it.
+
+    A vertex exactly ``lss`` from a wall makes its circle touch the wall at the end of the
+    circle's critical part; drawn with an overshoot along the circle, the end curves away
+    from the wall and stops ~1e-10 short of it. The noder then leaves it dangling, the
+    dangle is dropped, and the pocket between circle and wall (real area) joins the region
+    around it. Each end in the free space (``free``) within ``STUB_REACH_TOLS`` curve
+    tolerances ``tol`` of a wall segment ``wa[j]-wb[j]`` gets a stub to the wall's nearest
+    point and ``STUB_PAST_TOLS`` beyond (into the obstacle, where faces are dropped). A stub
+    is no critical curve: faces on both sides with equal structures merge as usual. An end
+    closer to its wall than ``1e-3 tol`` goes along the wall's normal, to the side where
+    ``inside(points)`` (the free space's test) is False."""
+    out = np.zeros((0, 2, 2))
+    sel = np.flatnonzero(free)
+    if len(sel) == 0 or len(wa) == 0:
+        return out
+    import shapely  # local to this function: the module is plain numpy otherwise
+
+    reach = STUB_REACH_TOLS * tol
+    tree = shapely.STRtree(shapely.linestrings(np.stack((wa, wb), axis=1)))
+    pi, wi = tree.query(shapely.points(ends[sel]), predicate="dwithin", distance=reach)
+    if len(pi) == 0:
+        return out
+    p = ends[sel[pi]]
+    d = wb[wi] - wa[wi]
+    t = np.clip(np.einsum("ij,ij->i", p - wa[wi], d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+    foot = wa[wi] + t[:, None] * d
+    gap = np.hypot(*(foot - p).T)
+    # the nearest wall of each end
+    order = np.lexsort((gap, pi))
+    first = order[np.r_[True, pi[order][1:] != pi[order][:-1]]]
+    p, foot, gap, d = p[first], foot[first], gap[first], d[first]
+    keep = gap > 0  # an end on the wall is noded with it already
+    p, foot, gap, d = p[keep], foot[keep], gap[keep], d[keep]
+    normal = np.column_stack((d[:, 1], -d[:, 0])) / np.hypot(*d.T)[:, None]
+    if inside is not None:
+        flip = np.asarray(inside(foot + STUB_PAST_TOLS * tol * normal), dtype=bool)
+        normal[flip] *= -1
+    unit = np.where((gap > 1e-3 * tol)[:, None], (foot - p) / np.maximum(gap, 1e-300)[:, None],
+                    normal)
+    return np.stack((p, foot + STUB_PAST_TOLS * tol * unit), axis=1)
+
+
+__all__ = ["COLLINEAR_TOL", "STUB_PAST_TOLS", "STUB_REACH_TOLS", "merge_collinear",
+           "wall_stubs"]

@@ -35,9 +35,10 @@ from tether.arcs import (
     feature_name,
     free_arcs_many,
     join_tables,
+    near_edge_lines,
 )
 from tether.arrays import ragged_arange
-from tether.coincidence import merge_collinear
+from tether.coincidence import merge_collinear, wall_stubs
 from tether.curves import Curve, _first_nearest, critical_curves, project_many
 from tether.environment import Environment
 from tether.noding import ArrangementError, geos_message, node_lines
@@ -242,7 +243,7 @@ class _Shapes:
     def all(self) -> np.ndarray:
         """Every geometry in map coordinates (an object array; converted on the first call)."""
         if self._frame is not None:
-            geoms = self._frame.geometry_to_user(self._geoms)
+            geoms = self._to_user(self._geoms)
             if self._prepare:
                 shapely.prepare(geoms)
             self._geoms, self._frame = geoms, None
@@ -257,7 +258,12 @@ class _Shapes:
         prepared): a few reads need not convert them all."""
         if self._frame is None:
             return self._geoms[ids]
-        return self._frame.geometry_to_user(self._geoms[ids])
+        return self._to_user(self._geoms[ids])
+
+    def _to_user(self, geoms: np.ndarray) -> np.ndarray:
+        """Geometries converted to the map's frame (:class:`_RegionShapes` also repairs
+        polygons that rounding made invalid)."""
+        return self._frame.geometry_to_user(geoms)
 
     def __len__(self) -> int:
         return len(self._geoms)
@@ -316,6 +322,9 @@ class _RegionShapes(_Shapes):
             got = self._face_tree = shapely.STRtree(geoms[keep])
         return got
 
+    def _to_user(self, geoms: np.ndarray) -> np.ndarray:
+        return valid_polygons(self._frame.geometry_to_user(geoms))
+
     def some(self, ids: Any) -> np.ndarray:
         if self._unions is None:
             return super().some(ids)
@@ -325,7 +334,21 @@ class _RegionShapes(_Shapes):
             faces = self._unions.get(i)
             if faces is not None:
                 geoms[k] = shapely.union_all(faces)
-        return geoms if self._frame is None else self._frame.geometry_to_user(geoms)
+        return geoms if self._frame is None else self._to_user(geoms)
+
+
+def valid_polygons(geoms: np.ndarray) -> np.ndarray:
+    """The polygons ``geoms`` with those that are invalid repaired: a region's polygon is
+    valid in the internal frame, but its conversion to the map's coordinates can round a
+    cusp's tip (two circles, or a circle and a line, touching) or two nodes one unit in the
+    last place apart into a collinear back-track, a self-touching ring. Such rings get
+    ``make_valid``'s structure method without the collapsed parts (the same area to rounding).
+    The array is changed in place and returned."""
+    bad = np.flatnonzero(~shapely.is_valid(geoms) & ~shapely.is_missing(geoms))
+    if len(bad):
+        fixed = shapely.make_valid(geoms[bad], method="structure", keep_collapsed=False)
+        geoms[bad] = fixed
+    return geoms
 
 
 class _CellTable:
@@ -1006,11 +1029,14 @@ class _Arrangement:
         return np.searchsorted(c, np.arange(len(chains) + 1)), s
 
 
-def _input_lines(env: Environment, curves: list[Curve]
+def _input_lines(env: Environment, curves: list[Curve], tol: float | None = None
                  ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """The arrangement's input: the map's rings (closed) and every curve polyline of at least
     two distinct points, as linestrings (built in one call), each line's source curve id
-    (-1: a ring), and the lines' segments (as :func:`_ring_segments` of the lines)."""
+    (-1: a ring), and the lines' segments (as :func:`_ring_segments` of the lines). Collinear
+    copies are made one (:func:`tether.coincidence.merge_collinear`); with the curve
+    tolerance ``tol``, curve ends stopping just short of a wall get a stub to it
+    (:func:`tether.coincidence.wall_stubs`), a line of their curve's."""
     polys = [np.vstack((r, r[:1])) for r in env.rings]
     src = [-1] * len(polys)
     straight = [True] * len(polys)  # rings and the straight kinds' polylines
@@ -1032,13 +1058,44 @@ def _input_lines(env: Environment, curves: list[Curve]
     # coincident straight copies (exactly coincident curves, rounded apart) made one exactly
     xy, idx = merge_collinear(xy, idx, idx < len(env.rings),
                               np.asarray(straight)[ok][idx])
+    source = np.asarray(src)[ok]
+    if tol is not None:
+        xy, idx, source = _with_wall_stubs(env, xy, idx, source, tol)
     lines = shapely.linestrings(xy, indices=idx)
     k = np.flatnonzero(idx[1:] == idx[:-1])
-    return np.asarray(lines, dtype=object), np.asarray(src)[ok], (xy[k], xy[k + 1], idx[k])
+    return np.asarray(lines, dtype=object), source, (xy[k], xy[k + 1], idx[k])
+
+
+def _with_wall_stubs(env: Environment, xy: np.ndarray, idx: np.ndarray, source: np.ndarray,
+                     tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lines (vertices ``xy`` of lines ``idx``, sources ``source``) with the stubs of
+    :func:`tether.coincidence.wall_stubs` added as lines of their curves."""
+    head = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
+    tail = np.r_[head[1:] - 1, len(idx) - 1]
+    curve = source[idx[head]] >= 0
+    ends = np.concatenate((xy[head[curve]], xy[tail[curve]]))
+    owner = np.tile(source[idx[head[curve]]], 2)
+    free = np.asarray(env.polygon.contains(shapely.points(ends)), dtype=bool) \
+        if len(ends) else np.zeros(0, bool)
+    nr = len(env.rings)
+    wall = idx[:-1] == idx[1:]
+    wall &= idx[:-1] < nr
+    w = np.flatnonzero(wall)
+    stubs = wall_stubs(ends, free, xy[w], xy[w + 1], tol,
+                       lambda q: env.polygon.contains(shapely.points(q)))
+    if len(stubs) == 0:
+        return xy, idx, source
+    # each stub's curve: the end it starts from
+    at = {tuple(p): o for p, o in zip(ends.tolist(), owner.tolist(), strict=True)}
+    new_src = np.array([at[tuple(p)] for p in stubs[:, 0].tolist()])
+    base = int(idx.max()) + 1
+    return (np.vstack((xy, stubs.reshape(-1, 2))),
+            np.concatenate((idx, np.repeat(np.arange(base, base + len(stubs)), 2))),
+            np.concatenate((source, new_src)))
 
 
 def _arrangement(env: Environment, curves: list[Curve], tol: float) -> _Arrangement:
-    lines, source, (la, lb, lowner) = _input_lines(env, curves)
+    lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
     # the sources' segment grid built while GEOS nodes (it releases the GIL); for the reach
     # of floating-point noding (snap rounding's wider reach builds its own blocks)
     tree = SegmentGrid(la, lb)
@@ -1735,6 +1792,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     keep = np.flatnonzero(inside)
     resolved = clear[keep] >= 2 * tol
     ok = keep[resolved]
+    _off_edge_lines(env, pts, ok, lss)
     table = free_arcs_many(env, np.take(pts, ok, axis=0), lss, check=False)
     sid, structs = structure_ids(env, table, len(ok))
     del table
@@ -1772,6 +1830,27 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
     dec.__dict__["_cell_codes"] = codes  # known when the cells were made
     return dec
+
+
+#: Directions in which a face's point is moved off an edge's supporting line (tried in
+#: turn; neither along the lattice's axes nor its diagonals), and by how many length
+#: tolerances: far past the band where the edge is skipped, far inside a resolved face.
+_OFF_LINE_STEPS = ((0.6, 0.8), (0.8, -0.6), (-0.28, 0.96), (0.96, 0.28))
+_OFF_LINE_TOLS = 64.0
+
+
+def _off_edge_lines(env: Environment, pts: np.ndarray, rows: np.ndarray, lss: float) -> None:
+    """Move the points ``pts[rows]`` (faces' points, each at least ``2 tol`` inside its face)
+    that lie within ``length_tol`` of an edge's supporting line, on its free side
+    (:func:`tether.arcs.near_edge_lines`), by ``_OFF_LINE_TOLS`` length tolerances: a face's
+    structure is read at its point alone, and on such a line the free arcs can show a sliver
+    arc that neither side of the line has (a symmetric face whose axis carries a wall)."""
+    todo = rows
+    for step in _OFF_LINE_STEPS:
+        todo = todo[near_edge_lines(env, np.take(pts, todo, axis=0), lss)]
+        if len(todo) == 0:
+            return
+        pts[todo] += _OFF_LINE_TOLS * env.length_tol * np.asarray(step)
 
 
 def _isolated_regions(arr: _Arrangement, face_region: np.ndarray, nreg: int, tol: float,
