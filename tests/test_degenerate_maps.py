@@ -6,6 +6,7 @@ decomposition, and against the same map moved, turned, mirrored and scaled."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -14,6 +15,7 @@ import pytest
 import shapely
 from lattice_maps import ROUND_LSS, corridor, env_of, families, rasterized, room_with_pillars
 
+from tether.cli import main
 from tether.critical import distance_events, near_critical
 from tether.decomposition import check, decompose, self_check
 from tether.environment import Environment, load_map
@@ -230,3 +232,35 @@ def test_hunted_maps_agree_with_the_exact_free_arcs(name):
     _clean(dec, 12)
     assert check(dec, 10, lines=0).ok
     assert all(shapely.is_valid(r.polygon) for r in dec.regions)
+
+
+# ---------------------------------------------------------------- the command line
+def _write(tmp_path, rings, name="m"):
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps({"boundary": rings[0], "holes": rings[1], "name": name}))
+    return str(path)
+
+
+def test_cli_analyze_reports_a_critical_length(tmp_path, capsys):
+    square = ([[0, 0], [4, 0], [4, 4], [0, 4]], [])
+    path = _write(tmp_path, square)
+    assert main(["analyze", path, "--lss", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "lss 2 is a critical length of this map" in out and "Just below" in out
+    assert main(["analyze", path, "--lss", "2", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["critical_lss"]
+    assert got["side"] == "on" and got["value"] == 2.0
+    assert got["below"]["strategy_exists"] and not got["above"]["strategy_exists"]
+    assert main(["analyze", path, "--lss", "1.5", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["critical_lss"] is None
+
+
+def test_cli_check_lines_option(tmp_path, capsys):
+    path = _write(tmp_path, room_with_pillars(0.5))
+    assert main(["check", path, "--lss", "0.5", "--samples", "2", "--lines", "3",
+                 "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["ok"] and got["lines"] == 3 and got["line_points"] > 0
+    assert got["line_disagreements"] == []
+    assert main(["check", path, "--lss", "0.5", "--lines", "-1"]) == 2
+    assert "--lines" in capsys.readouterr().err
