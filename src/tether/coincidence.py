@@ -162,8 +162,8 @@ def _merge_group(members: np.ndarray, k: np.ndarray, a: np.ndarray, b: np.ndarra
 
 #: A curve's end inside the free space this close to a wall (curve tolerances) is joined to
 #: the wall by a stub reaching ``STUB_PAST_TOLS`` past it.
-STUB_REACH_TOLS = 40.0
-STUB_PAST_TOLS = 20.0
+STUB_REACH_TOLS = 1.0
+STUB_PAST_TOLS = 4.0
 
 
 def wall_stubs(ends: np.ndarray, free: np.ndarray, wa: np.ndarray, wb: np.ndarray,

@@ -60,30 +60,37 @@ def free_pieces(env: Any, chords: np.ndarray, min_length: float) -> np.ndarray:
     return np.array(out, dtype=float).reshape(-1, 2, 2)
 
 
-def _polygons(dec: Any, ids: np.ndarray, cache: dict[int, Any]) -> np.ndarray:
-    """The polygons of the regions ``ids`` (map units), made once per scan (``cache``)."""
-    new = [i for i in ids.tolist() if i not in cache]
-    if new:
-        cache.update(zip(new, dec.region_polygons(new), strict=True))
-    return np.fromiter((cache[i] for i in ids.tolist()), dtype=object, count=len(ids))
+class _RegionShapes:
+    """The polygons and boundaries of the regions a scan meets, made once each (map units)."""
+
+    def __init__(self, dec: Any) -> None:
+        self.dec = dec
+        self._polys: dict[int, Any] = {}
+        self._rings: dict[int, Any] = {}
+
+    def polygons(self, ids: np.ndarray) -> np.ndarray:
+        new = [i for i in dict.fromkeys(ids.tolist()) if i not in self._polys]
+        if new:
+            self._polys.update(zip(new, self.dec.region_polygons(new), strict=True))
+        return np.fromiter((self._polys[i] for i in ids.tolist()), dtype=object,
+                           count=len(ids))
+
+    def boundaries(self, ids: np.ndarray) -> np.ndarray:
+        new = [i for i in dict.fromkeys(ids.tolist()) if i not in self._rings]
+        if new:
+            rings = shapely.boundary(self.polygons(np.array(new)))
+            self._rings.update(zip(new, rings, strict=True))
+        return np.fromiter((self._rings[i] for i in ids.tolist()), dtype=object,
+                           count=len(ids))
 
 
-def _boundaries(dec: Any, ids: np.ndarray, cache: dict[int, Any]) -> np.ndarray:
-    """The boundaries of the regions ``ids``, made once per scan (``cache``, keys ``~id``)."""
-    new = [i for i in np.unique(ids).tolist() if ~i not in cache]
-    if new:
-        rings = shapely.boundary(_polygons(dec, np.array(new), cache))
-        cache.update(zip([~i for i in new], rings, strict=True))
-    return np.fromiter((cache[~i] for i in ids.tolist()), dtype=object, count=len(ids))
-
-
-def _intervals(dec: Any, a: np.ndarray, b: np.ndarray, cache: dict[int, Any]
+def _intervals(dec: Any, a: np.ndarray, b: np.ndarray, shapes: _RegionShapes
                ) -> tuple[np.ndarray, np.ndarray]:
     """The regions along segment ``[a, b]``: sorted intervals of the parameter ``t`` in
     ``[0, 1]`` (k, 2) and their region indices (k,)."""
     seg = shapely.linestrings([a, b])
     cand = dec.regions_crossing(seg)
-    polys = _polygons(dec, cand, cache)
+    polys = shapes.polygons(cand)
     cuts = shapely.intersection(seg, polys)
     d = b - a
     dd = float(d @ d)
@@ -110,13 +117,13 @@ def _structures_at(dec: Any, pts: np.ndarray) -> list:
     return structures(dec.env, free_arcs_many(dec.env, pts, dec.lss, check=False), len(pts))
 
 
-def _boundary_distance(dec: Any, pts: np.ndarray, region: np.ndarray,
-                       cache: dict[int, Any]) -> np.ndarray:
+def _boundary_distance(pts: np.ndarray, region: np.ndarray, shapes: _RegionShapes
+                       ) -> np.ndarray:
     """Distance of each point to the boundary of its region (0 where ``region`` is -1)."""
     out = np.zeros(len(pts))
     sel = np.flatnonzero(region >= 0)
     if len(sel):
-        rings = _boundaries(dec, region[sel], cache)
+        rings = shapes.boundaries(region[sel])
         out[sel] = shapely.distance(shapely.points(pts[sel]), rings)
     return out
 
@@ -132,8 +139,8 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
 
     margin = 10 * dec.curve_tol if margin is None else margin
     env = dec.env
-    cache: dict[int, Any] = {}
-    lines = [_line_samples(dec, k, a, b, spacing, cache) for k, (a, b) in enumerate(segments)]
+    shapes = _RegionShapes(dec)
+    lines = [_line_samples(dec, k, a, b, spacing, shapes) for k, (a, b) in enumerate(segments)]
     if not lines:
         return 0, ()
     line = np.concatenate([np.full(len(x["t"]), x["k"]) for x in lines])
@@ -142,7 +149,7 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     t_all = np.concatenate([x["t"] for x in lines])
     st = _structures_at(dec, pts)
     expected = {r: dec.regions[r].structure for r in np.unique(region[region >= 0]).tolist()}
-    dist = _boundary_distance(dec, pts, region, cache)
+    dist = _boundary_distance(pts, region, shapes)
     bad: list[dict] = []
     for i in np.flatnonzero(region < 0).tolist():  # in no region's interval
         x = lines[line[i]]
@@ -176,7 +183,7 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     q = a + tc[:, None] * d
     at = np.array([_interval_region(lines[k], t) for k, t in
                    zip(line[step].tolist(), tc.tolist(), strict=True)], dtype=np.int64)
-    dq = _boundary_distance(dec, q, at, cache)
+    dq = _boundary_distance(q, at, shapes)
     for k, i in enumerate(step.tolist()):
         if at[k] >= 0 and dq[k] > margin:
             bad.append({"kind": "change", "line": int(line[i]), "point": _xy(q[k]),
@@ -185,10 +192,10 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
 
 
 def _line_samples(dec: Any, k: int, a: np.ndarray, b: np.ndarray, spacing: float,
-                  cache: dict[int, Any]) -> dict[str, Any]:
+                  shapes: _RegionShapes) -> dict[str, Any]:
     """One segment's region intervals and its points: every ``spacing`` and each interval's
     middle, with the region of each (-1: in no interval)."""
-    spans, owner = _intervals(dec, a, b, cache)
+    spans, owner = _intervals(dec, a, b, shapes)
     length = float(np.hypot(*(b - a)))
     n = max(2, int(np.ceil(length / spacing)) + 1)
     t = np.unique(np.concatenate((np.linspace(0.0, 1.0, n), spans.mean(axis=1))))
