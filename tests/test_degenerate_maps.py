@@ -264,3 +264,36 @@ def test_cli_check_lines_option(tmp_path, capsys):
     assert got["line_disagreements"] == []
     assert main(["check", path, "--lss", "0.5", "--lines", "-1"]) == 2
     assert "--lines" in capsys.readouterr().err
+
+
+def test_only_the_line_scan_catches_a_room_taken_for_one_region():
+    """What the frame bug produced for the 4 x 4 room at lss 1: one FULL region, no piece.
+    One point per region lands in the room's FULL middle for some seeds, and then the points
+    and pieces alone pass; the six scanned lines never do."""
+    from tether.decomposition import FREE, Cell, Decomposition, Region, sample_in_regions
+
+    env = _square(4.0)
+    room = shapely.Polygon(env.boundary)
+    region = Region(0, room, 16.0, (2.0, 2.0), "FULL", (f"(R0,{FREE},{FREE})",))
+    cell = Cell(f"(R0,{FREE},{FREE})", 0, FREE, FREE)
+    wrong = Decomposition(env, 1.0, (), (region,), (cell,), (), 4e-6 * math.sqrt(32))
+    fooled = [s for s in range(40)
+              if np.all(np.abs(sample_in_regions(wrong, 1, s)[0] - 2.0) < 0.95)]
+    assert fooled  # seeds whose one point lies in the middle, where the rod turns freely
+    for seed in fooled[:3]:
+        assert self_check(wrong, seed=seed, lines=0).ok
+        rep = self_check(wrong, seed=seed)
+        assert not rep.ok and rep.line_disagreements
+
+
+def test_the_lost_pocket_fails_the_self_check(monkeypatch):
+    """The pocket between a wall and the circle of a vertex exactly lss from it, lost as it
+    was before the wall stubs: the self-check fails, its lines among its findings."""
+    import tether.decomposition as D
+
+    monkeypatch.setattr(D, "wall_stubs", lambda *a, **k: np.zeros((0, 2, 2)))
+    env = load_map(DATA / "degenerate" / "vertex_lss_from_wall.json")
+    dec = decompose(env, 1.0)
+    rep = self_check(dec)
+    assert not rep.ok and rep.line_disagreements
+    assert not analyze(dec, near_critical=False).verified
