@@ -50,8 +50,14 @@ def test_internal_frame_is_the_identity_for_squares_of_side_two_to_the_k(k):
     assert twice.frame.scale == env.frame.scale / 2
 
 
-@pytest.mark.parametrize("side", [0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 1024.0, 10.0, 1000.0])
-@pytest.mark.parametrize("offset", [0.0, 1e3, -12345.5, 2.0**20])
+def _tiers(values, fast):
+    """Parameters: those in ``fast`` in the fast tier, the others marked slow."""
+    return [pytest.param(v, marks=() if v in fast else pytest.mark.slow) for v in values]
+
+
+@pytest.mark.parametrize("side", _tiers([0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 64.0, 1024.0, 10.0,
+                                         1000.0], (4.0, 1024.0, 10.0)))
+@pytest.mark.parametrize("offset", _tiers([0.0, 1e3, -12345.5, 2.0**20], (0.0, -12345.5)))
 def test_square_room_quarter_lss_same_answer_at_every_scale_and_offset(side, offset):
     """The 4 x 4 room at lss 1 gave one region (the internal copy halved lss again); the same
     room at any scale and place has 13 regions and 16 pieces, as the 2 x 2 room at 0.5."""
@@ -71,7 +77,7 @@ def test_square_room_verdict_verified_and_scan_catches_the_old_answer():
     assert not self_check(wrong).ok
 
 
-@pytest.mark.parametrize("lss", ROUND_LSS)
+@pytest.mark.parametrize("lss", _tiers(ROUND_LSS, (1.0,)))
 def test_room_with_pillar_exactly_lss_from_the_walls(lss):
     """A 4·lss room with a pillar exactly lss from every wall: the self-check failed before."""
     env = env_of(([(0, 0), (4 * lss, 0), (4 * lss, 4 * lss), (0, 4 * lss)],
@@ -83,7 +89,7 @@ def test_room_with_pillar_exactly_lss_from_the_walls(lss):
 
 
 # ---------------------------------------------------------------- exact coincidences
-@pytest.mark.parametrize("lss", [0.5, 1.0])
+@pytest.mark.parametrize("lss", _tiers([0.5, 1.0], (0.5,)))
 @pytest.mark.parametrize("name", sorted(families(1.0)))
 def test_lattice_families_agree_with_the_exact_free_arcs(name, lss):
     dec = decompose(env_of(families(lss)[name], name), lss)
@@ -114,8 +120,11 @@ TRANSFORMS = {
 }
 
 
-@pytest.mark.parametrize("name", ["corridor", "pillars_lss", "pillars_2lss", "steps"])
-@pytest.mark.parametrize("how", sorted(TRANSFORMS) + ["x2", "x1/8", "x10", "x0.1", "x1000"])
+@pytest.mark.parametrize("name", _tiers(["corridor", "pillars_lss", "pillars_2lss", "steps"],
+                                         ("steps",)))
+@pytest.mark.parametrize("how", _tiers(sorted(TRANSFORMS) + ["x2", "x1/8", "x10", "x0.1",
+                                                             "x1000"],
+                                       ("rotate90", "mirror", "far", "x0.1", "x1/8")))
 def test_lattice_maps_same_answer_moved_turned_mirrored_scaled(name, how):
     lss = 0.5
     rings = families(lss)[name]

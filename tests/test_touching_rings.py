@@ -44,6 +44,8 @@ MAPS = {
                 [[[2.5, 2.5], [3.5, 1.0], [1.5, 1.2]]], (2.5, 2.5)),
 }
 LSS = (0.5, 1.0, 2.0)
+#: lss 1 in the fast tier, the others in the slow one
+LSS_TIERS = [pytest.param(v, marks=() if v == 1.0 else pytest.mark.slow) for v in LSS]
 
 
 def _env(name: str) -> Environment:
@@ -70,7 +72,7 @@ def test_touching_vertices_are_reflex_for_their_own_ring():
         assert env.reflex[env.touching].all(), name
 
 
-@pytest.mark.parametrize("lss", LSS)
+@pytest.mark.parametrize("lss", LSS_TIERS)
 @pytest.mark.parametrize("name", sorted(MAPS))
 def test_decomposition_checks_and_scans_clean(name, lss):
     env = _env(name)
@@ -132,7 +134,7 @@ def test_rod_through_touching_point(name, p, free, lss):
     assert rod_is_free(env, p, a, lss) is free
 
 
-@pytest.mark.parametrize("lss", LSS)
+@pytest.mark.parametrize("lss", LSS_TIERS)
 @pytest.mark.parametrize(("name", "p", "free"), THROUGH)
 def test_free_arcs_match_brute_force_near_the_point(name, p, free, lss):
     env = _env(name)

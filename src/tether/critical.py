@@ -72,11 +72,18 @@ class DistanceEvent:
                 "multiple": self.multiple}
 
 
-def distance_events(env: Environment, lss_max: float) -> tuple[DistanceEvent, ...]:
-    """Every distance event of the map at a rod length up to ``lss_max`` (map units), sorted
-    by value (see the module's docstring). Computed in the normalized frame."""
+def distance_events(env: Environment, lss_max: float, lss_min: float = 0.0
+                    ) -> tuple[DistanceEvent, ...]:
+    """Every distance event of the map at a rod length from ``lss_min`` to ``lss_max`` (map
+    units), sorted by value (see the module's docstring). Computed in the normalized frame;
+    only the pairs at a distance that makes such a length are tested for visibility."""
     inner, frame = env.internal, env.frame
     reach = 2.0 * lss_max * frame.scale * (1 + 1e-9)
+    lo, hi = lss_min * frame.scale * (1 - 1e-9), lss_max * frame.scale * (1 + 1e-9)
+
+    def wanted(d: np.ndarray) -> np.ndarray:  # d = m * value for m = 1 or 2
+        return ((d >= lo) & (d <= hi)) | ((d >= 2 * lo) & (d <= 2 * hi))
+
     V = inner.vertices
     names = inner.vertex_map
     rows = []
@@ -86,6 +93,8 @@ def distance_events(env: Environment, lss_max: float) -> tuple[DistanceEvent, ..
     keep = i < j
     i, j = i[keep], j[keep]
     d = np.hypot(*(V[i] - V[j]).T)
+    keep = wanted(d)
+    i, j, d = i[keep], j[keep], d[keep]
     seen = _sees(env, V[i], V[j])
     for a, b, dist in zip(i[seen].tolist(), j[seen].tolist(), d[seen].tolist(), strict=True):
         rows.append((f"V{names[a]}", f"V{names[b]}", dist))
@@ -99,7 +108,7 @@ def distance_events(env: Environment, lss_max: float) -> tuple[DistanceEvent, ..
     ll = np.einsum("ij,ij->i", ab, ab)
     t = np.einsum("ij,ij->i", V[p] - A[e], ab) / ll
     side = (ab[:, 0] * (V[p, 1] - A[e, 1]) - ab[:, 1] * (V[p, 0] - A[e, 0])) / np.sqrt(ll)
-    ok = (t > 0) & (t < 1) & (side > 0)  # on the free (left) side, foot inside
+    ok = (t > 0) & (t < 1) & (side > 0) & wanted(side)  # free (left) side, foot inside
     p, e, t, side = p[ok], e[ok], t[ok], side[ok]
     foot = A[e] + t[:, None] * ab[ok]
     seen = _sees(env, V[p], foot)
@@ -109,7 +118,7 @@ def distance_events(env: Environment, lss_max: float) -> tuple[DistanceEvent, ..
     for a, b, dist in rows:
         user = dist / frame.scale
         for m in (1, 2):
-            if user / m <= lss_max * (1 + 1e-9):
+            if lss_min * (1 - 1e-9) <= user / m <= lss_max * (1 + 1e-9):
                 out.append(DistanceEvent(user / m, a, b, user, m))
     return tuple(sorted(out, key=lambda ev: (ev.value, ev.a, ev.b, ev.multiple)))
 
@@ -133,7 +142,7 @@ def near_critical(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     ``MIN_SIDE_TOLS``. None near: ``((), nan, nan)``."""
     tol = rel_tol * env.diameter
     near, side = NEAR_CRITICAL_TOLS * tol, SIDE_TOLS * tol
-    events = distance_events(env, lss + 2 * side)
+    events = distance_events(env, lss + near + 2 * side, max(lss - near - 2 * side, 0.0))
     close = [ev for ev in events if abs(ev.value - lss) <= near]
     if not close:
         return (), math.nan, math.nan

@@ -71,7 +71,9 @@ def structures(env: Environment, table: ArcTable, npts: int) -> list[Structure]:
     ``(start_code, end_code)`` pairs, or ``"FULL"`` / ``"EMPTY"``. Points with equal
     structures share one object."""
     ids, table_ = structure_ids(env, table, npts)
-    return [table_.structure(i) for i in ids.tolist()]
+    uniq, inv = np.unique(ids, return_inverse=True)  # each distinct structure made once
+    made = [table_.structure(i) for i in uniq.tolist()]
+    return [made[j] for j in inv.ravel().tolist()]
 
 
 def structure_ids(env: Environment, table: ArcTable, npts: int
@@ -298,14 +300,14 @@ class _RegionShapes(_Shapes):
                 shapely.prepare(geoms)
         return super().all()
 
-    def crossing(self, geom: Any) -> np.ndarray:
-        """The ids of the regions whose polygon intersects ``geom`` (map coordinates), sorted,
-        found over the faces as made (a face tree built once) without making or converting
-        any region's polygon. Only while :attr:`converted` is False."""
+    def crossing(self, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs ``(i, region)`` where region's polygon intersects ``geoms[i]`` (map
+        coordinates), sorted, found over the faces as made (a face tree built once) without
+        making or converting any region's polygon. Only while :attr:`converted` is False."""
         if self._frame is not None:
-            geom = shapely.transform(geom, self._frame.to_internal)
-        hit = self._tree().query(geom, predicate="intersects")
-        return np.unique(self._face_owner[hit])
+            geoms = shapely.transform(geoms, self._frame.to_internal)
+        gi, hit = self._tree().query(geoms, predicate="intersects")
+        return _unique_pairs(gi, self._face_owner[hit])
 
     def _tree(self) -> shapely.STRtree:
         """An STRtree of the single-face regions' polygons and the multi-face regions' faces
@@ -335,6 +337,14 @@ class _RegionShapes(_Shapes):
             if faces is not None:
                 geoms[k] = shapely.union_all(faces)
         return geoms if self._frame is None else self._to_user(geoms)
+
+
+def _unique_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct pairs ``(a[k], b[k])`` of two int arrays, sorted by ``a`` then ``b``."""
+    if len(a) == 0:
+        return a.astype(np.int64), b.astype(np.int64)
+    pairs = np.unique(np.column_stack((a, b)).astype(np.int64), axis=0)
+    return pairs[:, 0], pairs[:, 1]
 
 
 def valid_polygons(geoms: np.ndarray) -> np.ndarray:
@@ -804,13 +814,16 @@ class Decomposition:
             self.__dict__["_crossing_arcs"] = got
         return got
 
-    def regions_crossing(self, geom: Any) -> np.ndarray:
-        """The sorted indices of the regions whose polygon intersects the shapely geometry
-        ``geom`` (map coordinates). Makes no region polygon that was not made yet."""
+    def regions_crossing(self, geoms: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs ``(i, r)`` (two int arrays, sorted) such that region ``r``'s polygon
+        intersects the shapely geometry ``geoms[i]`` (an array of them, map coordinates).
+        Makes no region polygon that was not made yet."""
+        geoms = np.asarray(geoms, dtype=object).reshape(-1)
         shapes = self.regions[0]._polygon if self.regions else None
         if type(shapes) is _RegionShapes and not shapes.converted:
-            return shapes.crossing(geom)
-        return np.unique(self._tree.query(geom, predicate="intersects"))
+            return shapes.crossing(geoms)
+        gi, ri = self._tree.query(geoms, predicate="intersects")
+        return _unique_pairs(gi, ri)
 
     def region_polygons(self, ids: Any) -> np.ndarray:
         """The polygons of the regions ``ids`` (map coordinates, an object array), making and

@@ -84,37 +84,92 @@ class _RegionShapes:
                            count=len(ids))
 
 
-def _intervals(dec: Any, a: np.ndarray, b: np.ndarray, shapes: _RegionShapes
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """The regions along segment ``[a, b]``: sorted intervals of the parameter ``t`` in
-    ``[0, 1]`` (k, 2) and their region indices (k,)."""
-    seg = shapely.linestrings([a, b])
-    cand = dec.regions_crossing(seg)
-    polys = shapes.polygons(cand)
-    cuts = shapely.intersection(seg, polys)
-    d = b - a
-    dd = float(d @ d)
-    spans, owner = [], []
-    for r, g in zip(cand.tolist(), cuts, strict=True):
-        for part in shapely.get_parts(g):
-            if shapely.get_type_id(part) != 1:  # points: the segment touches the region
-                continue
-            t = (shapely.get_coordinates(part) - a) @ d / dd
-            spans.append((t.min(), t.max()))
-            owner.append(r)
-    if not spans:
-        return np.zeros((0, 2)), np.zeros(0, dtype=int)
-    spans_arr, owner_arr = np.array(spans), np.array(owner)
-    order = np.argsort(spans_arr[:, 0], kind="stable")
-    return spans_arr[order], owner_arr[order]
+def _intervals(dec: Any, segments: np.ndarray, shapes: _RegionShapes
+               ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The regions along each segment ``[a, b]`` of ``segments`` (m, 2, 2): sorted intervals
+    of the parameter ``t`` in ``[0, 1]`` (k, 2) and their region indices (k,), per segment.
+    All segments at once: one tree query, one vectorized intersection."""
+    segs = shapely.linestrings(segments)
+    gi, ri = dec.regions_crossing(segs)
+    cuts = shapely.intersection(segs[gi], shapes.polygons(ri))
+    parts, pidx = shapely.get_parts(cuts, return_index=True)
+    lines = shapely.get_type_id(parts) == 1  # points: a segment touching a region
+    parts, pidx = parts[lines], pidx[lines]
+    xy, cidx = shapely.get_coordinates(parts, return_index=True)
+    seg = gi[pidx][cidx]  # the segment of each coordinate
+    a, d = segments[:, 0], segments[:, 1] - segments[:, 0]
+    t = np.einsum("ij,ij->i", xy - a[seg], d[seg]) / np.einsum("ij,ij->i", d[seg], d[seg])
+    lo = np.full(len(parts), np.inf)
+    hi = np.full(len(parts), -np.inf)
+    np.minimum.at(lo, cidx, t)
+    np.maximum.at(hi, cidx, t)
+    owner, which = ri[pidx], gi[pidx]
+    order = np.lexsort((lo, which))
+    lo, hi, owner, which = lo[order], hi[order], owner[order], which[order]
+    cut = np.searchsorted(which, np.arange(len(segments) + 1))
+    return [(np.column_stack((lo[i:j], hi[i:j])), owner[i:j])
+            for i, j in zip(cut[:-1].tolist(), cut[1:].tolist(), strict=True)]
 
 
-def _structures_at(dec: Any, pts: np.ndarray) -> list:
-    from tether.decomposition import structures
+class _Exact:
+    """Exact structures at points as integer rows (no frozenset per point), comparable with
+    the regions' own rows: in the internal frame and codes when the regions share the
+    decomposition's structure table (as :func:`tether.decomposition.decompose` makes them),
+    else in the map's codes from the regions' structures."""
 
-    if len(pts) == 0:
-        return []
-    return structures(dec.env, free_arcs_many(dec.env, pts, dec.lss, check=False), len(pts))
+    def __init__(self, dec: Any) -> None:
+        from tether.decomposition import _region_rows, _Structures
+
+        self.dec = dec
+        env = dec.env
+        held = dec.regions[0]._structure if dec.regions else None
+        inner = env.internal
+        self.fast = (type(held) is _Structures and held.base == 2 * inner.n + 1
+                     and all(r._structure is held for r in dec.regions))
+        if self.fast:
+            self.env, self.frame, self.lss = inner, env.frame, dec.lss * env.frame.scale
+            self.regions, self.row_of = held.rows(), held.region
+            self.codes = env.code_map if inner is not env else None
+        else:
+            self.env, self.frame, self.lss = env, None, dec.lss
+            self.regions, self.row_of = _region_rows(list(dec.regions), 2 * env.n + 1)
+            self.codes = None
+
+    def rows(self, pts: np.ndarray) -> Any:
+        """The exact structures at ``pts`` (map units, (m, 2)) as rows."""
+        from tether.decomposition import _table_rows
+
+        q = pts if self.frame is None else self.frame.to_internal(pts)
+        table = free_arcs_many(self.env, q, self.lss, check=False)
+        return _table_rows(self.env, table, len(pts))
+
+    def equal(self, a: Any, i: np.ndarray, b: Any, j: np.ndarray) -> np.ndarray:
+        from tether.decomposition import _rows_equal
+
+        return _rows_equal(a, np.asarray(i, np.int64), b, np.asarray(j, np.int64))
+
+    def is_region(self, rows: Any, i: np.ndarray, region: np.ndarray) -> np.ndarray:
+        """Whether structure ``i[k]`` of ``rows`` is region ``region[k]``'s."""
+        return self.equal(rows, i, self.regions, self.row_of[np.asarray(region, np.int64)])
+
+    def same_regions(self, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """Whether regions ``r[k]`` and ``s[k]`` have equal structures."""
+        return self.equal(self.regions, self.row_of[r], self.regions, self.row_of[s])
+
+    def names(self, rows: Any, i: int) -> list:
+        """Structure ``i`` of ``rows`` as ``[start, end]`` feature names (the map's)."""
+        from tether.arcs import feature_name
+        from tether.decomposition import FREE
+
+        if rows.kind[i] < 2:
+            return [[FREE, FREE]] if rows.kind[i] == 1 else []
+        base = 2 * self.env.n + 1
+        a, b = np.divmod(rows.pairs[rows.ptr[i]:rows.ptr[i + 1]], base)
+        if self.codes is not None:
+            a, b = self.codes[a], self.codes[b]
+        env = self.dec.env
+        return sorted([feature_name(env, x), feature_name(env, y)]
+                      for x, y in zip(a.tolist(), b.tolist(), strict=True))
 
 
 def _boundary_distance(pts: np.ndarray, region: np.ndarray, shapes: _RegionShapes
@@ -135,20 +190,19 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     ``margin`` (default ``10 x`` the curve tolerance). Returns the number of points evaluated
     and the disagreements (dicts with ``kind``, ``line``, ``point``, and the regions and
     structures involved; see the module's docstring)."""
-    from tether.decomposition import structure_names
-
     margin = 10 * dec.curve_tol if margin is None else margin
     env = dec.env
     shapes = _RegionShapes(dec)
-    lines = [_line_samples(dec, k, a, b, spacing, shapes) for k, (a, b) in enumerate(segments)]
+    spans = _intervals(dec, segments, shapes) if len(segments) else []
+    lines = [_line_samples(k, a, b, spacing, *spans[k]) for k, (a, b) in enumerate(segments)]
     if not lines:
         return 0, ()
+    exact = _Exact(dec)
     line = np.concatenate([np.full(len(x["t"]), x["k"]) for x in lines])
     pts = np.concatenate([x["points"] for x in lines])
     region = np.concatenate([x["region"] for x in lines])
     t_all = np.concatenate([x["t"] for x in lines])
-    st = _structures_at(dec, pts)
-    expected = {r: dec.regions[r].structure for r in np.unique(region[region >= 0]).tolist()}
+    st = exact.rows(pts)
     dist = _boundary_distance(pts, region, shapes)
     bad: list[dict] = []
     for i in np.flatnonzero(region < 0).tolist():  # in no region's interval
@@ -156,30 +210,27 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
         if _gap_width(t_all[i], x["spans"], x["length"]) > 2 * margin and \
                 env.boundary_distance(pts[i, :1], pts[i, 1:])[0] > margin:
             bad.append({"kind": "uncovered", "line": int(line[i]), "point": _xy(pts[i]),
-                        "found": _names(structure_names(env, st[i]))})
-    far = np.flatnonzero((region >= 0) & (dist > margin)).tolist()
-    for i in far:
-        if st[i] != expected[region[i]]:
-            bad.append({"kind": "point", "line": int(line[i]), "point": _xy(pts[i]),
-                        "region": f"R{region[i]}",
-                        "found": _names(structure_names(env, st[i])),
-                        "expected": list(dec.regions[region[i]].cells)})
+                        "found": exact.names(st, i)})
+    far = np.flatnonzero((region >= 0) & (dist > margin))
+    wrong = far[~exact.is_region(st, far, region[far])]
+    for i in wrong.tolist():
+        bad.append({"kind": "point", "line": int(line[i]), "point": _xy(pts[i]),
+                    "region": f"R{region[i]}", "found": exact.names(st, i),
+                    "expected": list(dec.regions[region[i]].cells)})
     for x in lines:  # consecutive intervals of different regions: different structures
-        spans, owner = x["spans"], x["owner"]
-        for j in range(len(owner) - 1):
-            if owner[j] != owner[j + 1] and (spans[j + 1, 0] - spans[j, 1]) * x["length"] \
-                    < margin and dec.regions[owner[j]].structure == \
-                    dec.regions[owner[j + 1]].structure:
-                bad.append({"kind": "boundary", "line": x["k"],
-                            "point": _xy(x["a"] + spans[j, 1] * (x["b"] - x["a"])),
-                            "regions": [f"R{owner[j]}", f"R{owner[j + 1]}"]})
+        sp, owner = x["spans"], x["owner"]
+        nxt = np.flatnonzero((owner[1:] != owner[:-1])
+                             & ((sp[1:, 0] - sp[:-1, 1]) * x["length"] < margin))
+        for j in nxt[exact.same_regions(owner[nxt], owner[nxt + 1])].tolist():
+            bad.append({"kind": "boundary", "line": x["k"],
+                        "point": _xy(x["a"] + sp[j, 1] * (x["b"] - x["a"])),
+                        "regions": [f"R{owner[j]}", f"R{owner[j + 1]}"]})
     # changes of the exact structure between consecutive points of a line, bisected
-    step = np.flatnonzero((line[1:] == line[:-1]) &
-                          np.array([st[i] != st[i + 1] for i in range(len(st) - 1)], bool))
+    i = np.arange(len(pts) - 1)
+    step = np.flatnonzero((line[1:] == line[:-1]) & ~exact.equal(st, i, st, i + 1))
     a = np.array([lines[k]["a"] for k in line[step]]).reshape(-1, 2)
     d = np.array([lines[k]["b"] - lines[k]["a"] for k in line[step]]).reshape(-1, 2)
-    tc, evaluated = _bisect(dec, a, d, t_all[step], t_all[step + 1], [st[i] for i in step],
-                            margin)
+    tc, evaluated = _bisect(exact, st, step, a, d, t_all[step], t_all[step + 1], margin)
     q = a + tc[:, None] * d
     at = np.array([_interval_region(lines[k], t) for k, t in
                    zip(line[step].tolist(), tc.tolist(), strict=True)], dtype=np.int64)
@@ -191,11 +242,10 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     return len(pts) + evaluated, tuple(bad)
 
 
-def _line_samples(dec: Any, k: int, a: np.ndarray, b: np.ndarray, spacing: float,
-                  shapes: _RegionShapes) -> dict[str, Any]:
-    """One segment's region intervals and its points: every ``spacing`` and each interval's
-    middle, with the region of each (-1: in no interval)."""
-    spans, owner = _intervals(dec, a, b, shapes)
+def _line_samples(k: int, a: np.ndarray, b: np.ndarray, spacing: float, spans: np.ndarray,
+                  owner: np.ndarray) -> dict[str, Any]:
+    """Segment ``k``'s points: every ``spacing`` and each region interval's middle (intervals
+    ``spans`` of regions ``owner``), with the region of each (-1: in no interval)."""
     length = float(np.hypot(*(b - a)))
     n = max(2, int(np.ceil(length / spacing)) + 1)
     t = np.unique(np.concatenate((np.linspace(0.0, 1.0, n), spans.mean(axis=1))))
@@ -231,12 +281,12 @@ def _gap_width(t: float, spans: np.ndarray, length: float) -> float:
     return float((hi - lo) * length)
 
 
-def _bisect(dec: Any, a: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-            s_lo: list, margin: float) -> tuple[np.ndarray, int]:
-    """The change of structure between ``a + lo d`` (structure ``s_lo``) and ``a + hi d``,
-    located by bisection (all at once, one exact evaluation per round) to a bracket below
-    ``_BRACKET * margin``. Returns the middles of the final brackets and the number of
-    points evaluated."""
+def _bisect(exact: _Exact, rows: Any, lo_row: np.ndarray, a: np.ndarray, d: np.ndarray,
+            lo: np.ndarray, hi: np.ndarray, margin: float) -> tuple[np.ndarray, int]:
+    """The change of structure between ``a + lo d`` (structure ``lo_row`` of ``rows``) and
+    ``a + hi d``, located by bisection (all at once, one exact evaluation per round) to a
+    bracket below ``_BRACKET * margin``. Returns the middles of the final brackets and the
+    number of points evaluated."""
     lo, hi = lo.astype(float), hi.astype(float)
     length = np.hypot(d[:, 0], d[:, 1])
     evaluated = 0
@@ -245,16 +295,12 @@ def _bisect(dec: Any, a: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarr
         if len(todo) == 0:
             break
         mid = 0.5 * (lo[todo] + hi[todo])
-        st = _structures_at(dec, a[todo] + mid[:, None] * d[todo])
+        got = exact.rows(a[todo] + mid[:, None] * d[todo])
         evaluated += len(todo)
-        same = np.array([s == s_lo[i] for i, s in zip(todo.tolist(), st, strict=True)], bool)
+        same = exact.equal(got, np.arange(len(todo)), rows, lo_row[todo])
         lo[todo[same]] = mid[same]
         hi[todo[~same]] = mid[~same]
     return 0.5 * (lo + hi), evaluated
-
-
-def _names(pairs: Any) -> Any:
-    return [list(x) for x in pairs] if isinstance(pairs, list) else pairs
 
 
 def scan(dec: Any, lines: int, seed: int = 0,
