@@ -27,7 +27,7 @@ def summary(env: Environment, lss: float) -> dict:
     regions' cells (feature names)."""
     d = decompose(env, lss)
     g = build_graph(d)
-    v = analyze(d, g)
+    v = analyze(d, g, near_critical=False)  # the verdict at lss itself
     cells = sorted(tuple(sorted((c.start_feature, c.end_feature) for c in d.cells
                                 if c.region == r.id)) for r in d.regions)
     return {"regions": len(d.regions), "cells": len(d.cells), "pieces": len(d.pieces),

@@ -41,7 +41,7 @@ def assert_sound(env: Environment, lss: float) -> None:
     """Decomposes without a GEOS error, and either checks clean or the self-check says so."""
     dec = decompose(env, lss)
     rep = check(dec, per_region=8)
-    verdict = analyze(dec)
+    verdict = analyze(dec, near_critical=False)
     assert rep.ok or verdict.verified is False, rep.to_dict()
 
 
@@ -94,20 +94,20 @@ def test_snap_rounding_fallback_keeps_the_result(name, lss, failing_node):
     env = load_map(example_path(name))
     dec = decompose(env, lss)
     assert check(dec).ok
-    verdict = analyze(dec)
+    verdict = analyze(dec, near_critical=False)
     assert verdict.verified
     assert len(dec.regions) > 1
 
 
 def test_snap_rounding_fallback_same_verdict(monkeypatch):
     env = two_holes_on_a_line()
-    exact = analyze(decompose(env, 0.5))
+    exact = analyze(decompose(env, 0.5), near_critical=False)
 
     def fail(*args, **kwargs):
         raise GEOSException("TopologyException: Iterated noding failed to converge")
 
     monkeypatch.setattr(shapely, "node", fail)
-    snapped = analyze(decompose(env, 0.5))
+    snapped = analyze(decompose(env, 0.5), near_critical=False)
     assert snapped.verified
     assert snapped.strategy_exists == exact.strategy_exists
 
@@ -146,7 +146,7 @@ def test_self_check_failure_is_loud():
     bad = dataclasses.replace(dec, regions=tuple(regions), pieces=pieces)
     rep = self_check(bad, regions=len(regions))
     assert not rep.ok and rep.piece_disagreements
-    verdict = analyze(bad)
+    verdict = analyze(bad, near_critical=False)
     assert verdict.verified is False
     assert format_verdict(verdict).startswith("SELF-CHECK FAILED")
 

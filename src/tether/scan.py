@@ -79,6 +79,7 @@ class _RegionShapes:
         new = [i for i in dict.fromkeys(ids.tolist()) if i not in self._rings]
         if new:
             rings = shapely.boundary(self.polygons(np.array(new)))
+            shapely.prepare(rings)
             self._rings.update(zip(new, rings, strict=True))
         return np.fromiter((self._rings[i] for i in ids.tolist()), dtype=object,
                            count=len(ids))
@@ -172,14 +173,15 @@ class _Exact:
                       for x, y in zip(a.tolist(), b.tolist(), strict=True))
 
 
-def _boundary_distance(pts: np.ndarray, region: np.ndarray, shapes: _RegionShapes
-                       ) -> np.ndarray:
-    """Distance of each point to the boundary of its region (0 where ``region`` is -1)."""
-    out = np.zeros(len(pts))
+def _far_from_boundary(pts: np.ndarray, region: np.ndarray, shapes: _RegionShapes,
+                       margin: float) -> np.ndarray:
+    """Whether each point lies farther than ``margin`` from the boundary of its region
+    (False where ``region`` is -1)."""
+    out = np.zeros(len(pts), dtype=bool)
     sel = np.flatnonzero(region >= 0)
     if len(sel):
         rings = shapes.boundaries(region[sel])
-        out[sel] = shapely.distance(shapely.points(pts[sel]), rings)
+        out[sel] = ~shapely.dwithin(shapely.points(pts[sel]), rings, margin)
     return out
 
 
@@ -203,7 +205,6 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     region = np.concatenate([x["region"] for x in lines])
     t_all = np.concatenate([x["t"] for x in lines])
     st = exact.rows(pts)
-    dist = _boundary_distance(pts, region, shapes)
     bad: list[dict] = []
     for i in np.flatnonzero(region < 0).tolist():  # in no region's interval
         x = lines[line[i]]
@@ -211,8 +212,11 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
                 env.boundary_distance(pts[i, :1], pts[i, 1:])[0] > margin:
             bad.append({"kind": "uncovered", "line": int(line[i]), "point": _xy(pts[i]),
                         "found": exact.names(st, i)})
-    far = np.flatnonzero((region >= 0) & (dist > margin))
-    wrong = far[~exact.is_region(st, far, region[far])]
+    # points whose exact structure is not their region's: wrong unless near its boundary
+    # (distances measured for those few only)
+    placed = np.flatnonzero(region >= 0)
+    wrong = placed[~exact.is_region(st, placed, region[placed])]
+    wrong = wrong[_far_from_boundary(pts[wrong], region[wrong], shapes, margin)]
     for i in wrong.tolist():
         bad.append({"kind": "point", "line": int(line[i]), "point": _xy(pts[i]),
                     "region": f"R{region[i]}", "found": exact.names(st, i),
@@ -234,11 +238,17 @@ def scan_segments(dec: Any, segments: np.ndarray, spacing: float,
     q = a + tc[:, None] * d
     at = np.array([_interval_region(lines[k], t) for k, t in
                    zip(line[step].tolist(), tc.tolist(), strict=True)], dtype=np.int64)
-    dq = _boundary_distance(q, at, shapes)
-    for k, i in enumerate(step.tolist()):
-        if at[k] >= 0 and dq[k] > margin:
-            bad.append({"kind": "change", "line": int(line[i]), "point": _xy(q[k]),
-                        "region": f"R{at[k]}", "distance": float(dq[k])})
+    # a change next to an end of its interval is on a region boundary (the end is); the
+    # others (a line running along a boundary, or a change inside a region) are measured
+    ends = np.array([_to_interval_end(lines[k], t) for k, t in
+                     zip(line[step].tolist(), tc.tolist(), strict=True)]).reshape(-1)
+    odd = np.flatnonzero((at >= 0) & (ends > margin))
+    inside = odd[_far_from_boundary(q[odd], at[odd], shapes, margin)]
+    for k in inside.tolist():
+        ring = shapes.boundaries(at[k:k + 1])[0]
+        bad.append({"kind": "change", "line": int(line[step[k]]), "point": _xy(q[k]),
+                    "region": f"R{at[k]}",
+                    "distance": float(shapely.distance(shapely.points(q[k]), ring))})
     return len(pts) + evaluated, tuple(bad)
 
 
@@ -268,6 +278,15 @@ def _region_in(spans: np.ndarray, owner: np.ndarray, t: float) -> int:
 
 def _interval_region(x: dict[str, Any], t: float) -> int:
     return _region_in(x["spans"], x["owner"], t)
+
+
+def _to_interval_end(x: dict[str, Any], t: float) -> float:
+    """Distance (map units, along the line) from ``t`` to the nearest end of a region interval
+    of line ``x`` (infinite if it has none)."""
+    sp = x["spans"]
+    if len(sp) == 0:
+        return float("inf")
+    return float(np.abs(sp - t).min() * x["length"])
 
 
 def _xy(p: np.ndarray) -> list[float]:
