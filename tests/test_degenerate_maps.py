@@ -90,7 +90,8 @@ def test_room_with_pillar_exactly_lss_from_the_walls(lss):
 
 # ---------------------------------------------------------------- exact coincidences
 @pytest.mark.parametrize("lss", _tiers([0.5, 1.0], (0.5,)))
-@pytest.mark.parametrize("name", sorted(families(1.0)))
+@pytest.mark.parametrize("name", _tiers(sorted(families(1.0)),
+                                        set(families(1.0)) - {"pillars_half"}))
 def test_lattice_families_agree_with_the_exact_free_arcs(name, lss):
     dec = decompose(env_of(families(lss)[name], name), lss)
     _clean(dec)
@@ -142,6 +143,7 @@ def test_lattice_maps_same_answer_moved_turned_mirrored_scaled(name, how):
     assert v.verified
 
 
+@pytest.mark.slow
 def test_renumbered_vertices_same_counts():
     b, hs = room_with_pillars(0.5)
     base = decompose(env_of((b, hs)), 0.5).counts
@@ -192,6 +194,7 @@ def test_corridor_exactly_two_lss_wide_is_critical_and_exact():
     _clean(decompose(env, 0.5))
 
 
+@pytest.mark.slow
 def test_lss_within_resolution_of_a_critical_length_reports_its_side():
     """0.5 + 1e-7 in a corridor exactly 1 wide: the offsets of its two walls lie 2e-7 apart,
     below resolution. analyze says which side of the critical length 0.5 lss is on, and the

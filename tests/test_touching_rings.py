@@ -234,7 +234,7 @@ def test_cli_decompose_touching_map(tmp_path, capsys):
     assert "region" in out.lower()
 
 
-@pytest.mark.parametrize("name", ["diagonal", "reflex"])
+@pytest.mark.parametrize("name", ["diagonal", pytest.param("reflex", marks=pytest.mark.slow)])
 def test_escape_table_vertex_rows_lie_in_the_free_space(name):
     from tether.assess import escape_table_of
     from tether.escape import analyze
