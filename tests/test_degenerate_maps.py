@@ -218,6 +218,7 @@ def test_a_long_boundary_left_without_a_piece_fails_the_self_check():
     broken = dataclasses.replace(dec, unresolved_longest=longest)
     rep = self_check(broken)
     assert not rep.ok and rep.piece_disagreements[-1]["piece"] == "unresolved"
+    assert not check(broken, 1, lines=0).ok
 
 
 # ---------------------------------------------------------------- found by a hunt

@@ -2795,7 +2795,20 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0, lines: int = 
     pts, owner = sample_in_regions(dec, per_region, seed)
     npts, bad_lines = scan(dec, lines, seed)
     return CheckReport(len(pts), _point_disagreements(dec, pts, owner),
-                       _piece_disagreements(dec), lines, npts, bad_lines)
+                       _piece_disagreements(dec) + _unresolved_disagreement(dec), lines, npts,
+                       bad_lines)
+
+
+def _unresolved_disagreement(dec: Decomposition) -> tuple[dict, ...]:
+    """The longest region boundary left without a piece, if longer than the resolution
+    (``UNRESOLVED_MAX_ROOT``): G would miss the crossings over it."""
+    longest = dec.unresolved_longest
+    limit = max(UNRESOLVED_MAX_TOLS * dec.curve_tol,
+                UNRESOLVED_MAX_ROOT * math.sqrt(dec.lss * dec.curve_tol))
+    if longest is None or longest["length"] <= limit:
+        return ()
+    return ({"piece": "unresolved", "regions": longest["regions"],
+             "point": list(longest["point"]), "length": longest["length"]},)
 
 
 #: Regions sampled by :func:`self_check` (one point each, chosen at random).
@@ -2819,14 +2832,7 @@ def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int 
     pts, owner = sample_in_regions(dec, 1, seed, regions=chosen)
     bad_pieces = tuple({"piece": p.name, "regions": [f"R{r}" for r in p.regions],
                         "point": list(p.sample)} for p in _unverified(dec.pieces))
-    longest = dec.unresolved_longest
-    limit = max(UNRESOLVED_MAX_TOLS * dec.curve_tol,
-                UNRESOLVED_MAX_ROOT * math.sqrt(dec.lss * dec.curve_tol))
-    if longest is not None and longest["length"] > limit:
-        # a region boundary left without a piece although longer than the resolution: G
-        # would miss the crossings over it
-        bad_pieces += ({"piece": "unresolved", "regions": longest["regions"],
-                        "point": list(longest["point"]), "length": longest["length"]},)
+    bad_pieces += _unresolved_disagreement(dec)
     npts, bad_lines = scan(dec, lines, seed)
     return CheckReport(len(pts), _point_disagreements(dec, pts, owner), bad_pieces, lines,
                        npts, bad_lines)

@@ -214,6 +214,11 @@ def cmd_check(args: argparse.Namespace) -> int:
             print(f"  point ({d['point'][0]:.6g}, {d['point'][1]:.6g}) in {d['region']}: "
                   f"found {d['found']}, expected {d['expected']}")
         for d in rep.piece_disagreements:
+            if d["piece"] == "unresolved":
+                print(f"  the boundary between {d['regions'][0]} and {d['regions'][1]} near "
+                      f"({d['point'][0]:.6g}, {d['point'][1]:.6g}) has no crossing over "
+                      f"{d['length']:.3g}: longer than tether's resolution")
+                continue
             print(f"  piece {d['piece']} between {d['regions'][0]} and {d['regions'][1]} at "
                   f"({d['point'][0]:.6g}, {d['point'][1]:.6g})")
         for d in rep.line_disagreements[:LINE_ROWS]:
