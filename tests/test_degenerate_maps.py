@@ -310,3 +310,17 @@ def test_the_lost_pocket_fails_the_self_check(monkeypatch):
     rep = self_check(dec)
     assert not rep.ok and rep.line_disagreements
     assert not analyze(dec, near_critical=False).verified
+
+
+@pytest.mark.parametrize("seed", _tiers([0, 3, 6, 10], (3,)))
+@pytest.mark.parametrize("how", ["x0.1", "x10", "far"])
+def test_rasterized_maps_same_counts_moved_and_scaled(seed, how):
+    """Rasterized shapes (walls on the 0.05 lattice): an offset running exactly on a wall was
+    counted as a critical curve or not by rounding (one curve more at scale 10)."""
+    rings = rasterized(seed, cells=40)
+    lss = 0.25
+    base = decompose(env_of(rings), lss)
+    k = {"x0.1": 0.1, "x10": 10.0}.get(how, 1.0)
+    f = TRANSFORMS["far"] if how == "far" else (lambda x, y: (x * k, y * k))
+    moved = decompose(env_of(_moved(rings, f)), lss * k)
+    assert moved.counts == base.counts

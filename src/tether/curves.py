@@ -1281,10 +1281,14 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     curves: list[Curve] = []
     found = []
     first = env.coincident
+    walls = None
     for fam in candidate_families(env, lss):
         ivs = _critical_intervals(env, fam)
         if fam.kind == "B":  # touching rings: one circle per point (see :func:`_family_b`)
             ivs = [iv if first[c] == c else [] for c, iv in enumerate(ivs)]
+        if fam.kind in "ACD":
+            walls = _wall_band(env) if walls is None else walls
+            ivs = _off_walls(fam, ivs, walls)
         found += _overshoot_family(fam, ivs, margin)
     check_vertex_budget(sum(_vertex_estimates(found, tol)), lss)
     drawn_all = _draw_all(found, tol)
@@ -1297,6 +1301,42 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
                             tuple(ivs), tuple(p for _, p in drawn),
                             tuple(t for t, _ in drawn), fam, c))
     return _share_lines(curves, env.length_tol)
+
+
+#: A straight curve's critical part within this many point tolerances of the walls all
+#: along lies on a wall (see :func:`_off_walls`).
+ON_WALL_TOLS = 4.0
+
+
+def _wall_band(env: Environment) -> Any:
+    """The walls grown by ``ON_WALL_TOLS`` point tolerances (a prepared polygon)."""
+    band = shapely.buffer(shapely.boundary(env.polygon), ON_WALL_TOLS * env.length_tol)
+    shapely.prepare(band)
+    return band
+
+
+def _off_walls(fam: Family, intervals: list[list[tuple[float, float]]], band: Any
+               ) -> list[list[tuple[float, float]]]:
+    """The critical intervals of straight curves without those lying on a wall all along.
+
+    An offset exactly ``lss`` from a wall facing its edge, or an extension along a collinear
+    wall, runs on the wall itself: it bounds no region (the free space is on one side only),
+    but whether the exact rod test calls it critical is decided by rounding (its event rod
+    touches a wall all along), so the map moved or scaled showed one curve more or less.
+    Such intervals are dropped; any stretch of the curve off the walls is kept whole."""
+    rows = [(c, k) for c, ivs in enumerate(intervals) for k in range(len(ivs))]
+    if not rows:
+        return intervals
+    c = np.array([r[0] for r in rows], dtype=np.int64)
+    lo, hi = np.array([intervals[a][k] for a, k in rows], dtype=float).T
+    ends = np.stack((fam.points(c, lo), fam.points(c, hi)), axis=1)
+    on = np.asarray(shapely.within(shapely.linestrings(ends), band), dtype=bool)
+    if not on.any():
+        return intervals
+    out = [list(ivs) for ivs in intervals]
+    for a, k in sorted((rows[i] for i in np.flatnonzero(on).tolist()), reverse=True):
+        del out[a][k]
+    return out
 
 
 def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
