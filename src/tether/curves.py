@@ -1330,7 +1330,11 @@ def _off_walls(fam: Family, intervals: list[list[tuple[float, float]]], band: An
     c = np.array([r[0] for r in rows], dtype=np.int64)
     lo, hi = np.array([intervals[a][k] for a, k in rows], dtype=float).T
     ends = np.stack((fam.points(c, lo), fam.points(c, hi)), axis=1)
-    on = np.asarray(shapely.within(shapely.linestrings(ends), band), dtype=bool)
+    # both ends in the band first (points: cheap), then the whole segment
+    on = (shapely.contains_xy(band, ends[:, 0, 0], ends[:, 0, 1])
+          & shapely.contains_xy(band, ends[:, 1, 0], ends[:, 1, 1]))
+    k = np.flatnonzero(on)
+    on[k] = np.asarray(shapely.within(shapely.linestrings(ends[k]), band), dtype=bool)
     if not on.any():
         return intervals
     out = [list(ivs) for ivs in intervals]
