@@ -72,6 +72,7 @@ def test_no_sliver_arcs_or_gaps(k):
         assert gap > ANGLE_TOL
 
 
+@pytest.mark.slow
 def test_contains_agrees_with_rod_test():
     """Away from arc ends (within 1e-6 rad the two tests may differ by tolerance), on a fine
     grid plus the exact directions to every vertex. An orientation free for the rod test but

@@ -71,6 +71,7 @@ def test_bounds_order():
         assert np.all(l_paper(d, vt, vo, 2.0) <= l_safe(d, vt, vo, 2.0) + 1e-12)
 
 
+@pytest.mark.slow
 def test_assess_reasons_and_is_safe_agree():
     v = verdict("gallery")
     rng = np.random.default_rng(4)
@@ -122,6 +123,7 @@ def _gallery_world(vt):
     return World(v.dec.env, 2.0, vt, 1.0, v.dec, v)
 
 
+@pytest.mark.slow
 def test_rows_concern_the_blocked_gap_next_to_their_cell():
     """Gallery, vt/vo = 0.6, start (13.885, 7.978, 1.458): the rod points up, into the gap that
     the top wall E2 blocks at the escape piece P120 (x = 14, 10 < y < 12). The follow law

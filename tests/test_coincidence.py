@@ -21,7 +21,7 @@ def _noded_length_and_parts(xy, line):
     return shapely.length(parts).sum(), len(parts)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=30, deadline=None)
 @given(angle=st.floats(0, np.pi), offset=st.floats(-1, 1), s=st.lists(
     st.integers(-500, 500), min_size=4, max_size=4, unique=True),
     noise=st.floats(1e-18, 1e-15), wall=st.booleans())

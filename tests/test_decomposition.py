@@ -241,6 +241,7 @@ def test_paper_nonconvex_corner_has_5_regions_and_6_cells_at_the_corner():
     assert near(d, (0, 0)) == (5, 6)
 
 
+@pytest.mark.slow
 def test_rectangle_is_symmetric_under_swapping_sides():
     for w, h in [(1.0, 1.5), (0.6, 0.8), (2.0, 1.2)]:  # includes exact coincidences
         a = decompose(Environment([[0, 0], [w, 0], [w, h], [0, h]]), 1.0)

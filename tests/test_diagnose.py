@@ -74,6 +74,7 @@ def test_cause_is_where_assess_stops_calling_the_state_safe(case):
         assert math.isclose(after.escape_points[k].margin, cause.margin, abs_tol=1e-9)
 
 
+@pytest.mark.slow
 def test_held_run_has_no_cause():
     w = _world("gallery", 2.0, 0.3)
     ctrl = PaperController(w, record=True)
@@ -110,6 +111,7 @@ def test_simulate_cli_reports_the_cause(capsys, tmp_path):
     assert f"cause: {d['cause']['cause']}" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_recording_survives_the_search_targets_look_ahead():
     """The `search` target plays trial steps on copies of the controller: those must not
     append to the run's record (they did, and the diagnosis read the wrong commitments)."""

@@ -168,7 +168,8 @@ def test_test_maps_equal_reference(env, lss):
     assert_same_as_reference(decompose(env, lss))
 
 
-@pytest.mark.parametrize("n", [100, pytest.param(200, marks=pytest.mark.slow),
+@pytest.mark.parametrize("n", [pytest.param(100, marks=pytest.mark.slow),
+                               pytest.param(200, marks=pytest.mark.slow),
                                pytest.param(400, marks=pytest.mark.slow)])
 def test_floor_plans_equal_reference(n):
     env = floor_plan(n, seed=0)

@@ -201,6 +201,7 @@ def test_near_collinear_vertices_are_straight():
         assert (len(decompose(env, 3.0).regions) == 13) is straight
 
 
+@pytest.mark.slow
 def test_features_exactly_lss_apart():
     """Reflex vertices exactly lss apart (a D line of zero length) and a pole exactly lss from
     an edge (a conchoid reduced to a point): one ulp of lss either way changes nothing."""
@@ -228,6 +229,7 @@ def test_known_random_map_checks():
     assert check(decompose(env, lss), 8).ok
 
 
+@pytest.mark.slow
 def test_known_random_map_checks_at_its_original_tolerance():
     """Found when the diameter was the bounding-box diagonal: a speck region of two faces was
     absorbed face by face into two different neighbours, uniting them, so half of R59 showed
@@ -239,6 +241,7 @@ def test_known_random_map_checks_at_its_original_tolerance():
     assert rep.ok, (rep.point_disagreements[:2], rep.piece_disagreements[:2])
 
 
+@pytest.mark.slow
 def test_random_map_of_issue_9_checks():
     """The map where check found points of R122 ending an arc at V7 instead of E7: a blocked
     interval of E7 narrower than ANGLE_TOL near the end of C(V7,E7) on B(V7) was dropped as a

@@ -81,6 +81,7 @@ def test_bad_parameters_raise():
         surveillance_kernel(env, 1.0, 0.5, 1.0, h=0.5, directions=5)
 
 
+@pytest.mark.slow
 def test_empty_on_a_map_without_strategy():
     # the rectangle at lss 1 has no strategy (Prop. 1): no kernel, however fast the observer
     env = env_of("rectangle")
@@ -110,6 +111,7 @@ def _compare_with_surviving_cells(env, lss, h, n_a, samples, seed=0):
     return bad, total, ver, k
 
 
+@pytest.mark.slow
 def test_fast_observer_kernel_is_the_surviving_cells_gallery():
     bad, total, ver, k = _compare_with_surviving_cells(env_of("gallery"), 2.0, 0.32, 72, 60)
     assert total > 1000 and bad == 0

@@ -57,6 +57,7 @@ def test_cut_is_central_and_in_the_widest_gap():
     assert cut_position(x) == 52.0
 
 
+@pytest.mark.slow
 @settings(max_examples=150, suppress_health_check=[HealthCheck.too_slow])
 @given(random_lines())
 def test_strip_pieces_are_the_lines_cut_at_one_x(lines):

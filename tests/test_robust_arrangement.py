@@ -127,6 +127,7 @@ def test_geos_failure_is_one_line_tether_error(monkeypatch, capsys, tmp_path):
     assert len(err) == 1 and err[0].startswith("tether: error: geometry engine failed")
 
 
+@pytest.mark.slow
 def test_analyze_self_check_passes_on_examples():
     verdict = analyze(decompose(load_map(example_path("gallery")), 2.0))
     assert verdict.verified is True

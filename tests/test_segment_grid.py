@@ -71,6 +71,7 @@ def test_meeting_is_strtree_query_on_rectangles():
     assert len(grid._blocks) == 3
 
 
+@pytest.mark.slow
 def test_blocks_hold_every_segment_of_their_cells():
     """Cell (i, j) holds exactly the segments whose bounding box, grown by the blocks' reach
     to the left and below, meets it (loops over the segments' cells, as a reference), for

@@ -39,6 +39,7 @@ def test_floor_plan(reach):
     assert_complete(floor_plan(150, seed=4), reach, 0)
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(env=random_maps(), reach=st.floats(0.05, 6.0), seed=st.integers(0, 99))
 def test_random_maps(env, reach, seed):

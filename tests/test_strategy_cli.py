@@ -33,6 +33,7 @@ def test_assess_text(capsys):
     assert code == 0 and "SAFE" in out
 
 
+@pytest.mark.slow
 def test_simulate_json_and_files(capsys, tmp_path):
     code, out, _ = run(capsys, "simulate", NC, "--lss", "2", "--vt", "0.5", "--vo", "1",
                        "--start", "5", "1", "1.57", "--target", "random", "--duration", "2",

@@ -196,6 +196,7 @@ def test_sweep_cli_unreachable_dask(capsys):
     assert "Dask scheduler" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_sweep_cli_on_a_dask_cluster(capsys):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,

@@ -97,6 +97,7 @@ def _summary(dec, verdict):
             verdict.strategy_exists, sorted(verdict.surviving))
 
 
+@pytest.mark.slow
 def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
     """Small batches, so that a small map's free arcs, rod tests and clearances run in many
     batches in threads: every result equals that of one thread, exactly."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 
 import numpy as np
+import pytest
 
 from tether.decomposition import gc_paused
 
@@ -158,6 +159,7 @@ def _converted(dec) -> tuple[bool, bool]:
     return dec.regions[0]._polygon.converted, dec.pieces[0]._geometry.converted
 
 
+@pytest.mark.slow
 def test_geometries_are_converted_lazily_all_at_once_and_equal_the_eager_conversion():
     """The polygons and lines are kept in the internal frame until first read, then all
     converted at once: bit for bit (WKB) the eager conversion of the internal decomposition's

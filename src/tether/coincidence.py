@@ -23,6 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import shapely
 
 #: Two segments are on one line when their directions agree within this angle (radians) and
 #: their distances from the origin within this length (normalized units, diameter near 1).
@@ -184,8 +185,6 @@ def wall_stubs(ends: np.ndarray, free: np.ndarray, wa: np.ndarray, wb: np.ndarra
     sel = np.flatnonzero(free)
     if len(sel) == 0 or len(wa) == 0:
         return out
-    import shapely  # local to this function: the module is plain numpy otherwise
-
     reach = STUB_REACH_TOLS * tol
     tree = shapely.STRtree(shapely.linestrings(np.stack((wa, wb), axis=1)))
     pi, wi = tree.query(shapely.points(ends[sel]), predicate="dwithin", distance=reach)
