@@ -243,8 +243,8 @@ def _old_arc_rows(table):
 
 def _old_candidate_pairs(rows, m):
     """The former ``_candidate_pairs`` (every range's queries at once)."""
+    from tether._util.arrays import ragged_arange
     from tether.arcs import TWO_PI
-    from tether.arrays import ragged_arange
     from tether.graph import _SEARCH_MARGIN, _arc_length
 
     point, start = rows["point"], rows["start"]

@@ -140,7 +140,7 @@ def test_pipeline_commands_reject_bad_map(capsys, tmp_path):
 def test_progress_bar_only_on_a_terminal():
     import io
 
-    from tether.progress import Progress
+    from tether._util.progress import Progress
 
     class Tty(io.StringIO):
         def isatty(self):

@@ -99,7 +99,7 @@ def test_row_norms_are_the_scalar_norms_bit_for_bit():
 def test_first_nearest_is_the_stable_sort_pick():
     """The nearest segment per row by a minimum per row picks what a stable sort by (row,
     distance) picks: the first of equal distances (ties are common: shared vertices)."""
-    from tether.curves import _first_nearest
+    from tether._util.arrays import first_nearest as _first_nearest
 
     rng = np.random.default_rng(8)
     row = np.sort(rng.integers(0, 300, 3000))

@@ -184,7 +184,7 @@ def test_rings_ccw_is_geos_is_ccw():
 def _drop_dangles_reference(origin, nodes):
     """The dangles' removal as it was (the half-edges leaving each tip found through a sort
     of the origins)."""
-    from tether.arrays import ragged_arange
+    from tether._util.arrays import ragged_arange
 
     alive = np.ones(len(origin), bool)
     deg = np.bincount(origin, minlength=nodes)

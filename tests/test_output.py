@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from tether.output import (
+from tether._util.files import (
     ANIMATION_KINDS,
     IMAGE_KINDS,
     OutputPathError,

@@ -140,7 +140,7 @@ def test_arcs_across_in_batches_equal_one_table(monkeypatch):
 
 def _project_on_sources_reference(curves, srcs, which, q0):
     """:func:`_project_on_sources` as first written: a lexsort by (row, distance)."""
-    from tether.arrays import ragged_arange
+    from tether._util.arrays import ragged_arange
     from tether.curves import project_many
 
     q, n = q0.copy(), np.tile([0.0, 1.0], (len(q0), 1))

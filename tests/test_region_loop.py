@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tether import decomposition as D
-from tether.arrays import ragged_arange
+from tether._util.arrays import ragged_arange
 from tether.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 

@@ -1,10 +1,10 @@
-"""Element-wise shapely calls in threads (tether.threads): the same results, in order."""
+"""Element-wise shapely calls in threads (tether._util.threads): the same results, in order."""
 
 import numpy as np
 import pytest
 import shapely
 
-from tether.threads import MIN_CHUNKED, THREADS_ENV, map_chunks, thread_count
+from tether._util.threads import MIN_CHUNKED, THREADS_ENV, map_chunks, thread_count
 
 
 def _slivers(n: int, seed: int = 0) -> np.ndarray:
@@ -57,7 +57,7 @@ def test_thread_count_ignores_what_is_not_a_positive_integer(monkeypatch, value)
 
 
 def test_single_threaded_keeps_a_users_setting(monkeypatch):
-    from tether.threads import single_threaded
+    from tether._util.threads import single_threaded
 
     monkeypatch.delenv(THREADS_ENV, raising=False)
     single_threaded()
@@ -72,7 +72,7 @@ def test_single_threaded_keeps_a_users_setting(monkeypatch):
 def test_map_batches_in_order(monkeypatch, threads, count, batch):
     import threading
 
-    from tether.threads import map_batches
+    from tether._util.threads import map_batches
     monkeypatch.setenv(THREADS_ENV, threads)
     seen = set()
 
@@ -123,7 +123,7 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
 def test_in_background_gives_the_value_once_or_raises(monkeypatch, threads):
     import threading
 
-    from tether.threads import in_background
+    from tether._util.threads import in_background
     monkeypatch.setenv(THREADS_ENV, threads)
     ran_in = []
 

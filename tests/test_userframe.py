@@ -7,7 +7,7 @@ import gc
 import numpy as np
 import pytest
 
-from tether.decomposition import gc_paused
+from tether._util.memory import gc_paused
 
 
 class _Node:

@@ -155,7 +155,7 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
                                    blit=False)
-    from tether.output import atomic_output
+    from tether._util.files import atomic_output
 
     with atomic_output(path) as tmp:
         if kind == ".gif":

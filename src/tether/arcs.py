@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from tether.arrays import ragged_arange
+from tether._util.arrays import ragged_arange
+from tether._util.threads import map_batches
 from tether.environment import Environment
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
 from tether.spatial import EdgeIndex
-from tether.threads import map_batches
 from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
 TWO_PI = 2.0 * math.pi

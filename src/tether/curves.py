@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 import shapely
 
+from tether._util.arrays import first_nearest, first_per_group, ragged_arange
 from tether.arcs import rod_is_free_many, rod_is_free_rows, rod_rows
-from tether.arrays import ragged_arange
 from tether.environment import Environment
 from tether.errors import TetherError
 from tether.tolerances import REL_CURVE_TOL
@@ -1402,8 +1402,8 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
     # strictly inside (lo + tol, hi - tol)
     lo = np.minimum.reduceat(a_poly, pstart)
     hi = np.maximum.reduceat(a_poly, pstart)
-    first_lo = _first_per_group(np.flatnonzero(a_poly == lo[row_poly]), row_poly)
-    first_hi = _first_per_group(np.flatnonzero(a_poly == hi[row_poly]), row_poly)
+    first_lo = first_per_group(np.flatnonzero(a_poly == lo[row_poly]), row_poly)
+    first_hi = first_per_group(np.flatnonzero(a_poly == hi[row_poly]), row_poly)
     i0 = _grouped_searchsorted(d_group, d_along, poly_group, lo + tol, "right")
     i1 = np.maximum(i0, _grouped_searchsorted(d_group, d_along, poly_group, hi - tol, "left"))
     count = i1 - i0 + 2
@@ -1429,12 +1429,6 @@ def _share_lines(curves: list[Curve], tol: float) -> list[Curve]:
                         tuple((line - p) @ dd / den for line in lines), fam, i, c.frame)
         j += n
     return out
-
-
-def _first_per_group(rows: np.ndarray, group: np.ndarray) -> np.ndarray:
-    """The first of ``rows`` (increasing) of each value of ``group[rows]`` (increasing)."""
-    g = group[rows]
-    return rows[np.r_[True, g[1:] != g[:-1]]]
 
 
 def _grouped_searchsorted(dg: np.ndarray, dv: np.ndarray, qg: np.ndarray, qv: np.ndarray,
@@ -1588,7 +1582,7 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     u = np.clip(np.einsum("ij,ij->i", q[row] - a[seg], ab)
                 / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
     dist = np.hypot(*(a[seg] + u[:, None] * ab - q[row]).T)
-    best = _first_nearest(row, dist)  # nearest segment per row
+    best = first_nearest(row, dist)  # nearest segment per row
     s = seg[best]
     lo, hi = lo_all[s], hi_all[s]
     t = lo + u[best] * (hi - lo)
@@ -1610,19 +1604,6 @@ def _project_conchoids(curves: list[Curve], cid: np.ndarray, q: np.ndarray
     tangent = _tangents(sub, None, t, dlo, dhi)
     tangent = tangent / np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-300)[:, None]
     return t, sub.points(None, t), np.column_stack((-tangent[:, 1], tangent[:, 0]))
-
-
-def _first_nearest(row: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """For rows ``row`` (increasing, each present), the index of each row's smallest
-    ``dist``, the first among equals (as a stable sort by (row, dist) picks it; a lexsort
-    if some distance is nan)."""
-    if np.isnan(dist).any():
-        order = np.lexsort((dist, row))
-        return order[np.r_[True, row[order][1:] != row[order][:-1]]]
-    start = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
-    least = np.minimum.reduceat(dist, start)
-    hit = np.flatnonzero(dist == np.repeat(least, np.diff(np.r_[start, len(row)])))
-    return _first_per_group(hit, row)
 
 
 #: Consecutive polyline segments per block in the pruned nearest-segment search.

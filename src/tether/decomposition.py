@@ -15,12 +15,10 @@ A target passing exactly through an arrangement vertex is not modelled (``math.m
 
 from __future__ import annotations
 
-import gc
 import itertools
 import math
 import operator
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -28,6 +26,9 @@ import numpy as np
 import shapely
 from shapely.errors import GEOSException
 
+from tether._util.arrays import first_nearest, ragged_arange
+from tether._util.memory import gc_paused, release_memory
+from tether._util.threads import in_background, map_batches, map_chunks
 from tether.arcs import (
     TWO_PI,
     ArcTable,
@@ -37,13 +38,11 @@ from tether.arcs import (
     join_tables,
     near_edge_lines,
 )
-from tether.arrays import ragged_arange
 from tether.coincidence import merge_collinear, wall_stubs
-from tether.curves import Curve, _first_nearest, critical_curves, project_many
+from tether.curves import Curve, critical_curves, project_many
 from tether.environment import Environment
 from tether.noding import ArrangementError, geos_message, node_lines
 from tether.spatial import SegmentGrid, z_order
-from tether.threads import in_background, map_batches, map_chunks
 from tether.tolerances import CHECK_LINES, REL_CURVE_TOL, SELF_CHECK_LINES
 
 if TYPE_CHECKING:
@@ -1689,54 +1688,6 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     return dec
 
 
-def release_memory() -> None:
-    """Return the C heap's free memory to the system (glibc's ``malloc_trim``; nothing
-    elsewhere). Freed geometry memory stays in the heap otherwise, where Python's own object
-    arenas cannot reuse it: trimming it lowers the peak of the stages that follow."""
-    trim = _malloc_trim()
-    if trim is not None:
-        trim(0)
-
-
-def _malloc_trim() -> Any:
-    """glibc's ``malloc_trim`` (None where there is none), looked up once."""
-    got = globals().get("_TRIM", False)
-    if got is False:
-        got = None
-        try:
-            import ctypes
-
-            got = ctypes.CDLL("libc.so.6").malloc_trim
-        except (OSError, AttributeError):
-            pass
-        globals()["_TRIM"] = got
-    return got
-
-
-@contextmanager
-def gc_paused() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector for a block. A decomposition creates millions of
-    small objects that live on (cells, names, geometries) and none in reference cycles: each
-    collection would walk them all again (a fifth of the time at 400 vertices) to free
-    nothing. Reference counting still frees everything else at once.
-
-    On leaving the outermost pause, the objects still alive (the results) go straight to the
-    oldest generation (``gc.freeze`` then ``gc.unfreeze``, both constant time): re-enabled as
-    they were, the collector's next young collection would walk every one of them (1.2 s at
-    1,000 map vertices) and the one after that again. They stay collectable by a full
-    collection; nothing is left frozen (skipped if the caller froze objects itself)."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            if gc.get_freeze_count() == 0:
-                gc.freeze()
-                gc.unfreeze()
-            gc.enable()
-
-
 def _face_regions(arr: _Arrangement, keep: np.ndarray, resolved: np.ndarray,
                   face_sid: np.ndarray, pts: np.ndarray, clear: np.ndarray, tol: float,
                   lss: float) -> tuple[dict[str, Any], _Chains, _Candidates]:
@@ -2694,7 +2645,7 @@ def _project_on_sources(curves: list[Curve], srcs: tuple[np.ndarray, np.ndarray]
     at = np.take(q0, row, axis=0)  # rows of a 2-d array: np.take (fancy indexing is slower)
     _, p, nrm = project_many(curves, cid, at)
     # each row's nearest projection, the first among equals (no sort)
-    best = _first_nearest(row, np.hypot(*(p - at).T))
+    best = first_nearest(row, np.hypot(*(p - at).T))
     q[row[best]] = p[best]
     n[row[best]] = nrm[best]
     return q, n

@@ -703,8 +703,8 @@ class Environment:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all (:func:`tether.output.atomic_output`)."""
-    from tether.output import atomic_output
+    """Write ``text`` to ``path`` whole or not at all (:func:`tether._util.files.atomic_output`)."""
+    from tether._util.files import atomic_output
 
     with atomic_output(path) as tmp:
         tmp.write_text(text)

@@ -25,3 +25,7 @@ class OutsideFreeSpaceError(TetherError, ValueError):
 class NonFiniteResultError(TetherError, ArithmeticError):
     """A result is not finite (NaN or infinite): the input is beyond tether's numerical range.
     Raised instead of writing non-finite numbers to JSON."""
+
+
+class OutputPathError(TetherError, ValueError):
+    """An output path cannot be written (missing folder, read-only, bad extension...)."""

@@ -17,10 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from tether.arrays import ragged_arange
+from tether._util.arrays import ragged_arange
+from tether._util.memory import gc_paused
 from tether.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.critical import near_critical as critical_events
-from tether.decomposition import Decomposition, decompose, feature_name_rank, gc_paused
+from tether.decomposition import Decomposition, decompose, feature_name_rank
 from tether.graph import (
     ConnectivityGraph,
     _piece_regions,

@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from tether._util.arrays import ragged_arange
+from tether._util.memory import gc_paused, release_memory
 from tether.arcs import TWO_PI, ArcTable, free_arcs_many
-from tether.arrays import ragged_arange
-from tether.decomposition import Decomposition, _Cells, _Pieces, gc_paused, release_memory
+from tether.decomposition import Decomposition, _Cells, _Pieces
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph

@@ -18,8 +18,8 @@ import numpy as np
 import shapely
 from shapely.errors import GEOSException
 
+from tether._util.threads import in_background
 from tether.errors import TetherError
-from tether.threads import in_background
 
 
 class ArrangementError(TetherError):

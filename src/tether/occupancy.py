@@ -191,7 +191,7 @@ class OccupancyGrid:
         import yaml
         from PIL import Image
 
-        from tether.output import atomic_output
+        from tether._util.files import atomic_output
 
         yp = Path(yaml_path)
         img_path = yp.with_suffix(".pgm")

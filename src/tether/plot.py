@@ -35,8 +35,8 @@ def _ax(ax: Any) -> Any:
 
 def save(fig: Figure, path: str | Path, dpi: int = 120) -> None:
     """Save a figure whole: written to a temporary file with the same extension, then renamed
-    (:func:`tether.output.atomic_output`); nothing is left behind if saving fails."""
-    from tether.output import atomic_output
+    (:func:`tether._util.files.atomic_output`); nothing is left behind if saving fails."""
+    from tether._util.files import atomic_output
 
     with atomic_output(Path(path)) as tmp:
         fig.savefig(tmp, dpi=dpi)

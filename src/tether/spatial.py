@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tether.arrays import ragged_arange
+from tether._util.arrays import ragged_arange
 
 #: Upper bound on the number of grid cells (memory guard for tiny reaches on large maps).
 MAX_CELLS = 4_000_000

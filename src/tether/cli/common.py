@@ -144,7 +144,7 @@ def add_speeds(sp: argparse.ArgumentParser, required: bool) -> None:
 
 def check_plot_arg(args: argparse.Namespace, attr: str = "plot") -> None:
     """Validate an optional image output argument (``--plot``) before any computation."""
-    from tether.output import IMAGE_KINDS, check_output_path
+    from tether._util.files import IMAGE_KINDS, check_output_path
 
     value = getattr(args, attr, None)
     if value is not None:

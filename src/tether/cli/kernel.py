@@ -23,7 +23,7 @@ def cmd_kernel(args: argparse.Namespace) -> int:
 
     check_plot_arg(args)
     if args.save is not None:
-        from tether.output import check_output_path
+        from tether._util.files import check_output_path
 
         check_output_path(args.save, (".npz",))
     env = load_map_lss(args)
@@ -41,7 +41,7 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         out["at"] = {"x": x, "y": y, "a": a, "in_kernel": bool(k.contains([[x, y]], a)[0]),
                      "margin": float(k.margin([[x, y]], a)[0])}
     if args.save is not None:
-        from tether.output import atomic_output
+        from tether._util.files import atomic_output
 
         with atomic_output(args.save) as tmp:
             with open(tmp, "wb") as fh:

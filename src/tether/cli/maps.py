@@ -88,11 +88,11 @@ def cmd_arcs(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    from tether._util.files import make_output_dir
     from tether.arcs import free_arcs
     from tether.decomposition import decompose
     from tether.environment import load_map
     from tether.escape import analyze
-    from tether.output import make_output_dir
     from tether.plot import plot_verdict, save
 
     out = make_output_dir(args.out)
@@ -124,8 +124,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _decompose(args: argparse.Namespace):
+    from tether._util.progress import Progress
     from tether.decomposition import decompose
-    from tether.progress import Progress
 
     env = load_map_lss(args)
     return decompose(env, args.lss, progress=Progress("decompose"))

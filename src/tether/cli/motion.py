@@ -45,8 +45,8 @@ def check_angles(args: argparse.Namespace) -> None:
 
 def cmd_plot_motion(args: argparse.Namespace) -> int:
     from tether import plot
+    from tether._util.files import IMAGE_KINDS, check_output_path
     from tether.bounds import check_speeds
-    from tether.output import IMAGE_KINDS, check_output_path
 
     check_output_path(args.out, IMAGE_KINDS)
     check_speeds(args.vt, args.vo, args.lss)

@@ -8,23 +8,23 @@ import json
 import sys
 from pathlib import Path
 
+from tether._util.files import IMAGE_KINDS
 from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
-from tether.output import IMAGE_KINDS
 
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
 
 
 def _check_output(path: str, kinds: tuple[str, ...]) -> Path:
-    """Validate an output path before computing (:func:`tether.output.check_output_path`)."""
-    from tether.output import check_output_path
+    """Validate an output path before computing (:func:`tether._util.files.check_output_path`)."""
+    from tether._util.files import check_output_path
 
     return check_output_path(path, kinds)
 
 
 def _write_text(path: Path, text: str) -> None:
-    """Write ``text`` whole or not at all (:func:`tether.output.atomic_output`)."""
-    from tether.output import atomic_output
+    """Write ``text`` whole or not at all (:func:`tether._util.files.atomic_output`)."""
+    from tether._util.files import atomic_output
 
     with atomic_output(path) as tmp:
         Path(tmp).write_text(text)
@@ -109,7 +109,7 @@ def _executor(args: argparse.Namespace):
             raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
         from concurrent.futures import ProcessPoolExecutor
 
-        from tether.threads import single_threaded
+        from tether._util.threads import single_threaded
 
         ex = ProcessPoolExecutor(max_workers=args.workers, initializer=single_threaded)
         return ex, ex.shutdown
@@ -166,7 +166,7 @@ def format_sweep(res) -> str:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from tether.progress import Progress
+    from tether._util.progress import Progress
     from tether.sweep import parse_lss_range, sweep
 
     if args.json and args.csv:

@@ -25,10 +25,10 @@ def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
     wait."""
     import numpy as np
 
+    from tether._util.progress import Progress
     from tether.arcs import check_inside
     from tether.decomposition import decompose
     from tether.escape import analyze
-    from tether.progress import Progress
     from tether.sim.protocols import World
     from tether.sim.simulate import check_start
 
@@ -43,7 +43,7 @@ def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
-    from tether.output import ANIMATION_KINDS, IMAGE_KINDS, check_output_path
+    from tether._util.files import ANIMATION_KINDS, IMAGE_KINDS, check_output_path
 
     if getattr(args, "plot", None):
         check_output_path(args.plot, IMAGE_KINDS)
@@ -104,7 +104,7 @@ def cmd_assess(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------- simulate
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from tether.progress import Progress
+    from tether._util.progress import Progress
     from tether.sim.controller import CONTROLLERS
     from tether.sim.simulate import save_trace, simulate
     from tether.sim.targets import TARGETS, make_target
@@ -141,7 +141,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         cause = explain_loss(world, res, controller)
     if args.trace:
-        from tether.output import atomic_output
+        from tether._util.files import atomic_output
 
         with atomic_output(args.trace) as tmp:
             save_trace(res, tmp)

@@ -21,7 +21,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from tether.errors import TetherError
+from tether.errors import OutputPathError
 
 __all__ = [
     "ANIMATION_KINDS",
@@ -37,10 +37,6 @@ IMAGE_KINDS = (".png", ".pdf", ".svg", ".jpg")
 
 #: Extensions an animation can be saved with.
 ANIMATION_KINDS = (".gif", ".mp4", ".html")
-
-
-class OutputPathError(TetherError, ValueError):
-    """An output path cannot be written (missing folder, read-only, bad extension...)."""
 
 
 def _writable_dir(folder: Path, shown: str) -> None:
