@@ -41,7 +41,7 @@ import shapely
 from tether._util.arrays import first_nearest, first_per_group, ragged_arange
 from tether.arcs import rod_is_free_many, rod_is_free_rows, rod_rows
 from tether.environment import Environment
-from tether.errors import TetherError
+from tether.errors import ResourceLimitError
 from tether.tolerances import REL_CURVE_TOL
 
 KINDS = ("A", "B", "C", "D", "E")
@@ -1472,10 +1472,6 @@ def _line_groups(theta: np.ndarray, offset: np.ndarray, tol: float) -> list[list
 #: decompose + analyze; it was 2.5 kB before the freed C heap was returned between stages),
 #: so the default bounds a decomposition near 2 GB. Raise it on a machine with more memory.
 MAX_CURVE_VERTICES = 1_500_000
-
-
-class ResourceLimitError(TetherError):
-    """A computation would exceed tether's memory bound (refused before allocating)."""
 
 
 def check_vertex_budget(vertices: float, lss: float) -> None:

@@ -29,3 +29,11 @@ class NonFiniteResultError(TetherError, ArithmeticError):
 
 class OutputPathError(TetherError, ValueError):
     """An output path cannot be written (missing folder, read-only, bad extension...)."""
+
+
+class ArrangementError(TetherError):
+    """The critical curves' arrangement could not be computed at tether's resolution."""
+
+
+class ResourceLimitError(TetherError):
+    """A computation would exceed tether's memory bound (refused before allocating)."""

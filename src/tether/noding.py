@@ -19,12 +19,7 @@ import shapely
 from shapely.errors import GEOSException
 
 from tether._util.threads import in_background
-from tether.errors import TetherError
-
-
-class ArrangementError(TetherError):
-    """The critical curves' arrangement could not be computed at tether's resolution."""
-
+from tether.errors import ArrangementError
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
 #: tolerance: coarser grids only if a finer one fails too.
