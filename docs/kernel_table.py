@@ -169,15 +169,13 @@ def main() -> None:
                                           starts(kin, True, 1, rng)[0], duration=15.0,
                                           dt=0.02)
         if name == "gallery":
-            from tether.plot import save
-            from tether.plot_kernel import kernel_figure
+            from tether.plot import kernel_figure, save
 
             (DOCS / "figures").mkdir(exist_ok=True)
             save(kernel_figure(surveillance_kernel(env, lss, 0.6, 1.0, grid=fine)),
                  DOCS / "figures" / "kernel_gallery_06.png")
     if strip is not None:
-        from tether.plot import save
-        from tether.plot_kernel import kernel_run_strip
+        from tether.plot import kernel_run_strip, save
 
         save(kernel_run_strip(*strip, frames=4), DOCS / "figures" / "kernel_run_gallery_06.png")
     lstar = lstar_section()

@@ -18,8 +18,7 @@ from matplotlib.colors import ListedColormap
 from tether.cli.common import example_path
 from tether.decomposition import check, decompose
 from tether.occupancy import FREE, OCCUPIED, free_component, read_grid, read_ros_map
-from tether.plot import new_axes, save
-from tether.plot_sweep import plot_sweep
+from tether.plot import new_axes, plot_sweep, save
 from tether.sweep import sweep
 
 HERE = Path(__file__).resolve().parent

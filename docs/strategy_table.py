@@ -212,7 +212,7 @@ def scenarios():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from tether.animate import plot_run
+    from tether.plot import plot_run
     from tether.sim.scenarios import fig7, fig8
 
     out = []

@@ -47,36 +47,6 @@ def test_kernel_bad_input_exit_2(capsys, extra, message, tmp_path, monkeypatch):
     assert message in err and err.count("\n") == 1
 
 
-@pytest.mark.slow
-def test_kernel_figures(tmp_path):
-    import math
-
-    from tether.environment import load_map
-    from tether.game import surveillance_kernel
-    from tether.game.controller import KernelController
-    from tether.plot import save
-    from tether.plot_kernel import kernel_figure, plot_kernel_run
-    from tether.sim.protocols import World
-    from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
-
-    env = load_map(example_path("nonconvex_corner"))
-    k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.5, orientations=36)
-    save(kernel_figure(k, angles=(0.0, math.pi)), tmp_path / "k.png")
-    w = World(env, 1.0, 0.6, 1.0, extra={"kernel": k})
-    r = simulate(w, KernelController(), make_target("kernel-evader", w), (5.0, 5.0, 0.0),
-                 duration=2.0, dt=0.05)
-    arts = plot_kernel_run(k, r)
-    assert arts
-    assert (tmp_path / "k.png").stat().st_size > 0
-    from tether.plot_kernel import kernel_run_strip
-
-    fig = kernel_run_strip(k, r, frames=3)
-    assert len(fig.axes) == 3 and "t = 2.0 s" in fig.axes[-1].get_title()
-    save(fig, tmp_path / "strip.png")
-    assert (tmp_path / "strip.png").stat().st_size > 0
-
-
 # ---- the kernel controller in ``tether simulate`` ------------------------------------------
 SIM = ["simulate", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "--vo", "1",
        "--start", "2", "2.5", "0.5", "--controller", "kernel", "--duration", "2", "--json"]

@@ -79,11 +79,3 @@ def test_atomic_output_leaves_nothing_on_failure(tmp_path):
         raise RuntimeError("boom")
     assert target.read_bytes() == b"old"
     assert os.listdir(tmp_path) == ["a.png"]
-
-
-def test_plot_save_is_atomic(tmp_path):
-    from tether import plot
-
-    fig, _ = plot.new_axes()
-    plot.save(fig, tmp_path / "f.svg")
-    assert os.listdir(tmp_path) == ["f.svg"]

@@ -902,7 +902,7 @@ class Decomposition:
 
     def plot(self, ax: Any = None, **kw: Any) -> list:
         """Draw the decomposition (see :func:`tether.plot.plot_decomposition`)."""
-        from tether.plot import plot_decomposition
+        from tether.plot.decomposition import plot_decomposition
 
         return plot_decomposition(self, ax, **kw)
 

@@ -125,7 +125,7 @@ class Verdict:
 
     def plot(self, fig: Any = None) -> Any:
         """The paper-style figure (see :func:`tether.plot.plot_verdict`)."""
-        from tether.plot import plot_verdict
+        from tether.plot.verdict import plot_verdict
 
         return plot_verdict(self, fig)
 

@@ -130,7 +130,7 @@ class SweepResult:
 
     def plot(self, ax: Any = None) -> Any:
         """The sweep figure (see :func:`tether.plot_sweep.plot_sweep`)."""
-        from tether.plot_sweep import plot_sweep
+        from tether.plot.sweep import plot_sweep
 
         return plot_sweep(self, ax)
 

@@ -4,8 +4,8 @@ import shutil
 
 import pytest
 
-from tether.animate import animate_run, plot_run
 from tether.errors import TetherError
+from tether.plot.run import animate_run, plot_run
 from tether.sim.scenarios import fig8
 
 

@@ -47,8 +47,7 @@ def cmd_kernel(args: argparse.Namespace) -> int:
             with open(tmp, "wb") as fh:
                 k.save(fh)
     if args.plot:
-        from tether.plot import save
-        from tether.plot_kernel import kernel_figure
+        from tether.plot import kernel_figure, save
 
         save(kernel_figure(k), args.plot)
     if args.json:

@@ -181,8 +181,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finally:
         close()
     if plot is not None:
-        from tether.plot import new_axes, save
-        from tether.plot_sweep import plot_sweep
+        from tether.plot import new_axes, plot_sweep, save
 
         fig, ax = new_axes(size=(8, 4.5))
         plot_sweep(res, ax)

@@ -68,21 +68,9 @@ def cmd_assess(args: argparse.Namespace) -> int:
     world = _world(args, args.at, rod=False)
     res = assess(world.verdict, args.vt, args.vo, x, y, a)
     if args.plot:
-        import matplotlib.pyplot as plt
+        from tether.plot import plot_assessment
 
-        from tether.animate import _background, _purple
-
-        fig, ax = plt.subplots(figsize=(7, 6))
-        _background(ax, world)
-        _purple(ax, world, a)
-        ax.plot([x, x + args.lss * math.cos(a)], [y, y + args.lss * math.sin(a)], "-",
-                color="green" if res.safe else "red", lw=2.5, zorder=6)
-        ax.plot([x], [y], "ko", zorder=7)
-        for e in res.escape_points[:8]:
-            ax.plot(*e.point, "*", color="purple", ms=9, zorder=7)
-        ax.set_title(f"assess ({x:g}, {y:g}, {a:g}): {'safe' if res.safe else 'unsafe'}",
-                     fontsize=9)
-        _save_fig(fig, args.plot)
+        _save_fig(plot_assessment(res, world).figure, args.plot)
     if args.json:
         print_json(res.to_dict())
         return 0
@@ -146,15 +134,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         with atomic_output(args.trace) as tmp:
             save_trace(res, tmp)
     if args.plot:
-        import matplotlib.pyplot as plt
+        from tether.plot import plot_run
 
-        from tether.animate import plot_run
-
-        fig, ax = plt.subplots(figsize=(7, 6))
-        plot_run(res, world, ax)
-        _save_fig(fig, args.plot)
+        _save_fig(plot_run(res, world).figure, args.plot)
     if args.animate:
-        from tether.animate import animate_run
+        from tether.plot import animate_run
 
         animate_run(res, world, args.animate)
     if args.json:

@@ -1,9 +1,6 @@
 """Figures of the surveillance kernel (:mod:`tether.game`): the plane coloured by the safe
-fraction of orientations, and slices of the kernel at chosen orientations.
-
-Like :mod:`tether.plot`, functions take ``ax=None`` / ``fig=None``, return the artists or the
-figure, and never call ``plt.show()``.
-"""
+fraction of orientations, slices of the kernel at chosen orientations, and runs drawn over
+them."""
 
 from __future__ import annotations
 
@@ -14,7 +11,11 @@ import numpy as np
 from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 
-from tether.plot import _ax, plot_map
+from tether.plot.axes import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR, ensure_axes
+from tether.plot.map import plot_map
+
+__all__ = ["SLICE_COLOURS", "plot_safe_fraction", "plot_kernel_slice", "kernel_figure",
+           "plot_kernel_run", "kernel_run_strip"]
 
 #: Slice colours: blocked rod, free but outside the kernel, in the kernel.
 SLICE_COLOURS = ("0.85", "tab:orange", "tab:green")
@@ -39,7 +40,7 @@ def _lattice(kernel: Any, values: np.ndarray, fill: float = np.nan) -> np.ndarra
 def plot_safe_fraction(kernel: Any, ax: Any = None, colorbar: bool = True) -> list:
     """The plane coloured by the fraction of each point's free orientations in the kernel;
     points with free orientations but no safe one are marked with red dots."""
-    ax = _ax(ax)
+    ax = ensure_axes(ax)
     img = ax.imshow(_lattice(kernel, kernel.safe_fraction()), origin="lower",
                     extent=_extent(kernel), vmin=0, vmax=1, cmap="viridis",
                     interpolation="nearest", zorder=1)
@@ -59,7 +60,7 @@ def plot_safe_fraction(kernel: Any, ax: Any = None, colorbar: bool = True) -> li
 def plot_kernel_slice(kernel: Any, angle: float, ax: Any = None) -> list:
     """The slice of the kernel at the orientation bin nearest ``angle`` (radians): grey where
     the rod is blocked, orange where it is free but outside the kernel, green inside."""
-    ax = _ax(ax)
+    ax = ensure_axes(ax)
     g = kernel.grid
     k = int(g.bin_at(np.array([angle]))[0])
     code = g.free[:, k].astype(float) + kernel.kernel[:, k]
@@ -92,9 +93,7 @@ def kernel_figure(kernel: Any, angles: tuple[float, ...] = (0.0, math.pi / 2, ma
 def plot_kernel_run(kernel: Any, result: Any, ax: Any = None) -> list:
     """A simulator run (:class:`~tether.sim.simulate.SimResult`) drawn over the safe-fraction
     map: target path, observer path, a few rods, and where the run was lost if it was."""
-    from tether.plot import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR
-
-    ax = _ax(ax)
+    ax = ensure_axes(ax)
     arts = plot_safe_fraction(kernel, ax, colorbar=False)
     tr = result.trace
     p, o = tr.p, tr.observer
@@ -115,8 +114,6 @@ def kernel_run_strip(kernel: Any, result: Any, frames: int = 4, fig: Any = None)
     the kernel's slice at the rod's orientation then (green: in the kernel), with the target's
     and observer's paths so far and the rod. A controller that keeps the state in the kernel
     keeps the target's dot on green."""
-    from tether.plot import ROD_COLOUR, TARGET_COLOUR
-
     observer = "tab:purple"  # the slice's orange means 'outside'
 
     tr = result.trace

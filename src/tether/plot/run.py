@@ -3,7 +3,8 @@
 :func:`plot_run` draws a run (target and observer paths, rods, the mode as colour, escape points
 and the second set of critical curves for the final orientation); :func:`animate_run` writes an
 animation: GIF (matplotlib's Pillow writer), MP4 (only where ffmpeg is installed, else a clean
-error) or HTML (a self-contained JavaScript player). Imports matplotlib; nothing imports this.
+error) or HTML (a self-contained JavaScript player). :func:`draw_scene` and
+:func:`draw_trigger_curves` draw the background a run or a start is shown over.
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ from typing import Any
 import numpy as np
 
 from tether.errors import TetherError
+from tether.plot.map import plot_map
+
+__all__ = ["MODE_COLOURS", "draw_scene", "draw_trigger_curves", "plot_run", "animate_run"]
 
 #: Colour of each mode.
 MODE_COLOURS = {"reactive": "tab:green", "rotational": "tab:purple", "compliant": "tab:orange",
@@ -25,9 +29,10 @@ def _colour(mode: str) -> str:
     return MODE_COLOURS.get(mode, "tab:gray")
 
 
-def _purple(ax: Any, world: Any, a: float, grid: int = 90) -> list:
-    """The second set of critical curves for orientation ``a``: target positions at ``L_g``
-    (solid) and the paper's ``L`` (dashed) from the escape points concerning ``a``."""
+def draw_trigger_curves(ax: Any, world: Any, a: float, grid: int = 90) -> list:
+    """The second set of critical curves for orientation ``a`` (purple): target positions at
+    ``L_g`` (solid) and the paper's ``L`` (dashed) from the escape points concerning ``a``; none
+    when no strategy exists. Returns the contour sets added."""
     if world.verdict is None or not world.verdict.strategy_exists:
         return []
     from tether.assess import critical_distance_field
@@ -44,9 +49,9 @@ def _purple(ax: Any, world: Any, a: float, grid: int = 90) -> list:
     return arts
 
 
-def _background(ax: Any, world: Any) -> None:
-    from tether.plot import plot_map
-
+def draw_scene(ax: Any, world: Any) -> None:
+    """The background of a run or a start: the decomposition of ``world`` (or its map when it
+    has none) and, when a strategy exists, the escape points (purple dots)."""
     if world.decomposition is not None:
         world.decomposition.plot(ax, labels=False)
     else:
@@ -68,7 +73,7 @@ def plot_run(result: Any, world: Any, ax: Any = None, rods: int = 12) -> Any:
 
     if ax is None:
         _, ax = plt.subplots(figsize=(7, 6))
-    _background(ax, world)
+    draw_scene(ax, world)
     tr = result.trace
     ax.plot(tr.p[:, 0], tr.p[:, 1], "-", color="black", lw=1.2, label="target", zorder=4)
     modes = list(tr.mode) + [tr.mode[-1] if tr.mode else "reactive"]
@@ -80,7 +85,7 @@ def plot_run(result: Any, world: Any, ax: Any = None, rods: int = 12) -> Any:
     for i in np.linspace(0, len(tr) - 1, min(rods, len(tr))).astype(int):
         ax.plot([tr.p[i, 0], tr.observer[i, 0]], [tr.p[i, 1], tr.observer[i, 1]], "-",
                 color=_colour(modes[i]), lw=0.8, alpha=0.7, zorder=4)
-    _purple(ax, world, float(tr.a[-1]))
+    draw_trigger_curves(ax, world, float(tr.a[-1]))
     if result.outcome == "lost":
         ax.plot(*tr.p[-1], "x", color="red", ms=10, mew=2, zorder=6)
     ax.set_title(f"{result.target} vs {result.controller}: {result.outcome}"
@@ -112,7 +117,7 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
     tr = result.trace
     frames = np.unique(np.linspace(0, len(tr) - 1, min(max_frames, len(tr))).astype(int))
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
-    _background(ax, world)
+    draw_scene(ax, world)
     (trail,) = ax.plot([], [], "-", color="black", lw=1.0, zorder=4)
     (otrail,) = ax.plot([], [], "-", color="gray", lw=1.0, zorder=4)
     (rod,) = ax.plot([], [], "-", lw=2.5, zorder=5)
@@ -148,7 +153,7 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
                     region_patch.extend(ax.fill(xy[:, 0], xy[:, 1], color="gold", alpha=0.35,
                                                 zorder=2))
         if purple:
-            curves.extend(_purple(ax, world, float(tr.a[i]), grid=60))
+            curves.extend(draw_trigger_curves(ax, world, float(tr.a[i]), grid=60))
         title.set_text(f"t={tr.t[i]:5.2f}s  mode={modes[i]}  "
                        f"{result.target} vs {result.controller}")
         return [trail, otrail, rod, tgt, obs, title]

@@ -1,8 +1,5 @@
-"""The sweep figure: verdict and counts against the rod length ``lss``.
-
-Kept apart from :mod:`tether.plot` (which it uses for figures) so that the sweep's drawing has
-one home. Reads a :class:`tether.sweep.SweepResult` and changes nothing.
-"""
+"""The sweep figure: verdict and counts against the rod length ``lss``, read from a
+:class:`tether.sweep.SweepResult`."""
 
 from __future__ import annotations
 
@@ -10,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.plot import new_axes
+from tether.plot.axes import new_axes
 
 __all__ = ["plot_sweep"]
 

@@ -1,0 +1,39 @@
+"""The axes every figure draws into, the colours the figures share, and saving.
+
+Figures are built with ``matplotlib.figure.Figure`` (not registered with pyplot) so that saving
+works under any backend.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from matplotlib.figure import Figure
+
+__all__ = ["TARGET_COLOUR", "OBSERVER_COLOUR", "ROD_COLOUR", "new_axes", "ensure_axes", "save"]
+
+TARGET_COLOUR = "tab:blue"
+OBSERVER_COLOUR = "tab:orange"
+ROD_COLOUR = "0.55"
+
+
+def new_axes(ncols: int = 1, size: tuple[float, float] = (6.4, 4.8)) -> tuple[Figure, Any]:
+    """A new figure (not registered with pyplot) and its axes."""
+    fig = Figure(figsize=(size[0] * ncols, size[1]), layout="constrained")
+    axes = fig.subplots(1, ncols)
+    return fig, axes
+
+
+def ensure_axes(ax: Any) -> Any:
+    """``ax``, or the axes of a new figure when ``ax`` is None."""
+    return new_axes()[1] if ax is None else ax
+
+
+def save(fig: Figure, path: str | Path, dpi: int = 120) -> None:
+    """Save a figure whole: written to a temporary file with the same extension, then renamed
+    (:func:`tether._util.files.atomic_output`); nothing is left behind if saving fails."""
+    from tether._util.files import atomic_output
+
+    with atomic_output(Path(path)) as tmp:
+        fig.savefig(tmp, dpi=dpi)
