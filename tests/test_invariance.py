@@ -257,7 +257,7 @@ def test_random_map_with_a_slow_conchoid_end_checks():
     B(V5) and E(V9,E4) cross, but moves ~2000 times slower there than its mean speed, so its
     overshoot (sized by the mean) was 0.01 tol instead of 20 tol and stayed short of the
     other two polylines: a dangle inside a face, whose two sides then disagreed with a piece
-    (fixed in ``curves._reach``)."""
+    (fixed in ``curves.draw._reach``)."""
     env, lss = _known_random_map("random_dangle")
     rep = check(decompose(env, lss), 8)
     assert rep.ok, (rep.point_disagreements[:2], rep.piece_disagreements[:2])

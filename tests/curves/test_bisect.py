@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from conftest import GENERIC, STAR_HOLE
 
-import tether.curves as curves_mod
+import tether.curves.critical as critical
 from tether.arcs import rod_is_free_many
-from tether.curves import _BISECTIONS, _critical_intervals, candidate_families
+from tether.curves import candidate_families
+from tether.curves.critical import _BISECTIONS, critical_intervals
 from tether.floorplan import floor_plan
 
 
@@ -37,16 +38,16 @@ def _families(env, rel):
 def test_bisect_matches_reference(env, rel, monkeypatch):
     inner, fams = _families(env, rel)
     calls = []
-    real = curves_mod._bisect
+    real = critical._bisect
 
     def spy(env_, sub, ta, tb, fa):
         got = real(env_, sub, ta, tb, fa)
         calls.append((sub.kind, got, _bisect_reference(env_, sub, ta, tb, fa)))
         return got
 
-    monkeypatch.setattr(curves_mod, "_bisect", spy)
+    monkeypatch.setattr(critical, "_bisect", spy)
     for fam in fams:
-        _critical_intervals(inner, fam)
+        critical_intervals(inner, fam)
     assert sum(len(g) for _, g, _ in calls) > 20
     for kind, got, ref in calls:
         assert got.tobytes() == ref.tobytes(), kind

@@ -9,9 +9,11 @@ from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE, random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import tether.curves as curves_mod
+import tether.curves.critical as critical
 from tether import Environment
-from tether.curves import _critical_intervals, candidate_families
+from tether.arcs import rod_is_free_many
+from tether.curves import candidate_families
+from tether.curves.critical import critical_intervals
 from tether.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
@@ -26,17 +28,17 @@ def all_pairs(env, fam):
 def assert_same_intervals(env, lss, monkeypatch):
     inner = env.internal
     fams = list(candidate_families(inner, lss * env.frame.scale))
-    near = [_critical_intervals(inner, fam) for fam in fams]
+    near = [critical_intervals(inner, fam) for fam in fams]
     with monkeypatch.context() as mp:
-        mp.setattr(curves_mod, "_breakpoint_pairs", all_pairs)
-        mp.setattr(curves_mod, "_conchoid_vertex_pairs", all_pairs)
-        every = [_critical_intervals(inner, fam) for fam in fams]
+        mp.setattr(critical, "_breakpoint_pairs", all_pairs)
+        mp.setattr(critical, "_conchoid_vertex_pairs", all_pairs)
+        every = [critical_intervals(inner, fam) for fam in fams]
     assert near == every
     assert_same_breakpoints(inner, fams, monkeypatch)
 
 
 def sorted_breakpoints(env, fam):
-    c, t = curves_mod._breakpoints(env, fam)
+    c, t = critical._breakpoints(env, fam)
     order = np.lexsort((t, c))
     return c[order], t[order]
 
@@ -46,8 +48,8 @@ def assert_same_breakpoints(inner, fams, monkeypatch):
     of the search over all pairs, each once: the same sets of (curve, parameter)."""
     near = [sorted_breakpoints(inner, fam) for fam in fams]
     with monkeypatch.context() as mp:
-        mp.setattr(curves_mod, "_breakpoint_pairs", all_pairs)
-        mp.setattr(curves_mod, "_conchoid_vertex_pairs", all_pairs)
+        mp.setattr(critical, "_breakpoint_pairs", all_pairs)
+        mp.setattr(critical, "_conchoid_vertex_pairs", all_pairs)
         every = [sorted_breakpoints(inner, fam) for fam in fams]
     for fam, (c, t), (c2, t2) in zip(fams, near, every, strict=True):
         assert np.array_equal(c, c2) and np.array_equal(t, t2), fam.kind
@@ -70,7 +72,7 @@ def test_sector_boxes_hold_the_sectors():
     env = floor_plan(120, seed=3)
     inner = env.internal
     fam = candidate_families(inner, (env.bounds[2] - env.bounds[0]) / 15 * env.frame.scale)[4]
-    x0, y0, x1, y1 = curves_mod._sector_boxes(fam, 1e-3)
+    x0, y0, x1, y1 = critical._sector_boxes(fam, 1e-3)
     span = fam.hi - fam.lo
     frac = np.linspace(-1e-3, 1 + 1e-3, 101)
     t = fam.lo[:, None] + frac[None, :] * span[:, None]
@@ -117,8 +119,8 @@ def assert_same_as_dense(env, lss):
     inner = env.internal
     tol = REL_CURVE_TOL
     for fam in candidate_families(inner, lss * env.frame.scale):
-        sparse = _critical_intervals(inner, fam)
-        dense = _critical_intervals(inner, fam, per_lss=96)
+        sparse = critical_intervals(inner, fam)
+        dense = critical_intervals(inner, fam, per_lss=96)
         for c, (a, b) in enumerate(zip(sparse, dense, strict=True)):
             a, b = merged(a, tol), merged(b, tol)
             assert len(a) == len(b), (fam.kind, fam.features[c], a, b)
@@ -167,11 +169,11 @@ def test_conchoid_pair_filter_drops_no_crossing(env, lss, monkeypatch):
     inner = env.internal
     fam = candidate_families(inner, lss * env.frame.scale)[4]
     assert fam.kind == "E" and len(fam)
-    cc, vk = curves_mod._breakpoint_pairs(inner, fam)
-    kept = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
+    cc, vk = critical._breakpoint_pairs(inner, fam)
+    kept = critical._conchoid_edge_crossings(inner, fam, cc, vk)
     with monkeypatch.context() as mp:
-        mp.setattr(curves_mod, "_conchoid_grid_boxes", no_boxes)
-        every = curves_mod._conchoid_edge_crossings(inner, fam, cc, vk)
+        mp.setattr(critical, "_conchoid_grid_boxes", no_boxes)
+        every = critical._conchoid_edge_crossings(inner, fam, cc, vk)
     assert len(every[0]) > 0
     assert np.array_equal(kept[0], every[0]) and np.array_equal(kept[1], every[1])
 
@@ -188,7 +190,7 @@ def test_insert_after_is_the_stable_sort():
     at = np.flatnonzero((c[1:] == c[:-1]) & (rng.random(1999) < 0.5))
     frac = rng.choice([0.0, 0.3819660112501051, 1.0], len(at))
     t_new = t[at] + frac * (t[at + 1] - t[at])
-    c2, t2 = curves_mod._insert_after(c, t, at, t_new)
+    c2, t2 = critical.insert_after(c, t, at, t_new)
     cc, tt = np.concatenate((c, c[at])), np.concatenate((t, t_new))
     order = np.lexsort((tt, cc))
     assert np.array_equal(c2, cc[order]) and np.array_equal(t2, tt[order])
@@ -203,7 +205,7 @@ def test_equal_samples_tested_once():
     rng = np.random.default_rng(4)
     repeated = 0
     for fam in fams:
-        bc, bt = curves_mod._breakpoints(inner, fam)
+        bc, bt = critical._breakpoints(inner, fam)
         c = np.concatenate((bc, rng.integers(0, len(fam), 50)))
         t = np.concatenate((bt, rng.uniform(fam.lo.min(), fam.hi.max(), 50)))
         keep = (t > fam.lo[c]) & (t < fam.hi[c])
@@ -211,7 +213,7 @@ def test_equal_samples_tested_once():
         order = np.lexsort((t, c))
         c, t = c[order], t[order]
         repeated += int(np.sum((c[1:] == c[:-1]) & (t[1:] == t[:-1])))
-        want = curves_mod.rod_is_free_many(inner, fam.points(c, t), fam.rod_angles(c, t),
+        want = rod_is_free_many(inner, fam.points(c, t), fam.rod_angles(c, t),
                                            fam.lss)
-        assert np.array_equal(curves_mod._semi_free(inner, fam, c, t), want), fam.kind
+        assert np.array_equal(critical._semi_free(inner, fam, c, t), want), fam.kind
     assert repeated > 0

@@ -1,4 +1,4 @@
-"""The vectorized sharing of vertices among straight curves on one line (``_share_lines``,
+"""The vectorized sharing of vertices among straight curves on one line (``share_lines``,
 ``_line_groups``) against the former group-by-group, polyline-by-polyline loops, kept here as
 the reference: the very same polylines and parameters, bit for bit."""
 
@@ -9,6 +9,7 @@ import pytest
 from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE
 
 import tether.curves as C
+import tether.curves.share as S
 from tether.curves import Curve
 from tether.floorplan import floor_plan
 from tether.tolerances import ANGLE_TOL, REL_CURVE_TOL
@@ -84,7 +85,7 @@ def unshared_curves(env, lss, monkeypatch):
         return curves
 
     with monkeypatch.context() as mp:
-        mp.setattr(C, "_share_lines", grab)
+        mp.setattr(C, "share_lines", grab)
         C.critical_curves(env.internal, lss * env.frame.scale, REL_CURVE_TOL)
     return got["args"]
 
@@ -105,7 +106,7 @@ def assert_same(a, b):
                                           (floor_plan(200, seed=4), 1.5)])
 def test_share_lines_equals_reference(env, lss, monkeypatch):
     curves, tol = unshared_curves(env, lss, monkeypatch)
-    assert assert_same(C._share_lines(curves, tol), reference_share_lines(curves, tol)) >= 0
+    assert assert_same(S.share_lines(curves, tol), reference_share_lines(curves, tol)) >= 0
 
 
 @pytest.mark.slow
@@ -113,7 +114,7 @@ def test_share_lines_shares_on_floor_plans(monkeypatch):
     """On a floor plan many lines carry several curves: vertices are shared, the same ones."""
     env = floor_plan(200, seed=4)
     curves, tol = unshared_curves(env, (env.bounds[2] - env.bounds[0]) / 15, monkeypatch)
-    assert assert_same(C._share_lines(curves, tol), reference_share_lines(curves, tol)) > 20
+    assert assert_same(S.share_lines(curves, tol), reference_share_lines(curves, tol)) > 20
 
 
 def test_line_groups_equals_reference():
@@ -124,4 +125,4 @@ def test_line_groups_equals_reference():
     theta = np.clip(theta, -np.pi / 2 + 1e-15, np.pi / 2)
     offset = rng.choice([0.0, 1.0, 1.0 + 1e-10, -2.0], 500) + rng.normal(0, 1e-11, 500)
     for tol in (1e-12, 1e-9, 1e-3):
-        assert C._line_groups(theta, offset, tol) == reference_line_groups(theta, offset, tol)
+        assert S._line_groups(theta, offset, tol) == reference_line_groups(theta, offset, tol)
