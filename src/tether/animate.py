@@ -30,7 +30,7 @@ def _purple(ax: Any, world: Any, a: float, grid: int = 90) -> list:
     (solid) and the paper's ``L`` (dashed) from the escape points concerning ``a``."""
     if world.verdict is None or not world.verdict.strategy_exists:
         return []
-    from tether.assess import critical_distance_field
+    from tether.analysis import critical_distance_field
 
     x0, y0, x1, y1 = world.env.bounds
     xs, ys = np.linspace(x0, x1, grid), np.linspace(y0, y1, grid)
@@ -52,7 +52,7 @@ def _background(ax: Any, world: Any) -> None:
     else:
         plot_map(world.env, ax, labels=False)
     if world.verdict is not None and world.verdict.strategy_exists:
-        from tether.assess import escape_table_of
+        from tether.analysis import escape_table_of
 
         t = escape_table_of(world.verdict)
         if len(t):

@@ -1,4 +1,5 @@
-"""The connectivity graph G (``math.md`` §8): cells adjacent across boundary pieces.
+"""The connectivity graph G: cells adjacent across boundary pieces (``docs/formulas.md``, "The
+verdict").
 
 Cells ``K`` over ``R`` and ``K'`` over ``R'`` are adjacent across a piece ``γ`` shared by ``R``
 and ``R'`` when the arc of ``K`` continues into the arc of ``K'`` as the target crosses ``γ``:
@@ -11,6 +12,7 @@ between pieces shared by the same two regions.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -19,12 +21,14 @@ import numpy as np
 
 from tether._util.arrays import ragged_arange
 from tether._util.memory import gc_paused, release_memory
-from tether.arcs import TWO_PI, ArcTable, free_arcs_many
+from tether.arcs import ArcTable, free_arcs_many
 from tether.decomposition import Decomposition, _Cells, _Pieces
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
+
+__all__ = ["ConnectivityGraph", "build_graph"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,7 +102,7 @@ class ConnectivityGraph:
             for j in range(rptr[r], rptr[r + 1]):
                 pos[(r, rpcs[j])] = j - rptr[r]
         out: dict[tuple[str, int], tuple[str, ...]] = {}
-        for k, regions in enumerate(_piece_regions(dec).tolist()):
+        for k, regions in enumerate(piece_regions(dec).tolist()):
             for r in regions:
                 j = pos[(r, k)]
                 for c in range(first[r], first[r + 1]):
@@ -175,8 +179,8 @@ def _overlap(s1: Any, e1: Any, s2: Any, e2: Any, full1: Any = False, full2: Any 
 def _overlap_lengths(s1: np.ndarray, l1: np.ndarray, s2: np.ndarray, l2: np.ndarray
                      ) -> np.ndarray:
     """:func:`_overlap` of CCW arcs given by start and length (radians, :func:`_arc_length`)."""
-    d21 = np.mod(s2 - s1, TWO_PI)  # arc 2 starting inside arc 1
-    d12 = np.mod(s1 - s2, TWO_PI)  # arc 1 starting inside arc 2
+    d21 = np.mod(s2 - s1, math.tau)  # arc 2 starting inside arc 1
+    d12 = np.mod(s1 - s2, math.tau)  # arc 1 starting inside arc 2
     a = np.where(d21 < l1, np.minimum(l1 - d21, l2), 0.0)
     b = np.where(d12 < l2, np.minimum(l2 - d12, l1), 0.0)
     return np.maximum(a, b)
@@ -185,8 +189,8 @@ def _overlap_lengths(s1: np.ndarray, l1: np.ndarray, s2: np.ndarray, l2: np.ndar
 def _arc_length(s: np.ndarray, e: np.ndarray, full: Any) -> np.ndarray:
     """CCW length of arcs from ``s`` to ``e`` (radians, in (0, 2π]); ``full`` forces 2π."""
     raw = e - s
-    length = np.where(raw > 0, np.minimum(raw, TWO_PI), np.mod(raw, TWO_PI))
-    return np.where(np.asarray(full, dtype=bool), TWO_PI, length)
+    length = np.where(raw > 0, np.minimum(raw, math.tau), np.mod(raw, math.tau))
+    return np.where(np.asarray(full, dtype=bool), math.tau, length)
 
 
 def _arc_rows(dec: Decomposition, pts: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -211,7 +215,7 @@ def _table_arc_rows(table: ArcTable) -> dict[str, np.ndarray]:
     return {
         "point": point[order],
         "start": np.concatenate((table.start, np.zeros(len(full))))[order],
-        "end": np.concatenate((table.end, np.full(len(full), TWO_PI)))[order],
+        "end": np.concatenate((table.end, np.full(len(full), math.tau)))[order],
         "full": np.concatenate((np.zeros(len(table.point), bool),
                                 np.ones(len(full), bool)))[order],
         "start_code": np.concatenate((table.start_code, np.full(len(full), -1)))[order],
@@ -261,7 +265,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     keep = _overlapping(rows["start"], length, pair_a, pair_b)
     del length
     k = rows["point"][pair_a[keep]]
-    regs = _piece_regions(dec)
+    regs = piece_regions(dec)
     ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
                      rows["end_code"][pair_a[keep]])
     cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
@@ -317,9 +321,9 @@ def _candidate_pairs(rows: dict[str, np.ndarray], m: int, length: np.ndarray | N
     del pb, s1
     # the arcs starting in [lo, hi] (wrapped around 2π: up to three ranges)
     got_a, got_b = [], []
-    for got in (_starting_in(key, base, lo.clip(0.0, TWO_PI), np.minimum(hi, TWO_PI), a),
-                _starting_in(key, base, None, hi - TWO_PI, a, hi > TWO_PI),
-                _starting_in(key, base, lo + TWO_PI, None, a, lo < 0)):
+    for got in (_starting_in(key, base, lo.clip(0.0, math.tau), np.minimum(hi, math.tau), a),
+                _starting_in(key, base, None, hi - math.tau, a, hi > math.tau),
+                _starting_in(key, base, lo + math.tau, None, a, lo < 0)):
         got_a.append(got[0])
         got_b.append(got[1])
     # the arc containing a's start: the last starting at or before it, else the point's last
@@ -351,12 +355,12 @@ def _starting_in(key: np.ndarray, base: np.ndarray, r0: np.ndarray | None,
         r0 = None if r0 is None else r0[w]
         r1 = None if r1 is None else r1[w]
     i0 = np.searchsorted(key, base + (0.0 if r0 is None else r0), side="left")
-    i1 = np.searchsorted(key, base + (TWO_PI if r1 is None else r1), side="right")
+    i1 = np.searchsorted(key, base + (math.tau if r1 is None else r1), side="right")
     n = np.maximum(i1 - i0, 0)
     return np.repeat(a, n), ragged_arange(i0, n)
 
 
-def _piece_regions(dec: Decomposition) -> np.ndarray:
+def piece_regions(dec: Decomposition) -> np.ndarray:
     """``(m, 2)`` int array of every piece's two regions: the pieces' column (never to be
     written), or read from the pieces and cached on the decomposition."""
     if type(dec.pieces) is _Pieces:
@@ -381,7 +385,7 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     """
     ea, eb, ep = _edges(dec)
     nreg, ncell = len(dec.regions), len(dec.cells)
-    regs = _piece_regions(dec)
+    regs = piece_regions(dec)
     m = len(regs)
     # pieces of each region (CSR), increasing: entries (region, piece) per piece side
     ent_region = regs.T.ravel()  # side 0 of every piece, then side 1

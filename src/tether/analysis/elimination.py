@@ -1,4 +1,5 @@
-"""Escapable cells, their elimination and the existence verdict (``math.md`` §8, Prop. 1).
+"""Escapable cells, their elimination and the existence verdict (Prop. 1; ``docs/formulas.md``,
+"The verdict").
 
 Cell ``K`` over ``R`` is escapable with respect to the surviving cells ``S`` iff some piece
 ``γ`` bounding ``R`` (toward ``R'``) has no cell of ``S`` over ``R'`` adjacent to ``K`` across
@@ -19,18 +20,20 @@ import numpy as np
 
 from tether._util.arrays import ragged_arange
 from tether._util.memory import gc_paused
-from tether.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
-from tether.critical import near_critical as critical_events
-from tether.decomposition import Decomposition, decompose, feature_name_rank
-from tether.graph import (
+from tether.analysis.connectivity import (
     ConnectivityGraph,
-    _piece_regions,
     build_graph,
     cell_first,
     cell_ids_of,
     cell_regions,
+    piece_regions,
 )
+from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
+from tether.analysis.critical import near_critical as critical_events
+from tether.decomposition import Decomposition, decompose, feature_name_rank
 from tether.tolerances import REL_LENGTH_TOL
+
+__all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
 
 
 @dataclass(frozen=True)
@@ -63,8 +66,8 @@ class Verdict:
     #: the cheap self-check run by :func:`analyze` (a
     #: :class:`tether.decomposition.CheckReport`), or None if it was skipped
     self_check: Any = None
-    #: a :class:`tether.critical.CriticalLss` when ``lss`` is within tether's resolution of a
-    #: critical length of the map (the verdicts just below and above), else None
+    #: a :class:`tether.analysis.critical.CriticalLss` when ``lss`` is within tether's
+    #: resolution of a critical length of the map (the verdicts just below and above), else None
     critical: Any = None
 
     @property
@@ -146,7 +149,7 @@ class Eliminations(Sequence):
     def _one(self, i: int) -> Elimination:
         dec = self.graph.dec
         c, k, b = int(self.cell[i]), int(self.piece[i]), int(self.because[i])
-        ra, rb = _piece_regions(dec)[k].tolist()
+        ra, rb = piece_regions(dec)[k].tolist()
         other = rb if ra == cell_regions(dec)[c] else ra
         ids = cell_ids_of(dec, [c] if b < 0 else [c, b])
         return Elimination(ids[0], f"R{other}", f"P{k}", int(self.round[i]),
@@ -165,7 +168,7 @@ class Eliminations(Sequence):
         dec = self.graph.dec
         n = len(self)
         ids = cell_ids_of(dec, np.concatenate((self.cell, np.maximum(self.because, 0))))
-        ends = _piece_regions(dec)[self.piece]
+        ends = piece_regions(dec)[self.piece]
         other = np.where(ends[:, 0] == cell_regions(dec)[self.cell], ends[:, 1], ends[:, 0])
         return tuple(Elimination(c, f"R{o}", f"P{k}", r, None if b < 0 else ib)
                      for c, o, k, r, b, ib in zip(
@@ -363,7 +366,7 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     With ``self_check`` (the default) the decomposition is verified cheaply first (see
     :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
     With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
-    a critical length of the map (:func:`tether.critical.near_critical`), the map is also
+    a critical length of the map (:func:`tether.analysis.critical.near_critical`), the map is also
     decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
     """
     report = None

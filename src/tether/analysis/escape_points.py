@@ -1,4 +1,6 @@
-"""Start analysis: escape points, the trigger distances and a safe/unsafe verdict (``math.md`` §10).
+"""Escape points: where a surviving cell's target can cross toward eliminated cells, and the
+sweep the observer needs before it gets there (``docs/formulas.md``, "The verdict";
+``docs/strategy.md``).
 
 **Escape table.** For a surviving cell ``K`` over ``R`` and a piece ``γ`` of ``R`` toward
 ``R'``, the continuation set ``C_γ(K)`` is the part of ``K``'s arc that continues into
@@ -11,14 +13,8 @@ there and the goal arcs just across). Reflex vertices are listed with their no-p
 **For an orientation a** an escape sample ``q`` concerns the rod when ``a`` lies in ``K``'s arc
 at ``q`` but not in the goal: the observer must sweep ``Δ`` (inside ``K``'s arc, in the sense
 ``σ`` that reaches the goal first) before the target gets there. The sweep takes at most
-``T_g = Lss·Δ/(vo − vt)``, the target covers ``L_g = vt·T_g`` meanwhile; the margin is
-``|p − q| − L_g`` (straight-line distance: a lower bound on the target's path). The paper's ``L``
-(straight dash, R3) is reported beside it.
-
-**Verdict.** ``safe`` iff the rod is free, its cell survives the elimination, every concerning
-escape point has a non-negative margin, and no two reachable escape points conflict (Prop. 3 as
-a check: opposite senses and neither order of the two sweeps finishes in time). Lengths in map
-units, angles in radians, times in seconds.
+``T_g = Lss·Δ/(vo − vt)``, the target covers ``L_g = vt·T_g`` meanwhile (:func:`l_safe`); the
+paper's ``L`` (straight dash, R3) is :func:`l_paper`. Lengths in map units, angles in radians.
 """
 
 from __future__ import annotations
@@ -29,12 +25,17 @@ from typing import Any
 
 import numpy as np
 
-from tether.arcs import feature_name, free_arcs_many, rod_is_free, wedge_columns
-from tether.bounds import check_speeds, distance_bound
+from tether.analysis.elimination import Verdict
+from tether.arcs import feature_name, free_arcs_many, wedge_columns
+from tether.bounds import distance_bound
 from tether.decomposition import FREE, cell_name
-from tether.escape import Verdict
 
-TWO_PI = 2.0 * math.pi
+__all__ = [
+    "SAMPLES_PER_PIECE", "VERTEX_GOAL_MARGIN", "WALL_CODE", "EscapeTable", "escape_table",
+    "escape_table_of", "l_paper", "l_safe", "sweep_row", "sweeps", "wall_contact_points",
+    "wall_rows",
+]
+
 #: Samples per escape piece (at most; short pieces get fewer).
 SAMPLES_PER_PIECE = 24
 
@@ -143,7 +144,7 @@ class EscapeTable:
             goal = [[float(s), float(e)] for s, e in zip(self.g_start[i], self.g_end[i],
                                                           strict=True) if np.isfinite(s)]
             rows.append({"point": self.q[i].tolist(), "cell": self.cell[i],
-                         "piece": _row_name(int(self.piece[i])),
+                         "piece": row_name(int(self.piece[i])),
                          "cell_arc": [float(self.k_start[i]), float(self.k_end[i])],
                          "goal": goal})
         env = self.verdict.dec.env
@@ -157,7 +158,7 @@ class EscapeTable:
 WALL_CODE = -1_000_000
 
 
-def _row_name(k: int) -> str:
+def row_name(k: int) -> str:
     if k >= 0:
         return f"P{k}"
     return f"V{-1 - k}" if k > WALL_CODE else f"E{WALL_CODE - k}"
@@ -168,18 +169,18 @@ def sweeps(ks: Any, ke: Any, gs: Any, ge: Any, a: Any
     """Vectorized core of :meth:`EscapeTable.sweeps` (``gs``, ``ge`` of shape (m, G))."""
     ks, ke = np.asarray(ks, float), np.asarray(ke, float)
     gs, ge = np.asarray(gs, float), np.asarray(ge, float)
-    klen = np.mod(ke - ks, TWO_PI)
-    klen = np.where(klen == 0.0, TWO_PI, klen)
-    in_k = np.mod(a - ks, TWO_PI) <= klen
-    glen = np.mod(ge - gs, TWO_PI)
-    glen = np.where(glen == 0.0, TWO_PI, glen)
+    klen = np.mod(ke - ks, math.tau)
+    klen = np.where(klen == 0.0, math.tau, klen)
+    in_k = np.mod(a - ks, math.tau) <= klen
+    glen = np.mod(ge - gs, math.tau)
+    glen = np.where(glen == 0.0, math.tau, glen)
     valid = np.isfinite(gs)
-    in_g = np.any(valid & (np.mod(a - gs[...], TWO_PI) <= np.where(valid, glen, -1.0)), axis=1)
-    ahead = np.mod(ke - a, TWO_PI)[:, None]  # room CCW inside K's arc
-    behind = np.mod(a - ks, TWO_PI)[:, None]  # room CW
-    full = (klen >= TWO_PI)[:, None]
-    raw_ccw = np.where(valid, np.mod(gs - a, TWO_PI), np.inf)
-    raw_cw = np.where(valid, np.mod(a - ge, TWO_PI), np.inf)
+    in_g = np.any(valid & (np.mod(a - gs[...], math.tau) <= np.where(valid, glen, -1.0)), axis=1)
+    ahead = np.mod(ke - a, math.tau)[:, None]  # room CCW inside K's arc
+    behind = np.mod(a - ks, math.tau)[:, None]  # room CW
+    full = (klen >= math.tau)[:, None]
+    raw_ccw = np.where(valid, np.mod(gs - a, math.tau), np.inf)
+    raw_cw = np.where(valid, np.mod(a - ge, math.tau), np.inf)
     d_ccw = np.where(full | (raw_ccw <= ahead), raw_ccw, np.inf)
     d_cw = np.where(full | (raw_cw <= behind), raw_cw, np.inf)
     best_ccw, best_cw = d_ccw.min(axis=1), d_cw.min(axis=1)
@@ -198,10 +199,10 @@ def sweep_row(ks: float, ke: float, gs: Any, ge: Any, a: float) -> tuple[bool, f
     """:func:`sweeps` for one row, in scalar arithmetic (the controller's per-step check of its
     committed row: a few µs instead of a dozen numpy calls). ``gs``, ``ge``: the row's goal
     arcs (NaN-padded). Returns ``(concern, Δ, σ)``."""
-    klen = (ke - ks) % TWO_PI or TWO_PI
-    in_k = (a - ks) % TWO_PI <= klen
-    full = klen >= TWO_PI
-    ahead, behind = (ke - a) % TWO_PI, (a - ks) % TWO_PI
+    klen = (ke - ks) % math.tau or math.tau
+    in_k = (a - ks) % math.tau <= klen
+    full = klen >= math.tau
+    ahead, behind = (ke - a) % math.tau, (a - ks) % math.tau
     in_g = False
     best = [math.inf, math.inf]  # CCW, CW inside the arc
     raw = [math.inf, math.inf]  # CCW, CW unconstrained
@@ -209,9 +210,9 @@ def sweep_row(ks: float, ke: float, gs: Any, ge: Any, a: float) -> tuple[bool, f
         s, e = float(s), float(e)
         if not math.isfinite(s):
             continue
-        if (a - s) % TWO_PI <= ((e - s) % TWO_PI or TWO_PI):
+        if (a - s) % math.tau <= ((e - s) % math.tau or math.tau):
             in_g = True
-        r_ccw, r_cw = (s - a) % TWO_PI, (a - e) % TWO_PI
+        r_ccw, r_cw = (s - a) % math.tau, (a - e) % math.tau
         raw[0], raw[1] = min(raw[0], r_ccw), min(raw[1], r_cw)
         if full or r_ccw <= ahead:
             best[0] = min(best[0], r_ccw)
@@ -281,10 +282,10 @@ def _widened(table: Any, i: int, s: float, e: float) -> tuple[float, float]:
     starts, ends = table.start[rows], table.end[rows]
     if len(starts) <= 1:
         return (0.0, 0.0)
-    before = np.mod(s - ends, TWO_PI)  # CW distance from each arc's end to K's start
-    after = np.mod(starts - e, TWO_PI)  # CCW distance from K's end to each arc's start
-    before = np.where(before == 0.0, TWO_PI, before)
-    after = np.where(after == 0.0, TWO_PI, after)
+    before = np.mod(s - ends, math.tau)  # CW distance from each arc's end to K's start
+    after = np.mod(starts - e, math.tau)  # CCW distance from K's end to each arc's start
+    before = np.where(before == 0.0, math.tau, before)
+    after = np.where(after == 0.0, math.tau, after)
     return (float(ends[int(np.argmin(before))]), float(starts[int(np.argmin(after))]))
 
 
@@ -372,10 +373,10 @@ def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
         return np.zeros((0, 2)), []
     _, d_out, d_in, _ = wedge_columns(env)  # the free cone; at a touching vertex, its wedge
     a_out = np.arctan2(d_out[refl, 1], d_out[refl, 0])
-    width = np.mod(np.arctan2(d_in[refl, 1], d_in[refl, 0]) - a_out, TWO_PI)
+    width = np.mod(np.arctan2(d_in[refl, 1], d_in[refl, 0]) - a_out, math.tau)
     mid = a_out + 0.5 * width
     q = env.vertices[refl] + 1e-4 * lss * np.column_stack((np.cos(mid), np.sin(mid)))
-    dirs = (np.arange(n_dir) + 0.5) * (TWO_PI / n_dir)
+    dirs = (np.arange(n_dir) + 0.5) * (math.tau / n_dir)
     goals = []
     table = free_arcs_many(env, q, lss, check=False)
     for i, j in enumerate(refl):
@@ -387,8 +388,8 @@ def _vertex_goals(env: Any, lss: float, refl: np.ndarray, n_dir: int = 720
         ok = np.ones(n_dir, dtype=bool)
         for pt in pts:
             ok &= rod_free_fan(env, pt, dirs, lss)
-        arcs = _shrunk(_runs(ok, dirs, TWO_PI / n_dir), VERTEX_GOAL_MARGIN) \
-            or _runs(ok, dirs, TWO_PI / n_dir)
+        arcs = _shrunk(_runs(ok, dirs, math.tau / n_dir), VERTEX_GOAL_MARGIN) \
+            or _runs(ok, dirs, math.tau / n_dir)
         if not arcs:
             rows = table.rows_of(i)
             arcs = [(float(s), float(e)) for s, e in zip(table.start[rows], table.end[rows],
@@ -411,11 +412,11 @@ def _shrunk(arcs: list[tuple[float, float]], margin: float) -> list[tuple[float,
     dropped (the full circle ``(s, s)`` kept as it is)."""
     out = []
     for s, e in arcs:
-        width = (e - s) % TWO_PI
+        width = (e - s) % math.tau
         if width == 0.0:
             out.append((s, e))
         elif width > 2.0 * margin:
-            out.append(((s + margin) % TWO_PI, (e - margin) % TWO_PI))
+            out.append(((s + margin) % math.tau, (e - margin) % math.tau))
     return out
 
 
@@ -442,7 +443,7 @@ def _runs(ok: np.ndarray, dirs: np.ndarray, step: float) -> list[tuple[float, fl
         elif not ok[idx] and start is not None:
             last = (idx - 1) % len(ok)
             if last != start:
-                out.append((float(dirs[start]) % TWO_PI, float(dirs[last]) % TWO_PI))
+                out.append((float(dirs[start]) % math.tau, float(dirs[last]) % math.tau))
             start = None
     return out
 
@@ -482,7 +483,7 @@ def wall_rows(env: Any, lss: float, ratio: float
         at_wall = math.atan2(-nrm[i, 1], -nrm[i, 0])
         qs.append(0.5 * (A[i] + B[i]) + lss * nrm[i])
         edges.append(i)
-        goals.append(((at_wall + d0) % TWO_PI, (at_wall - d0) % TWO_PI))
+        goals.append(((at_wall + d0) % math.tau, (at_wall - d0) % math.tau))
     return np.array(qs).reshape(-1, 2), np.array(edges, dtype=int), goals
 
 
@@ -529,309 +530,3 @@ def l_paper(delta: Any, vt: float, vo: float, lss: float) -> np.ndarray:
     """The paper's ``L`` for a sweep ``Δ`` against the worst straight heading (R3)."""
     d = np.abs(np.asarray(delta, float))
     return np.asarray(distance_bound(-d / 2, d / 2, vt, vo, lss), float)
-
-
-@dataclass(frozen=True)
-class EscapePoint:
-    """An escape point within reach of a start: where, whose, the sweep and the distances."""
-
-    kind: str  # "piece" or "vertex"
-    point: tuple[float, float]
-    cell: str | None
-    piece: str | None
-    distance: float  # |p − q|
-    sweep: float  # Δ, rad
-    sense: int  # +1 CCW, −1 CW, 0 for a vertex
-    L: float  # paper's straight-dash bound
-    L_g: float  # safe bound
-    margin: float  # |p − q| − L_g
-    goal: tuple[tuple[float, float], ...] = ()  # CCW arcs (start, end), rad; (0, 0) = all
-
-    def to_dict(self) -> dict:
-        return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
-                "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
-                "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin,
-                "goal": [list(g) for g in self.goal]}
-
-
-@dataclass(frozen=True)
-class Assessment:
-    """The analysis of a start ``(x, y, a)`` (see the module docstring)."""
-
-    start: tuple[float, float, float]
-    lss: float
-    vt: float
-    vo: float
-    rod_free: bool
-    cell: str | None
-    survives: bool
-    strategy_exists: bool
-    escape_points: tuple[EscapePoint, ...]
-    conflicts: tuple[tuple[int, int], ...]
-    safe: bool
-    reasons: tuple[str, ...]
-
-    def to_dict(self) -> dict:
-        return {"start": list(self.start), "lss": self.lss, "vt": self.vt, "vo": self.vo,
-                "safe": self.safe, "cell": self.cell, "survives": self.survives,
-                "rod_free": self.rod_free, "strategy_exists": self.strategy_exists,
-                "reasons": list(self.reasons),
-                "escape_points": [e.to_dict() for e in self.escape_points],
-                "conflicts": [list(c) for c in self.conflicts]}
-
-
-def _reach(vt: float, vo: float, lss: float) -> float:
-    """Largest ``L_g`` any sweep can need (a half turn each way is at most 2π)."""
-    return float(l_safe(TWO_PI, vt, vo, lss))
-
-
-def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float) -> Assessment:
-    """Analyse the start ``(x, y, a)`` against speeds ``vt < vo`` (see the module docstring).
-
-    Raises
-    ------
-    InvalidParameterError
-        ``vo <= vt`` or non-positive speeds.
-    """
-    dec = verdict.dec
-    vt, vo, lss = check_speeds(vt, vo, dec.lss)
-    env = dec.env
-    p = np.array([x, y], float)
-    reasons: list[str] = []
-    free = bool(env.contains(x, y)) and rod_is_free(env, p, a, lss)
-    cell = dec.cell_at(p, a)[0] if free else None
-    survives = cell is not None and cell in verdict.surviving
-    if not free:
-        reasons.append(f"the rod from ({x:g}, {y:g}) at a={a:g} is not free")
-    elif not verdict.strategy_exists:
-        reasons.append("no cell survives the elimination: no strategy exists on this map "
-                       "(Prop. 1); " + (verdict.story()[0] if verdict.story() else ""))
-    elif cell is None:
-        reasons.append("the target is on a region boundary (a critical curve): the cell is "
-                       "undefined there")
-    elif not survives:
-        reasons.append(f"the rod is in cell {cell}, which the elimination removes: the target "
-                       "can force a loss whatever the observer does (Prop. 1)")
-    points: list[EscapePoint] = []
-    conflicts: list[tuple[int, int]] = []
-    if free and verdict.strategy_exists:
-        table = escape_table_of(verdict, vt / vo)
-        points = _escape_points(table, p, a, vt, vo, lss, _arc_at(env, p, a, lss))
-        for e in points:
-            if e.margin < 0:
-                where = (f"on {e.piece} of {e.cell}" if e.kind == "piece"
-                         else f"at reflex vertex {e.piece} (plus the no-pivot radius "
-                              f"{lss * vt / (vo + vt):.3g})" if e.kind == "vertex"
-                         else f"where the rod would meet wall {e.piece} too steeply to slide")
-                reasons.append(
-                    f"escape point ({e.point[0]:.3g}, {e.point[1]:.3g}) {where} is "
-                    f"{e.distance:.3g} away, closer than L_g = {e.L_g:.3g} (a "
-                    f"{math.degrees(e.sweep):.0f}° {'CCW' if e.sense > 0 else 'CW'} sweep): "
-                    "the target gets there before the rotation finishes")
-                break
-        conflicts = _conflicts(points, vt, vo, lss, a, _arc_at(env, p, a, lss))
-        for i, j in conflicts[:1]:
-            reasons.append(
-                f"escape points {i} and {j} need opposite sweeps and neither order finishes "
-                "before the target reaches the other (Prop. 3)")
-    safe = free and survives and not reasons
-    if safe:
-        reasons.append(f"the rod is in surviving cell {cell} and every escape point in reach "
-                       "is farther than its L_g")
-    return Assessment((float(x), float(y), float(a)), lss, vt, vo, free, cell, survives,
-                      verdict.strategy_exists, tuple(points), tuple(conflicts), safe,
-                      tuple(reasons))
-
-
-def _arc_at(env: Any, p: np.ndarray, a: float, lss: float) -> tuple[float, float] | None:
-    """The free arc holding rod ``a`` at ``p`` (``None`` when FULL)."""
-    from tether.arcs import free_arcs
-
-    fa = free_arcs(env, p, lss)
-    for arc in fa.arcs:
-        if arc.contains(a):
-            return (arc.start, arc.end)
-    return None
-
-
-def _escape_rows(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
-                 lss: float, arc: tuple[float, float] | None = None) -> tuple[list[int], tuple]:
-    """The rows of the concerning escape samples within reach, one per piece or vertex (the
-    tightest), sorted by margin; and ``(Δ, σ, margin, points, distances)`` of every row
-    (margin ``inf`` where the row does not concern the rod)."""
-    concern, delta, sense, margin = table.margins(p, a, vt, vo, arc)
-    qs = table.points_for(p, a)
-    dist = np.hypot(*(qs - p).T)
-    reach = _reach(vt, vo, lss) + lss
-    best: dict[int, int] = {}
-    for i in np.flatnonzero(concern & (dist <= reach)):
-        k = int(table.piece[i])
-        if k not in best or margin[i] < margin[best[k]]:
-            best[k] = int(i)
-    return sorted(best.values(), key=lambda i: margin[i]), (delta, sense, margin, qs, dist)
-
-
-def _escape_point(table: EscapeTable, i: int, values: tuple, vt: float, vo: float,
-                  lss: float) -> EscapePoint:
-    """Row ``i`` as an :class:`EscapePoint` (``values`` from :func:`_escape_rows`)."""
-    delta, sense, margin, qs, dist = values
-    vertex = bool(table.piece[i] < 0)
-    kind = "vertex" if table.is_vertex[i] else "wall" if table.is_wall[i] else "piece"
-    return EscapePoint(kind, (float(qs[i, 0]), float(qs[i, 1])),
-                       None if vertex else table.cell[i], _row_name(int(table.piece[i])),
-                       float(dist[i]), float(delta[i]), int(sense[i]),
-                       float(l_paper(delta[i], vt, vo, lss)),
-                       float(l_safe(delta[i], vt, vo, lss)), float(margin[i]),
-                       tuple((float(g0), float(g1)) for g0, g1
-                             in zip(table.g_start[i], table.g_end[i], strict=True)
-                             if np.isfinite(g0)))
-
-
-def _escape_points(table: EscapeTable, p: np.ndarray, a: float, vt: float, vo: float,
-                   lss: float, arc: tuple[float, float] | None = None) -> list[EscapePoint]:
-    """The concerning escape samples within reach, one per piece or vertex (the tightest),
-    sorted by margin."""
-    if not len(table):
-        return []
-    rows, values = _escape_rows(table, p, a, vt, vo, lss, arc)
-    return [_escape_point(table, i, values, vt, vo, lss) for i in rows]
-
-
-#: Directions sampled to find the orientations two goals share (0.25°).
-_GRID = (np.arange(1440) + 0.5) * (TWO_PI / 1440)
-
-
-def _in_arcs(arcs: tuple[tuple[float, float], ...], ang: np.ndarray) -> np.ndarray:
-    """Whether each angle lies in one of the CCW arcs (``(s, s)``: the full circle)."""
-    out = np.zeros(len(ang), dtype=bool)
-    for s, e in arcs:
-        width = (e - s) % TWO_PI or TWO_PI
-        out |= np.mod(ang - s, TWO_PI) <= width
-    return out
-
-
-def _grid_sweeps(a: float, arc: tuple[float, float] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Sweeps (rad) from ``a`` to every ``_GRID`` direction: inside the free ``arc`` (``inf``
-    where the arc stops it; either sense when ``arc`` is ``None``) and unconstrained."""
-    ccw = np.mod(_GRID - a, TWO_PI)
-    cw = np.mod(a - _GRID, TWO_PI)
-    anyway = np.minimum(ccw, cw)
-    if arc is None:
-        return anyway, anyway
-    inside = np.minimum(np.where(ccw <= np.mod(arc[1] - a, TWO_PI), ccw, np.inf),
-                        np.where(cw <= np.mod(a - arc[0], TWO_PI), cw, np.inf))
-    return inside, anyway
-
-
-def _common_sweep(a: float, gi: tuple, gj: tuple, arc: tuple[float, float] | None,
-                  masks: tuple[np.ndarray, np.ndarray] | None = None,
-                  grid_sweeps: tuple[np.ndarray, np.ndarray] | None = None) -> float:
-    """Smallest sweep (rad, either sense, inside the free ``arc`` when it allows) from ``a``
-    into an orientation both goals hold; ``inf`` when there is none. Rounded up by one grid
-    step. ``masks`` (the goals' :func:`_in_arcs` over ``_GRID``) and ``grid_sweeps``
-    (:func:`_grid_sweeps`): when already at hand."""
-    mi, mj = masks if masks is not None else (_in_arcs(gi, _GRID), _in_arcs(gj, _GRID))
-    both = mi & mj
-    if not both.any():
-        return math.inf
-    inside, anyway = grid_sweeps if grid_sweeps is not None else _grid_sweeps(a, arc)
-    best = float(inside[both].min())
-    if not math.isfinite(best):
-        # none reachable inside the arc now: the arc opens as the target moves (as in
-        # :func:`sweeps`), so count the unconstrained sweep
-        best = float(anyway[both].min())
-    return best + TWO_PI / len(_GRID)
-
-
-def _conflicts(points: list[EscapePoint], vt: float, vo: float, lss: float,
-               a: float | None = None, arc: tuple[float, float] | None = None
-               ) -> list[tuple[int, int]]:
-    """Pairs of escape points (indices into ``points``) that conflict (Prop. 3): they need
-    opposite sweeps and no schedule serves both in time: neither order (serve one, then sweep
-    back through it to the other) nor one sweep into an orientation both goals share
-    finishes before the target can reach the escape point concerned. Every kind counts
-    (pieces, reflex vertices, steep walls: all are escape points, erratum 12), each with its
-    extra distance (the no-pivot radius at a vertex)."""
-    out = []
-    room = [e.distance - e.L_g - e.margin for e in points]  # the row's offset
-
-    def lg(delta: float) -> float:  # :func:`l_safe` in scalar arithmetic
-        return vt * lss * abs(delta) / (vo - vt)
-
-    masks: dict[int, np.ndarray] = {}  # goal masks over _GRID, made once per point
-    grid = None  # sweeps from ``a`` over _GRID, made once
-
-    def mask(k: int) -> np.ndarray:
-        if k not in masks:
-            masks[k] = _in_arcs(points[k].goal, _GRID)
-        return masks[k]
-
-    for i, ei in enumerate(points):
-        for j in range(i + 1, len(points)):
-            ej = points[j]
-            if ei.sense == ej.sense:
-                continue
-            di, dj = ei.distance - room[i], ej.distance - room[j]
-            # i first then back to j: the sweep to j grows by twice Δ_i, and vice versa
-            if dj >= lg(2 * ei.sweep + ej.sweep) or di >= lg(2 * ej.sweep + ei.sweep):
-                continue
-            if a is not None and ei.goal and ej.goal:
-                if grid is None:
-                    grid = _grid_sweeps(a, arc)
-                both = _common_sweep(a, ei.goal, ej.goal, arc, (mask(i), mask(j)), grid)
-                if min(di, dj) >= lg(both):
-                    continue
-            out.append((i, j))
-    return out
-
-
-def is_safe(verdict: Verdict, vt: float, vo: float, points: Any, angles: Any) -> np.ndarray:
-    """Vectorized safe/unsafe over many starts ``(x, y, a)`` (points (m, 2), angles (m,)):
-    the rod in a surviving cell and no concerning escape sample closer than its ``L_g``
-    (the Prop. 3 check is left to :func:`assess`)."""
-    dec = verdict.dec
-    vt, vo, lss = check_speeds(vt, vo, dec.lss)
-    pts = np.asarray(points, float).reshape(-1, 2)
-    ang = np.broadcast_to(np.asarray(angles, float), (len(pts),))
-    cells = dec.cell_at(pts, ang)
-    ok = np.array([c is not None and c in verdict.surviving for c in cells], dtype=bool)
-    if not verdict.strategy_exists or not ok.any():
-        return ok
-    table = escape_table_of(verdict, vt / vo)
-    if not len(table):
-        return ok
-    for i in np.flatnonzero(ok):
-        arc = _arc_at(dec.env, pts[i], float(ang[i]), lss)
-        _, _, _, margin = table.margins(pts[i], float(ang[i]), vt, vo, arc)
-        if np.any(margin < 0):
-            ok[i] = False
-    return ok
-
-
-def critical_distance_field(verdict: Verdict, vt: float, vo: float, a: float, xs: np.ndarray,
-                            ys: np.ndarray, paper: bool = False) -> np.ndarray:
-    """``min_q (|p − q| − L_g(Δ_q))`` over a grid (for the second set of critical curves: its
-    zero level is the locus of target positions at ``L_g`` from the escape points concerning
-    orientation ``a``; with ``paper`` the paper's ``L`` instead)."""
-    table = escape_table_of(verdict, vt / vo)
-    X, Y = np.meshgrid(xs, ys)
-    out = np.full(X.shape, np.inf)
-    if not len(table):
-        return out
-    concern, delta, _ = table.sweeps(a)
-    q = table.q[concern]
-    if not len(q):
-        return out
-    lss = verdict.dec.lss
-    bound = (l_paper(delta[concern], vt, vo, lss) if paper
-             else l_safe(delta[concern], vt, vo, lss)) + table.offsets(vt, vo)[concern]
-    wall = table.is_wall[concern]
-    grid = np.column_stack((X.ravel(), Y.ravel()))
-    for qi, bi in zip(q[~wall], bound[~wall], strict=True):
-        out = np.minimum(out, np.hypot(X - qi[0], Y - qi[1]) - bi)
-    if wall.any():  # distance to the translated wall (see EscapeTable.points_for)
-        edges = WALL_CODE - table.piece[concern][wall]
-        near = wall_contact_points(verdict.dec.env, edges, lss, grid, a)
-        d = np.hypot(near[..., 0] - grid[:, 0], near[..., 1] - grid[:, 1]) - bound[wall][:, None]
-        out = np.minimum(out, d.min(axis=0).reshape(X.shape))
-    return out
