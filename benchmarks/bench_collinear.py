@@ -15,9 +15,8 @@ import time
 import numpy as np
 
 from tether import Environment
+from tether.analysis import analyze, build_graph
 from tether.decomposition import decompose
-from tether.escape import analyze
-from tether.graph import build_graph
 
 
 def square_with(k: int) -> Environment:

@@ -11,14 +11,13 @@ import time
 
 import numpy as np
 
+from tether.analysis import analyze
 from tether.cli import example_path
 from tether.decomposition import decompose
 from tether.environment import load_map
-from tether.escape import analyze
-from tether.sim.controller import CONTROLLERS
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
-from tether.sim.targets import make_target
+from tether.strategies import CONTROLLERS, make_target
 
 
 def main() -> None:

@@ -60,8 +60,11 @@ c0 = time.process_time()
 w0 = time.perf_counter()
 dec = decompose(env, lss, progress=progress)
 t1 = time.process_time()
-from tether.graph import build_graph
-from tether.escape import analyze
+try:
+    from tether.analysis import analyze, build_graph
+except ImportError:  # a tree before tether.analysis (issue 23)
+    from tether.escape import analyze
+    from tether.graph import build_graph
 g = build_graph(dec)
 t2 = time.process_time()
 try:
@@ -73,7 +76,10 @@ except TypeError:  # before the critical lengths (or the self-check) existed
         v = analyze(dec, g)
 t3 = time.process_time()
 try:  # the search for critical lengths near lss that analyze runs by default
-    from tether.critical import near_critical
+    try:
+        from tether.analysis.critical import near_critical
+    except ImportError:  # a tree before tether.analysis (issue 23)
+        from tether.critical import near_critical
     critical = bool(near_critical(env, lss)[0])
 except ImportError:
     critical = None

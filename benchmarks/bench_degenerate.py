@@ -8,8 +8,8 @@ on their own within it, the steps this handling adds (CPU seconds):
 * ``merge``: collinear copies made one before noding (:func:`tether.coincidence.merge_collinear`);
 * ``stubs``: curve ends joined to walls they stop just short of (``_with_wall_stubs``);
 * ``offline``: faces' points moved off lines through walls (``_off_edge_lines``);
-* ``crit``: the search for critical lengths near ``lss`` (:func:`tether.critical.near_critical`)
-  that ``analyze`` runs;
+* ``crit``: the search for critical lengths near ``lss``
+  (:func:`tether.analysis.critical.near_critical`) that ``analyze`` runs;
 * ``scan``: the 6 scanned lines of the self-check (``self_check`` minus ``self_check`` with
   ``lines=0``).
 
@@ -28,7 +28,7 @@ import sys
 CHILD = r"""
 import json, sys, time
 import tether.decomposition as D
-from tether.critical import near_critical
+from tether.analysis.critical import near_critical
 from tether.floorplan import floor_plan
 
 n = int(sys.argv[1])

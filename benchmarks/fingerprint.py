@@ -58,8 +58,11 @@ def _cases(big: bool):
 
 
 def fingerprints(big: bool) -> dict:
+    try:
+        from tether.analysis import analyze
+    except ImportError:  # a tree before tether.analysis (issue 23)
+        from tether.escape import analyze
     from tether.decomposition import decompose
-    from tether.escape import analyze
 
     out = {}
     for name, env, lss in _cases(big):

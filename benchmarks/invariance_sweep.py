@@ -15,9 +15,8 @@ import time
 import numpy as np
 
 from tether import Environment, InvalidMapError
+from tether.analysis import analyze, build_graph
 from tether.decomposition import check, decompose
-from tether.escape import analyze
-from tether.graph import build_graph
 
 
 def random_map(rng: np.random.Generator) -> Environment:

@@ -16,8 +16,8 @@ import collections
 import numpy as np
 
 import tether.noding as noding
+from tether.analysis import analyze
 from tether.decomposition import decompose
-from tether.escape import analyze
 from tether.floorplan import floor_plan
 
 

@@ -3,7 +3,7 @@ paper's Props. 2–3 with ``L_g``, and by the surveillance kernel; refinement ov
 kernel controller and the kernel's evader in the simulator.
 
 Also ``L*`` (the kernel's critical distance) against the paper's ``L`` and the safe ``L_g`` on
-the escape points of :func:`tether.assess.escape_table`, and a frame strip of the kernel
+the escape points of :func:`tether.analysis.escape_table`, and a frame strip of the kernel
 controller's run.
 
 Usage::
@@ -20,21 +20,20 @@ from pathlib import Path
 
 import numpy as np
 
-from tether.assess import escape_table
+from tether.analysis import analyze, escape_table
 from tether.cli.common import example_path
 from tether.decomposition import decompose
 from tether.environment import load_map
-from tether.escape import analyze
 from tether.game import build_grid, surveillance_kernel
 from tether.game.controller import KernelController
 from tether.game.evader import KernelEvader
 from tether.game.lstar import lstar_cases, summary
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
-from tether.sim.targets import make_target
+from tether.strategies import make_target
 
 try:  # the strategy work (issue #10): Props. 2-3 with L_g and the paper's controller
-    from tether.assess import is_safe as paper_is_safe
+    from tether.analysis import is_safe as paper_is_safe
 except ImportError:  # pragma: no cover - not merged yet
     paper_is_safe = None
 try:

@@ -20,7 +20,7 @@ STEPS = np.round(np.arange(0.3, 3.0001, 0.1), 1)
 
 def survivors(dec) -> int | None:
     try:
-        from tether.escape import analyze
+        from tether.analysis import analyze
     except ImportError:  # the elimination is a later stage
         return None
     return len(analyze(dec).surviving)

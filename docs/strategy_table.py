@@ -3,7 +3,7 @@
 Run ``python docs/strategy_table.py [--runs N] [--duration S] [--workers W]`` (the defaults
 are small so the script runs in minutes; the committed table is ``--runs 200 --workers 2``,
 about an hour on two cores). For each map, speed ratio ``vt/vo`` and target kind it draws seeded
-starts that :func:`tether.assess.assess` calls **safe**, runs the paper's controller and records
+starts that :func:`tether.analysis.assess` calls **safe**, runs the paper's controller and records
 held/lost and every loss's reason. It also runs the scripted Figs. 7 and 8 and draws them.
 """
 
@@ -29,8 +29,8 @@ KINDS = ("random", "wall", "tangential", "dash", "escape", "search")
 def safe_starts(world, n, rng, tries=None):
     """Up to ``n`` seeded starts that assess calls safe (from ``tries`` random draws,
     default ``max(4000, 40 n)``)."""
+    from tether.analysis import assess
     from tether.arcs import rod_is_free
-    from tether.assess import assess
 
     env = world.env
     x0, y0, x1, y1 = env.bounds
@@ -79,10 +79,10 @@ def _world(label, ratio):
     """The World of a map spec and speed ratio (vo = 1), cached per process."""
     key = (label, ratio)
     if key not in _WORLDS:
+        from tether.analysis import analyze
         from tether.cli import example_path
         from tether.decomposition import decompose
         from tether.environment import load_map
-        from tether.escape import analyze
         from tether.floorplan import floor_plan
         from tether.sim.protocols import World
 
@@ -118,7 +118,7 @@ def _run(job):
     from tether.sim.controller import PaperController
     from tether.sim.diagnose import explain_loss
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     label, ratio, kind, k, st, duration, dt = job
     w = _world(label, ratio)
@@ -233,7 +233,7 @@ def gap():
     """The smallest counterexample found to the paper's literal conditions (Def. 2 pieces)."""
     import numpy as np
 
-    from tether.assess import escape_table_of
+    from tether.analysis import escape_table_of
     from tether.sim.controller import PaperController
     from tether.sim.scenarios import _world
     from tether.sim.simulate import simulate

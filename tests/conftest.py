@@ -101,7 +101,7 @@ def random_cell_graph(rng, max_regions: int, max_pieces: int, cell_names) -> tup
     """A random abstract G for the elimination: 2..``max_regions``-1 regions, each with the
     cells ``cell_names(rng, r)``; up to ``max_pieces``-1 pieces between two regions; each cell
     pair across a piece adjacent with probability one half. Returns ``(region_of, pieces_of,
-    partners)`` as :func:`tether.escape.fixed_point` takes them."""
+    partners)`` as :func:`tether.analysis.elimination.fixed_point` takes them."""
     nreg = int(rng.integers(2, max_regions))
     region_of = {}
     for r in range(nreg):
@@ -122,3 +122,41 @@ def random_cell_graph(rng, max_regions: int, max_pieces: int, cell_names) -> tup
                     partners[(x, k)].append(y)
                     partners[(y, k)].append(x)
     return region_of, pieces_of, {k: tuple(v) for k, v in partners.items()}
+
+
+def arcs_at(dec, p) -> list[tuple]:
+    """The free arcs at point ``p`` as ``(start, end, start feature, end feature)``."""
+    from tether.arcs import TWO_PI, feature_name, free_arcs_many
+    from tether.decomposition import FREE
+
+    t = free_arcs_many(dec.env, [p], dec.lss, check=False)
+    if t.full[0]:
+        return [(0.0, TWO_PI, FREE, FREE)]
+    r = t.rows_of(0)
+    return [(s, e, feature_name(dec.env, a), feature_name(dec.env, b))
+            for s, e, a, b in zip(t.start[r], t.end[r], t.start_code[r], t.end_code[r],
+                                  strict=True)]
+
+
+def followed_pairs(dec, piece, steps=60) -> set[tuple[str, str]]:
+    """Follow every arc from one side of the piece to the other in small steps: an arc at
+    step k continues into the arcs at step k+1 it overlaps; compose along the way (the cell
+    pairs G must hold across the piece, :mod:`tether.analysis.connectivity`)."""
+    from tether.analysis.connectivity import _overlap
+    from tether.decomposition import cell_name
+
+    q, n, eps = np.array(piece.sample), np.array(piece.normal), piece.eps
+    path = [q + eps * n * (1 - 2 * k / steps) for k in range(steps + 1)]
+    start = arcs_at(dec, path[0])
+    reach = {i: {i} for i in range(len(start))}
+    prev = start
+    for p in path[1:]:
+        cur = arcs_at(dec, p)
+        step = {i: {j for j, b in enumerate(cur) if _overlap(a[0], a[1], b[0], b[1]) > 1e-12}
+                for i, a in enumerate(prev)}
+        reach = {i: set().union(*(step[k] for k in ks)) if ks else set()
+                 for i, ks in reach.items()}
+        prev = cur
+    ra, rb = piece.regions
+    return {(cell_name(ra, *start[i][2:]), cell_name(rb, *prev[j][2:]))
+            for i, js in reach.items() for j in js}

@@ -10,12 +10,11 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SQUARE_HOLE
-from test_escape import followed_pairs
+from conftest import SQUARE_HOLE, followed_pairs
 
+from tether.analysis.connectivity import _overlap, build_graph
 from tether.arcs import TWO_PI, free_arcs, rod_is_free_many
 from tether.decomposition import decompose
-from tether.graph import _overlap, build_graph
 from tether.tolerances import ANGLE_TOL
 
 LSS = 2.0

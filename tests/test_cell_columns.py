@@ -15,6 +15,8 @@ import pytest
 import shapely
 from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE
 
+from tether.analysis import analyze
+from tether.analysis.connectivity import cell_ids
 from tether.arcs import feature_name
 from tether.decomposition import (
     FREE,
@@ -27,9 +29,7 @@ from tether.decomposition import (
     structure_codes,
     structure_names,
 )
-from tether.escape import analyze
 from tether.floorplan import floor_plan
-from tether.graph import cell_ids
 
 
 def _cases():
@@ -194,7 +194,7 @@ def test_eliminations_and_survivors_by_id(case):
 
 
 def test_decrement_and_increasing_against_plain_loops():
-    from tether.escape import _decrement, _increasing
+    from tether.analysis.elimination import _decrement, _increasing
 
     rng = np.random.default_rng(5)
     for n, k in ((50, 3), (50, 400), (1000, 10), (7, 0)):
@@ -244,8 +244,8 @@ def _old_arc_rows(table):
 def _old_candidate_pairs(rows, m):
     """The former ``_candidate_pairs`` (every range's queries at once)."""
     from tether._util.arrays import ragged_arange
+    from tether.analysis.connectivity import _SEARCH_MARGIN, _arc_length
     from tether.arcs import TWO_PI
-    from tether.graph import _SEARCH_MARGIN, _arc_length
 
     point, start = rows["point"], rows["start"]
     counts = np.bincount(point, minlength=2 * m)
@@ -285,8 +285,8 @@ def test_arc_rows_and_candidate_pairs_as_before(case):
     """The arc rows (as they are when sorted without FULL points, else a sorted copy) and
     the candidate pairs (range by range) equal the former all-at-once versions, with FULL
     points and unsorted tables made up as well."""
+    from tether.analysis.connectivity import _candidate_pairs, _table_arc_rows
     from tether.arcs import ArcTable
-    from tether.graph import _candidate_pairs, _table_arc_rows
 
     env, lss = _cases()[case]
     dec = decompose(env, lss)

@@ -168,7 +168,7 @@ def test_cli_import_is_light():
     import subprocess
     import sys
 
-    code = ("import sys, tether.cli, tether.cli.maps, tether.escape; tether.cli.build_parser();"
+    code = ("import sys, tether.cli, tether.cli.maps, tether.analysis; tether.cli.build_parser();"
             "print(sorted(m for m in ('networkx', 'matplotlib') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()

@@ -13,9 +13,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tether import Environment
+from tether.analysis import analyze, build_graph
 from tether.decomposition import check, decompose
-from tether.escape import analyze
-from tether.graph import build_graph
 from tether.tolerances import REL_CURVE_TOL
 
 CASES = {"square_hole": (SQUARE_HOLE, 2.0), "L": (L_SHAPE, 2.5), "convex": (CONVEX, 3.0)}

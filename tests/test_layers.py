@@ -9,7 +9,8 @@ checked against the layer table below, bottom to top:
   its underscore);
 * matplotlib is imported only under :mod:`tether.plot`;
 * the module graph, function-local imports included, has no cycle;
-* nothing in ``src`` imports a deprecated shim module.
+* nothing in ``src`` imports a deprecated shim module (a deprecated name kept by a module
+  ``__getattr__`` that forwards it to its new home is listed in ``ALIASES``).
 """
 
 from __future__ import annotations
@@ -38,8 +39,7 @@ LAYERS: dict[str, float] = {
     "tether.decomposition": 4, "tether.noding": 4, "tether.userframe": 4,
     "tether.coincidence": 4, "tether.scan": 4,
     # L5 analysis: G, elimination, escape points, start assessment
-    "tether.analysis": 5, "tether.graph": 5, "tether.escape": 5, "tether.assess": 5,
-    "tether.critical": 5,
+    "tether.analysis": 5,
     # L6 simulation, L7 the game, L8 registries and sweeps
     "tether.sim": 6, "tether.game": 7, "tether.strategies": 8, "tether.sweep": 8,
     # L9 figures, L10 the command line
@@ -48,28 +48,32 @@ LAYERS: dict[str, float] = {
 }
 
 #: Deprecated modules kept one release: they re-export from their new home and warn.
-SHIMS: set[str] = {"tether.animate", "tether.plot_kernel", "tether.plot_sweep"}
+SHIMS: set[str] = {
+    "tether.animate", "tether.assess", "tether.escape", "tether.graph", "tether.plot_kernel",
+    "tether.plot_sweep",
+}
+
+#: Deprecated names kept one release by a module-level ``__getattr__`` that warns and forwards
+#: to their new home above: (module, new home). The forwarding import (only inside
+#: ``__getattr__``) is neither an upward import nor an edge of the import graph, since the
+#: module's own code never runs it; the list empties with SHIMS.
+ALIASES: set[tuple[str, str]] = {
+    ("tether.sim.controller", "tether.strategies"),  # CONTROLLERS
+    ("tether.sim.targets", "tether.strategies"),  # TARGETS, make_target
+}
 
 #: Violations not yet removed by the refactoring (each step of issue 23 empties some).
 KNOWN: set[tuple[str, str, str]] = {
-    ("private", "tether.escape", "tether.graph._piece_regions"),
-    ("private", "tether.graph", "tether.decomposition._Cells"),
-    ("private", "tether.graph", "tether.decomposition._Pieces"),
+    ("private", "tether.analysis.connectivity", "tether.decomposition._Cells"),
+    ("private", "tether.analysis.connectivity", "tether.decomposition._Pieces"),
     ("private", "tether.scan", "tether.decomposition._Structures"),
     ("private", "tether.scan", "tether.decomposition._region_rows"),
     ("private", "tether.scan", "tether.decomposition._rows_equal"),
     ("private", "tether.scan", "tether.decomposition._table_rows"),
-    ("private", "tether.sim.diagnose", "tether.assess._conflicts"),
-    ("private", "tether.sim.diagnose", "tether.assess._escape_point"),
-    ("private", "tether.sim.diagnose", "tether.assess._escape_rows"),
-    ("private", "tether.sim.diagnose", "tether.assess._row_name"),
-    ("private", "tether.sim.simulate", "tether.graph._piece_regions"),
     ("private", "tether.userframe", "tether.decomposition._PieceTable"),
     ("private", "tether.userframe", "tether.decomposition._Shapes"),
     ("private", "tether.userframe", "tether.decomposition._Structures"),
     ("upward", "tether.environment", "tether.occupancy"),
-    ("upward", "tether.sim.controller", "tether.game.controller"),
-    ("upward", "tether.sim.targets", "tether.game.evader"),
 }
 
 #: Import cycles not yet broken (as sorted tuples of modules).
@@ -150,6 +154,8 @@ def _violations() -> tuple[set[tuple[str, str, str]], nx.DiGraph]:
             if target != "tether" and not target.startswith("tether."):
                 continue
             reached = _target_module(modules, target, name)
+            if func == "__getattr__" and (mod, reached) in ALIASES:
+                continue  # a deprecated name forwarded to its new home
             if reached in modules and reached != mod:
                 graph.add_edge(mod, reached)
             if name and name.startswith("_") and not name.startswith("__") and reached != mod:

@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 import tether.noding as noding
 from tether import load_map
+from tether.analysis import analyze
 from tether.cli import example_path
 from tether.decomposition import check, decompose
-from tether.escape import analyze
 from tether.floorplan import floor_plan
 from tether.noding import STRIP_MIN_SEGMENTS, cut_position, node_lines, strip_cut
 

@@ -18,9 +18,9 @@ from conftest import GENERIC, SQUARE_HOLE
 
 import tether.decomposition as D
 from tether import Environment
+from tether.analysis.connectivity import piece_regions
 from tether.decomposition import FREE, Piece, _describe_chains, decompose
 from tether.floorplan import floor_plan
-from tether.graph import _piece_regions
 
 
 def _reference_pieces(env, arr, regions, chains, cands, curves, lss) -> list[Piece]:
@@ -139,7 +139,7 @@ def test_columns_read_by_g_the_crossings_and_the_self_check():
     those read from the objects (also with a piece marked unverified)."""
     dec = decompose(GENERIC, 2.5)
     objs = tuple(dec.pieces)
-    regs = _piece_regions(dec)
+    regs = piece_regions(dec)
     assert regs.dtype == np.int64 and regs.tolist() == [list(p.regions) for p in objs]
     assert not regs.flags.writeable  # the column itself: G must not write it
     q, n, eps = dec.piece_crossings()

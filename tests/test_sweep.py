@@ -9,12 +9,12 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pytest
 
+from tether.analysis import analyze
 from tether.cli import main
 from tether.cli.common import example_path
 from tether.decomposition import decompose
 from tether.environment import Environment, load_map
 from tether.errors import InvalidParameterError
-from tether.escape import analyze
 from tether.occupancy import rasterize
 from tether.sweep import evaluate, parse_lss_range, sweep
 

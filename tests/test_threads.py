@@ -103,7 +103,7 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
     batches in threads: every result equals that of one thread, exactly."""
     import tether.arcs as arcs
     import tether.decomposition as decomposition
-    from tether.escape import analyze
+    from tether.analysis import analyze
     from tether.floorplan import floor_plan
     monkeypatch.setattr(arcs, "POINT_BATCH", 300)
     monkeypatch.setattr(decomposition, "ACROSS_BATCH", 200)

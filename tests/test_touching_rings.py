@@ -236,8 +236,7 @@ def test_cli_decompose_touching_map(tmp_path, capsys):
 
 @pytest.mark.parametrize("name", ["diagonal", pytest.param("reflex", marks=pytest.mark.slow)])
 def test_escape_table_vertex_rows_lie_in_the_free_space(name):
-    from tether.assess import escape_table_of
-    from tether.escape import analyze
+    from tether.analysis import analyze, escape_table_of
 
     env = _env(name)
     t = escape_table_of(analyze(decompose(env, 1.0)))

@@ -166,9 +166,8 @@ def test_geometries_are_converted_lazily_all_at_once_and_equal_the_eager_convers
     geometries; building G and analyzing (without the self-check) convert nothing."""
     import shapely
 
+    from tether.analysis import analyze, build_graph
     from tether.decomposition import decompose
-    from tether.escape import analyze
-    from tether.graph import build_graph
 
     env, lss = _scaled_map()
     dec = decompose(env, lss)

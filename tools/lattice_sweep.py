@@ -27,9 +27,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from lattice_maps import env_of, families, rasterized  # noqa: E402
 
+from tether.analysis import analyze  # noqa: E402
 from tether.decomposition import decompose  # noqa: E402
 from tether.errors import TetherError  # noqa: E402
-from tether.escape import analyze  # noqa: E402
 from tether.scan import scan  # noqa: E402
 
 TRANSFORMS = {"x0.1": (lambda x, y: (0.1 * x, 0.1 * y), 0.1),

@@ -155,8 +155,8 @@ def evaluate(env_data: dict, lss: float, vt: float | None = None, vo: float | No
     workers) can run it. A failure becomes a row with ``error`` set, never an exception: one bad
     length does not lose the whole sweep.
     """
+    from tether.analysis import analyze
     from tether.decomposition import decompose
-    from tether.escape import analyze
 
     t0 = time.perf_counter()
     try:

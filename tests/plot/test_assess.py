@@ -1,6 +1,6 @@
 """The figure of a start's assessment (``tether assess --plot``)."""
 
-from tether.assess import assess
+from tether.analysis import assess
 from tether.plot import plot_assessment, save
 from tether.sim.scenarios import _world
 

@@ -18,7 +18,7 @@ def test_kernel_figures(tmp_path):
     from tether.game.controller import KernelController
     from tether.sim.protocols import World
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     env = load_map(example_path("nonconvex_corner"))
     k = surveillance_kernel(env, 1.0, 0.6, 1.0, h=0.5, orientations=36)

@@ -89,10 +89,10 @@ def cmd_arcs(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     from tether._util.files import make_output_dir
+    from tether.analysis import analyze
     from tether.arcs import free_arcs
     from tether.decomposition import decompose
     from tether.environment import load_map
-    from tether.escape import analyze
     from tether.plot import plot_verdict, save
 
     out = make_output_dir(args.out)
@@ -157,7 +157,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from tether.escape import analyze
+    from tether.analysis import analyze
 
     check_plot_arg(args)
     dec = _decompose(args)

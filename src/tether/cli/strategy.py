@@ -26,9 +26,9 @@ def _world(args: argparse.Namespace, start: tuple[float, ...], rod: bool):
     import numpy as np
 
     from tether._util.progress import Progress
+    from tether.analysis import analyze
     from tether.arcs import check_inside
     from tether.decomposition import decompose
-    from tether.escape import analyze
     from tether.sim.protocols import World
     from tether.sim.simulate import check_start
 
@@ -61,7 +61,7 @@ def _save_fig(fig, path: str) -> None:
 
 # ---------------------------------------------------------------------- assess
 def cmd_assess(args: argparse.Namespace) -> int:
-    from tether.assess import assess
+    from tether.analysis import assess
 
     _check_outputs(args)
     x, y, a = args.at
@@ -93,9 +93,8 @@ def cmd_assess(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------- simulate
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tether._util.progress import Progress
-    from tether.sim.controller import CONTROLLERS
     from tether.sim.simulate import save_trace, simulate
-    from tether.sim.targets import TARGETS, make_target
+    from tether.strategies import CONTROLLERS, TARGETS, make_target
 
     _check_outputs(args)
     if args.controller not in CONTROLLERS:

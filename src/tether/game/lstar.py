@@ -1,7 +1,7 @@
 """``L*`` on real escape points: the kernel's critical distance against the paper's ``L`` and
 the safe ``L_g`` (issue #11, ``math.md`` §3).
 
-For an escape sample ``q`` of :func:`tether.assess.escape_table` (a point just inside a
+For an escape sample ``q`` of :func:`tether.analysis.escape_table` (a point just inside a
 surviving cell, next to a piece the rod must not cross outside its goal), a rod orientation
 ``a`` in the cell's arc at ``q`` and not in the goal, and a heading ``ψ`` of a target running
 straight at ``q``: the starts ``p(s) = q − s·(cos ψ, sin ψ)``, ``s ≥ 0``, carry the rod at ``a``.
@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from tether.analysis.escape_points import EscapeTable, l_safe
 from tether.arcs import rod_is_free_many
-from tether.assess import EscapeTable, l_safe
 from tether.bounds import distance_bound, thetas
 
 TWO_PI = 2.0 * math.pi

@@ -15,7 +15,7 @@ def plot_assessment(assessment: Any, world: Any, ax: Any = None, escape_points: 
     """Figure of a start: the scene of ``world`` (:func:`~tether.plot.run.draw_scene`), the
     curves for the start's orientation, the rod (green when safe, red when not), the target's
     position and the first ``escape_points`` escape points of the
-    :class:`~tether.assess.Assessment`. Returns the axes."""
+    :class:`~tether.analysis.Assessment`. Returns the axes."""
     import matplotlib.pyplot as plt
 
     if ax is None:

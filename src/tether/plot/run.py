@@ -35,7 +35,7 @@ def draw_trigger_curves(ax: Any, world: Any, a: float, grid: int = 90) -> list:
     when no strategy exists. Returns the contour sets added."""
     if world.verdict is None or not world.verdict.strategy_exists:
         return []
-    from tether.assess import critical_distance_field
+    from tether.analysis.assessment import critical_distance_field
 
     x0, y0, x1, y1 = world.env.bounds
     xs, ys = np.linspace(x0, x1, grid), np.linspace(y0, y1, grid)
@@ -57,7 +57,7 @@ def draw_scene(ax: Any, world: Any) -> None:
     else:
         plot_map(world.env, ax, labels=False)
     if world.verdict is not None and world.verdict.strategy_exists:
-        from tether.assess import escape_table_of
+        from tether.analysis.escape_points import escape_table_of
 
         t = escape_table_of(world.verdict)
         if len(t):

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.assess import escape_table_of, sweep_row
+from tether.analysis.escape_points import escape_table_of, sweep_row
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
@@ -159,7 +159,7 @@ class PaperController(_Compliant):
     saturated rotation toward the goal once the trigger fires, compliant at arc ends.
 
     The trigger: for the rod orientation ``a``, every escape sample ``q`` that concerns it
-    (:meth:`tether.assess.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when
+    (:meth:`tether.analysis.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when
     ``|p − q| <= L_g(Δ) + pad`` with ``pad = trigger_steps·vt·dt`` and keeps its sense until the
     rod is in that sample's goal. The escape table is evaluated at every reactive step (a lazy
     re-evaluation, on a lower bound of the smallest margin, let the trigger fire late whenever
@@ -313,20 +313,16 @@ class PaperController(_Compliant):
         return cmd
 
 
-def _kernel_controller(world: World | None = None, **options: Any) -> Any:
-    """The surveillance kernel's controller (:class:`tether.game.controller.KernelController`):
-    follows ``world.extra["kernel"]``, computed there on demand (coarse grid, see
-    :func:`tether.game.controller.kernel_of`) unless ``kernel=`` is given or the caller stored
-    one (``tether simulate --kernel FILE.npz``)."""
-    from tether.game.controller import KernelController
+def __getattr__(name: str) -> Any:
+    """``CONTROLLERS``, deprecated here: the registry is :data:`tether.strategies.CONTROLLERS`
+    (it names the kernel's controller too, which the simulation does not import)."""
+    if name == "CONTROLLERS":
+        import warnings
 
-    return KernelController(**options)
+        from tether.strategies import CONTROLLERS
 
-
-#: Controllers by name: ``CONTROLLERS[name](world)``.
-CONTROLLERS: dict[str, Any] = {
-    "paper": PaperController,
-    "follow": FollowController,
-    "translate": TranslateController,
-    "kernel": _kernel_controller,
-}
+        warnings.warn("tether.sim.controller.CONTROLLERS is deprecated and will be removed in "
+                      "the next release: use tether.strategies.CONTROLLERS",
+                      DeprecationWarning, stacklevel=2)
+        return CONTROLLERS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

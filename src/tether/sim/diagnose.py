@@ -1,7 +1,7 @@
 """Why a run from a safe start was lost: the paper's conditions along the trajectory.
 
 :func:`explain_loss` walks back from the loss to the last state that the paper's conditions
-call safe (as :func:`tether.assess.assess` applies them: every concerning escape point farther
+call safe (as :func:`tether.analysis.assessment` applies them: every concerning escape point farther
 than its ``L_g``, no Prop. 3 conflict) and names what changed at the next step. Each cause is
 either a *gap* of the paper's conditions (the controller did what the paper prescribes and the
 target still won: ``math.md`` §10, last paragraph) or a *bug* (the controller or the escape
@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tether.assess import _conflicts, _escape_point, _escape_rows, _row_name, escape_table_of
+from tether.analysis.assessment import conflicts, escape_point, escape_rows
+from tether.analysis.escape_points import escape_table_of, row_name
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import World
 
@@ -83,9 +84,9 @@ def _state(world: World, table, local: LocalArcs, p: np.ndarray, a: float):
     """Margins of every row (``inf`` where not concerned) and the Prop. 3 conflicts (pairs of
     escape-point names) at ``(p, a)``."""
     arc = local.arc(float(p[0]), float(p[1]), a)
-    rows, values = _escape_rows(table, p, a, world.vt, world.vo, world.lss, arc)
-    pts = [_escape_point(table, i, values, world.vt, world.vo, world.lss) for i in rows]
-    pairs = _conflicts(pts, world.vt, world.vo, world.lss, a, arc)
+    rows, values = escape_rows(table, p, a, world.vt, world.vo, world.lss, arc)
+    pts = [escape_point(table, i, values, world.vt, world.vo, world.lss) for i in rows]
+    pairs = conflicts(pts, world.vt, world.vo, world.lss, a, arc)
     return values[2], [f"{pts[i].piece}/{pts[j].piece}" for i, j in pairs]
 
 
@@ -100,7 +101,7 @@ def explain_loss(world: World, result, controller=None) -> LossCause | None:
     if not len(table):
         return LossCause("unforeseen", None, result.lost_at)
     local = LocalArcs(world.env, world.lss, pad=0.0)
-    names = [_row_name(int(k)) for k in table.piece]
+    names = [row_name(int(k)) for k in table.piece]
     tr = result.trace
     if controller is None:
         from tether.sim.controller import PaperController

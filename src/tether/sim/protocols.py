@@ -20,7 +20,7 @@ class World:
     """Everything a controller or a target may know about the scene.
 
     ``decomposition`` / ``verdict`` are a :class:`~tether.decomposition.Decomposition` and its
-    :class:`~tether.escape.Verdict` when computed; ``extra`` holds anything else a target kind
+    :class:`~tether.analysis.Verdict` when computed; ``extra`` holds anything else a target kind
     needs (a controller to attack, a kernel, waypoints).
     """
 

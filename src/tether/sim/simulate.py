@@ -387,9 +387,9 @@ def simulate(world: World, controller: Controller, target: Target,
 
 def _piece_between(dec: Any, r0: int, r1: int) -> str:
     """Name of a piece between regions ``r0`` and ``r1`` (``P?`` if they only touch)."""
-    from tether.graph import _piece_regions
+    from tether.analysis.connectivity import piece_regions
 
-    a, b = _piece_regions(dec).T
+    a, b = piece_regions(dec).T
     hit = np.flatnonzero(((a == r0) & (b == r1)) | ((a == r1) & (b == r0)))
     return dec.pieces[int(hit[0])].name if len(hit) else "P?"
 

@@ -1,6 +1,7 @@
 """Target behaviours, all at speed at most ``vt`` and seeded through ``reset``'s generator.
 
-``TARGETS`` maps a kind name to a factory ``factory(world, **options) -> Target``:
+:data:`tether.strategies.TARGETS` maps a kind name to a factory
+``factory(world, **options) -> Target``:
 
 * ``path``: waypoints (``waypoints=`` array or ``path=`` file of ``x y`` rows / JSON list), walked
   at constant speed ``vt`` (then the target stops).
@@ -246,7 +247,7 @@ class DashTarget:
         self.replan = float(replan)
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
-        from tether.assess import escape_table_of
+        from tether.analysis.escape_points import escape_table_of
 
         self.planner = _planner(world)
         self.table = (escape_table_of(world.verdict, world.vt / world.vo)
@@ -414,39 +415,23 @@ class SearchTarget:
 
 TargetFactory = Callable[..., Any]
 
-#: Target kinds by name: ``TARGETS[kind](world, **options)``.
-TARGETS: dict[str, TargetFactory] = {
-    "path": PathTarget,
-    "random": RandomTarget,
-    "wall": WallTarget,
-    "tangential": TangentialTarget,
-    "dash": DashTarget,
-    "escape": EscapeTarget,
-    "search": SearchTarget,
-}
-
-
-def make_target(kind: str, world: World, **options: Any) -> Any:
-    """The target of kind ``kind`` (see :data:`TARGETS`)."""
-    try:
-        factory = TARGETS[kind]
-    except KeyError:
-        raise InvalidParameterError(
-            f"unknown target kind {kind!r} (choose from {', '.join(sorted(TARGETS))})") from None
-    return factory(world, **options)
-
 
 def unit(x: float, y: float) -> np.ndarray:
     n = math.hypot(x, y)
     return np.array([x / n, y / n]) if n > 0 else np.zeros(2)
 
 
-def _kernel_evader(world: World, **options: Any) -> Any:
-    """The surveillance kernel's evader (:class:`tether.game.evader.KernelEvader`); reads the
-    kernel from ``world.extra["kernel"]`` unless ``kernel=`` is given."""
-    from tether.game.evader import KernelEvader
+def __getattr__(name: str) -> Any:
+    """``TARGETS`` and ``make_target``, deprecated here: the registry is
+    :data:`tether.strategies.TARGETS` (it names the kernel's evader too, which the simulation
+    does not import)."""
+    if name in ("TARGETS", "make_target"):
+        import warnings
 
-    return KernelEvader(**options)
+        import tether.strategies
 
-
-TARGETS["kernel-evader"] = _kernel_evader
+        warnings.warn(f"tether.sim.targets.{name} is deprecated and will be removed in the "
+                      f"next release: use tether.strategies.{name}", DeprecationWarning,
+                      stacklevel=2)
+        return getattr(tether.strategies, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

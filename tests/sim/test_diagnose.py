@@ -6,17 +6,16 @@ import math
 import numpy as np
 import pytest
 
-from tether.assess import assess
+from tether.analysis import analyze, assess
 from tether.cli import example_path, main
 from tether.decomposition import decompose
 from tether.environment import load_map
-from tether.escape import analyze
 from tether.floorplan import floor_plan
 from tether.sim.controller import PaperController
 from tether.sim.diagnose import CAUSES, explain_loss
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
-from tether.sim.targets import make_target
+from tether.strategies import make_target
 
 _WORLDS = {}
 

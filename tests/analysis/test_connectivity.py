@@ -21,12 +21,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tether import load_map
+from tether.analysis.connectivity import _arc_rows, _cell_index, _overlap, build_graph
+from tether.analysis.elimination import analyze, fixed_point
 from tether.arcs import free_arcs_many
 from tether.cli import example_path
 from tether.decomposition import crossing_points, decompose
-from tether.escape import analyze, fixed_point
 from tether.floorplan import floor_plan
-from tether.graph import _arc_rows, _cell_index, _overlap, build_graph
 from tether.tolerances import ANGLE_TOL
 
 
@@ -254,7 +254,7 @@ def test_recorded_cell_codes_agree_with_the_cells(make):
     objects (renumbered and moved maps included), the elimination's rank sorts the cells by
     (region, start name, end name) as strings, and G and the verdict built on the recorded
     columns equal those built on columns read back from the objects."""
-    from tether.escape import cell_rank
+    from tether.analysis.elimination import cell_rank
 
     env = floor_plan(40, seed=1)
     if "straight" in make:

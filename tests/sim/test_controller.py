@@ -7,17 +7,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tether.analysis import analyze
 from tether.arcs import rod_is_free, rod_is_free_many
 from tether.cli import example_path
 from tether.decomposition import decompose
 from tether.environment import load_map
-from tether.escape import analyze
 from tether.rates import edge_end_rate
-from tether.sim.controller import CONTROLLERS, PaperController
+from tether.sim.controller import PaperController
 from tether.sim.protocols import World
 from tether.sim.scenarios import fig7, fig8
 from tether.sim.simulate import simulate
-from tether.sim.targets import make_target
+from tether.strategies import CONTROLLERS, make_target
 
 _WORLDS = {}
 
@@ -142,7 +142,7 @@ def test_gap_def2_alone_loses_walls_repair_it():
     came from the escape rows ignoring rods in the blocked gap next to their cell (the rod
     points at the right wall, blocked at the split); with the rows widened over the gaps the
     paper's escape points alone hold it, and so do all rows."""
-    from tether.assess import escape_table_of
+    from tether.analysis import escape_table_of
     from tether.sim.targets import PathTarget
 
     w = world("nonconvex_corner")
@@ -161,7 +161,7 @@ def test_gap_def2_alone_loses_walls_repair_it():
 def test_held_from_safe_starts_on_the_room_corner(kind):
     """vt/vo = 0.3 on the paper's non-convex corner: every target kind is held from safe starts
     (the full table, with its losses at higher ratios, is docs/strategy.md)."""
-    from tether.assess import assess
+    from tether.analysis import assess
 
     w = world("nonconvex_corner", vt=0.3)
     rng = np.random.default_rng(7)

@@ -14,19 +14,19 @@ import numpy as np
 import pytest
 import shapely
 
+from tether.analysis import analyze
 from tether.arcs import free_arcs, rod_is_free_many
 from tether.decomposition import decompose
 from tether.environment import Environment, load_map
 from tether.errors import InvalidParameterError
-from tether.escape import analyze
 from tether.game import build_grid, load_kernel, surveillance_kernel
 from tether.game.controller import KernelController
 from tether.game.evader import KernelEvader
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
-from tether.sim.targets import TARGETS, make_target
+from tether.strategies import TARGETS, make_target
 
-EX = Path(__file__).resolve().parents[1] / "src" / "tether" / "examples"
+EX = Path(__file__).resolve().parents[2] / "src" / "tether" / "examples"
 
 
 def env_of(name: str) -> Environment:
@@ -347,7 +347,7 @@ def test_lstar_between_paper_l_and_safe_lg_room():
     the worst straight dash: ``L ≤ L*`` for both schemes; the optimistic scheme's ``L* ≤ L_g``
     within the grid's resolution; the conservative scheme's ``L*`` is at least the
     optimistic one's (it may exceed ``L_g``: its rate rounding costs up to a bin per step)."""
-    from tether.assess import escape_table
+    from tether.analysis import escape_table
     from tether.game.lstar import lstar_cases, resolution
 
     env = env_of("nonconvex_corner")

@@ -18,9 +18,9 @@ from tether.sim.controller import FollowController
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 from tether.sim.simulate import save_trace, simulate
-from tether.sim.targets import TARGETS, make_target
+from tether.strategies import TARGETS, make_target
 
-EX = Path(__file__).resolve().parents[1] / "src" / "tether" / "examples"
+EX = Path(__file__).resolve().parents[2] / "src" / "tether" / "examples"
 
 
 def world(name="gallery", lss=2.0, vt=0.5, vo=1.0):

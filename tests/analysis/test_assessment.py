@@ -7,22 +7,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tether.arcs import free_arcs
-from tether.assess import (
+from tether.analysis import (
+    analyze,
     assess,
     critical_distance_field,
     escape_table_of,
     is_safe,
     l_paper,
     l_safe,
-    sweep_row,
-    sweeps,
 )
+from tether.analysis.escape_points import sweep_row, sweeps
+from tether.arcs import free_arcs
 from tether.cli import example_path
 from tether.decomposition import decompose
 from tether.environment import load_map
 from tether.errors import InvalidParameterError
-from tether.escape import analyze
 
 _V = {}
 
@@ -131,7 +130,7 @@ def test_rows_concern_the_blocked_gap_next_to_their_cell():
     It used to be called safe, and the dash target won there (seed 4)."""
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     v = verdict("gallery")
     t = escape_table_of(v, 0.6)
@@ -158,7 +157,7 @@ def test_prop3_applies_to_vertex_escape_points():
     re-chosen for the rod's arc each step, and this run is held (monitor on)."""
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     v = verdict("gallery")
     st = (0.939, 2.344, 6.143)
@@ -179,10 +178,10 @@ def test_wall_rows_cover_every_contact_point_and_inclination():
     contacts every lss/2 along the edge, 0.5 away from that contact, so the trigger never fired
     and the run was lost at 3.54 s. The wall's escape point is now the nearest point of the
     whole wall translated by −lss·u(a); the run is held, monitor on."""
-    from tether.assess import wall_contact_points
+    from tether.analysis.escape_points import wall_contact_points
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     v = verdict("gallery")
     env = v.dec.env
@@ -216,7 +215,7 @@ def test_committed_rotation_turns_the_other_way_when_pinned():
     (V6 and V7 conflict, Prop. 3): the run stays as a test of the pinned rotation.)"""
     from tether.sim.controller import PaperController
     from tether.sim.simulate import simulate
-    from tether.sim.targets import make_target
+    from tether.strategies import make_target
 
     v = verdict("gallery")
     st = (4.078, 5.341, 3.17)
@@ -254,7 +253,7 @@ def test_sweep_row_equals_the_vectorized_sweeps(ks, ke, a, goals, pad, snap):
 
 def _conflicts_reference(points, vt, vo, lss, a, arc):
     """Prop. 3 pairs the plain way: every pair, every test, no caching."""
-    from tether.assess import _common_sweep
+    from tether.analysis.assessment import _common_sweep
 
     out = []
     for i, ei in enumerate(points):
@@ -279,7 +278,7 @@ def _conflicts_reference(points, vt, vo, lss, a, arc):
 def test_prop3_conflicts_equal_the_plain_pairwise_check(name, lss, ratio):
     """The cached Prop. 3 check gives the pairs of the plain all-pairs computation, on starts
     with many escape points in reach."""
-    from tether.assess import _arc_at, _conflicts
+    from tether.analysis.assessment import _arc_at, conflicts
 
     env = load_map(example_path(name))
     ver = analyze(decompose(env, lss))
@@ -297,7 +296,7 @@ def test_prop3_conflicts_equal_the_plain_pairwise_check(name, lss, ratio):
         arc = _arc_at(env, np.array([x, y]), a, lss)
         pts = list(res.escape_points)
         ref = _conflicts_reference(pts, ratio, 1.0, lss, a, arc)
-        assert _conflicts(pts, ratio, 1.0, lss, a, arc) == ref
+        assert conflicts(pts, ratio, 1.0, lss, a, arc) == ref
         assert list(res.conflicts) == ref
         seen += len(ref) > 0
     assert seen > 0  # the check met real conflicts

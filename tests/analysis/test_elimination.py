@@ -14,6 +14,7 @@ from conftest import (
     SQUARE_HOLE,
     STAR_HOLE,
     dump_failure,
+    followed_pairs,
     random_cell_graph,
     random_maps,
 )
@@ -21,44 +22,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tether import Environment, load_map
-from tether.arcs import TWO_PI, feature_name, free_arcs_many
+from tether.analysis.connectivity import build_graph
+from tether.analysis.elimination import analyze, fixed_point
 from tether.cli import example_path, main
-from tether.decomposition import FREE, cell_name, decompose
-from tether.escape import analyze, fixed_point
-from tether.graph import _overlap, build_graph
+from tether.decomposition import decompose
 
 DECS = [decompose(SQUARE_HOLE, 2.0), decompose(GENERIC, 2.5), decompose(STAR_HOLE, 1.5),
         decompose(load_map(example_path("rectangle")), 1.0)]
-
-
-def arcs_at(dec, p):
-    t = free_arcs_many(dec.env, [p], dec.lss, check=False)
-    if t.full[0]:
-        return [(0.0, TWO_PI, FREE, FREE)]
-    r = t.rows_of(0)
-    return [(s, e, feature_name(dec.env, a), feature_name(dec.env, b))
-            for s, e, a, b in zip(t.start[r], t.end[r], t.start_code[r], t.end_code[r],
-                                  strict=True)]
-
-
-def followed_pairs(dec, piece, steps=60):
-    """Follow every arc from one side of the piece to the other in small steps: an arc at
-    step k continues into the arcs at step k+1 it overlaps; compose along the way."""
-    q, n, eps = np.array(piece.sample), np.array(piece.normal), piece.eps
-    path = [q + eps * n * (1 - 2 * k / steps) for k in range(steps + 1)]
-    start = arcs_at(dec, path[0])
-    reach = {i: {i} for i in range(len(start))}
-    prev = start
-    for p in path[1:]:
-        cur = arcs_at(dec, p)
-        step = {i: {j for j, b in enumerate(cur) if _overlap(a[0], a[1], b[0], b[1]) > 1e-12}
-                for i, a in enumerate(prev)}
-        reach = {i: set().union(*(step[k] for k in ks)) if ks else set()
-                 for i, ks in reach.items()}
-        prev = cur
-    ra, rb = piece.regions
-    return {(cell_name(ra, *start[i][2:]), cell_name(rb, *prev[j][2:]))
-            for i, js in reach.items() for j in js}
 
 
 @pytest.mark.parametrize("dec", [
@@ -239,7 +209,7 @@ def test_a_speck_of_a_region_does_not_shield_cells_from_elimination():
     """Regression: a region of area 5e-7 at a tangency whose every boundary stretch was below
     resolution had no piece, so its cells could never fall and 'survived' alone, against the
     all-or-nothing property. Such a region joins a neighbour; every region has a piece."""
-    rec = json.loads((Path(__file__).parent / "data" / "speck.json").read_text())
+    rec = json.loads((Path(__file__).parents[1] / "data" / "speck.json").read_text())
     m = rec["map"]
     env = Environment(m["boundary"], tuple(m["holes"]), m["name"])
     v = analyze(decompose(env, rec["lss"]))

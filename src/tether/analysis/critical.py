@@ -21,7 +21,7 @@ coincidences lattice maps produce. Events among conchoids and extensions in gene
 (say a conchoid through a vertex along a 3-4-5 triangle) are not listed.
 
 :func:`near_critical` says whether ``lss`` lies within ``NEAR_CRITICAL_TOLS`` curve tolerances
-of one; :func:`tether.escape.analyze` then reports the verdicts at ``lss - delta`` and
+of one; :func:`tether.analysis.analyze` then reports the verdicts at ``lss - delta`` and
 ``lss + delta`` too (:class:`CriticalLss`).
 """
 

@@ -1,0 +1,474 @@
+"""Escapable cells, their elimination and the existence verdict (Prop. 1; ``docs/formulas.md``,
+"The verdict").
+
+Cell ``K`` over ``R`` is escapable with respect to the surviving cells ``S`` iff some piece
+``γ`` bounding ``R`` (toward ``R'``) has no cell of ``S`` over ``R'`` adjacent to ``K`` across
+``γ``: the target crosses ``γ`` and no observer position continues the rod. Elimination is the
+greatest fixed point of removing escapable cells, computed with a worklist in rounds (round
+``k`` removes the cells escapable once rounds ``< k`` are removed). Since the free space is
+connected the outcome is all-or-nothing: a surveillance strategy can exist iff some cell
+survives (with unbounded observer speed, any start in a surviving cell can be held).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tether._util.arrays import ragged_arange
+from tether._util.memory import gc_paused
+from tether.analysis.connectivity import (
+    ConnectivityGraph,
+    build_graph,
+    cell_first,
+    cell_ids_of,
+    cell_regions,
+    piece_regions,
+)
+from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
+from tether.analysis.critical import near_critical as critical_events
+from tether.decomposition import Decomposition, decompose, feature_name_rank
+from tether.tolerances import REL_LENGTH_TOL
+
+__all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
+
+
+@dataclass(frozen=True)
+class Elimination:
+    """Why a cell fell: crossing ``piece`` into ``escapes_to`` loses it, in ``round``;
+    ``because`` is the last partner across that piece whose removal made it escapable (None in
+    round 1, or when the other side never had a partner)."""
+
+    cell: str
+    escapes_to: str
+    piece: str
+    round: int
+    because: str | None
+
+    def to_dict(self) -> dict:
+        return {"cell": self.cell, "escapes_to": self.escapes_to, "piece": self.piece,
+                "round": self.round, "because": self.because}
+
+
+@dataclass(frozen=True, eq=False)
+class Verdict:
+    """The result of :func:`analyze`: surviving cells, eliminations, verdict and witness."""
+
+    dec: Decomposition = field(repr=False)
+    graph: ConnectivityGraph = field(repr=False)
+    surviving: frozenset[str]
+    #: the eliminations in order (a tuple-like :class:`Eliminations` from :func:`analyze`)
+    eliminated: Sequence[Elimination]
+    witness_region: int | None
+    #: the cheap self-check run by :func:`analyze` (a
+    #: :class:`tether.decomposition.CheckReport`), or None if it was skipped
+    self_check: Any = None
+    #: a :class:`tether.analysis.critical.CriticalLss` when ``lss`` is within tether's
+    #: resolution of a critical length of the map (the verdicts just below and above), else None
+    critical: Any = None
+
+    @property
+    def verified(self) -> bool | None:
+        """Whether the self-check passed (None: not run). A verdict with ``verified`` False
+        rests on a decomposition that disagrees with exact evaluation somewhere."""
+        return None if self.self_check is None else bool(self.self_check.ok)
+
+    @property
+    def strategy_exists(self) -> bool:
+        """Whether some cell survives the elimination (necessary condition, Prop. 1)."""
+        return bool(self.surviving)
+
+    @property
+    def rounds(self) -> int:
+        el = self.eliminated
+        if isinstance(el, Eliminations):
+            return int(el.round.max()) if len(el) else 0
+        return max((e.round for e in el), default=0)
+
+    def is_safe(self, points: Any, angles: Any) -> list[bool]:
+        """Whether each rod configuration ``(x, y, a)`` lies in a surviving cell."""
+        return [c is not None and c in self.surviving for c in self.dec.cell_at(points, angles)]
+
+    def story(self) -> list[str]:
+        """The escape in plain sentences: from the first escapable cell to the witness."""
+        return escape_story(self)
+
+    def counts(self) -> dict:
+        return {"regions": len(self.dec.regions), "cells": len(self.dec.cells),
+                "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
+                "surviving_cells": len(self.surviving)}
+
+    def to_dict(self) -> dict:
+        return {
+            "map": self.dec.env.name,
+            "lss": self.dec.lss,
+            "counts": self.counts(),
+            "edges": [list(e) for e in self.graph.edges],
+            "verdict": {
+                "strategy_exists": self.strategy_exists,
+                "witness_region": None if self.witness_region is None
+                else f"R{self.witness_region}",
+                "rounds": self.rounds,
+                "surviving": sorted(self.surviving),
+                "eliminated": [e.to_dict() for e in self.eliminated],
+                "story": self.story(),
+            },
+            "self_check": None if self.self_check is None else self.self_check.to_dict(),
+            "verified": self.verified,
+            "critical_lss": None if self.critical is None else self.critical.to_dict(),
+        }
+
+    def __repr__(self) -> str:
+        return (f"Verdict(strategy_exists={self.strategy_exists}, "
+                f"surviving={len(self.surviving)}/{len(self.dec.cells)}, "
+                f"witness={self.witness_region})")
+
+    def plot(self, fig: Any = None) -> Any:
+        """The paper-style figure (see :func:`tether.plot.plot_verdict`)."""
+        from tether.plot.verdict import plot_verdict
+
+        return plot_verdict(self, fig)
+
+
+class Eliminations(Sequence):
+    """The eliminations of :func:`eliminate` in the order they happened, held as integer
+    arrays; each :class:`Elimination` (string ids) is built when asked for."""
+
+    def __init__(self, graph: ConnectivityGraph, cell: np.ndarray, piece: np.ndarray,
+                 rnd: np.ndarray, because: np.ndarray) -> None:
+        self.graph = graph
+        #: cell index, piece index, round (from 1) and ``because`` cell index (-1: None)
+        self.cell, self.piece, self.round, self.because = cell, piece, rnd, because
+
+    def __len__(self) -> int:
+        return len(self.cell)
+
+    def _one(self, i: int) -> Elimination:
+        dec = self.graph.dec
+        c, k, b = int(self.cell[i]), int(self.piece[i]), int(self.because[i])
+        ra, rb = piece_regions(dec)[k].tolist()
+        other = rb if ra == cell_regions(dec)[c] else ra
+        ids = cell_ids_of(dec, [c] if b < 0 else [c, b])
+        return Elimination(ids[0], f"R{other}", f"P{k}", int(self.round[i]),
+                           None if b < 0 else ids[1])
+
+    @property
+    def _all(self) -> tuple[Elimination, ...]:
+        got = self.__dict__.get("_tuple")
+        if got is None:
+            with gc_paused():
+                got = self.__dict__["_tuple"] = self._make_all()
+        return got
+
+    def _make_all(self) -> tuple[Elimination, ...]:
+        """Every :class:`Elimination`, in order (ids made in one pass)."""
+        dec = self.graph.dec
+        n = len(self)
+        ids = cell_ids_of(dec, np.concatenate((self.cell, np.maximum(self.because, 0))))
+        ends = piece_regions(dec)[self.piece]
+        other = np.where(ends[:, 0] == cell_regions(dec)[self.cell], ends[:, 1], ends[:, 0])
+        return tuple(Elimination(c, f"R{o}", f"P{k}", r, None if b < 0 else ib)
+                     for c, o, k, r, b, ib in zip(
+                         ids[:n], other.tolist(), self.piece.tolist(), self.round.tolist(),
+                         self.because.tolist(), ids[n:], strict=True))
+
+    def __getitem__(self, i: Any) -> Any:
+        if isinstance(i, slice):
+            return self._all[i]
+        if "_tuple" in self.__dict__:
+            return self._all[i]
+        n = len(self)
+        j = int(i) + n if int(i) < 0 else int(i)
+        if not 0 <= j < n:
+            raise IndexError(i)
+        return self._one(j)
+
+    def __iter__(self) -> Iterator[Elimination]:
+        return iter(self._all)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Sequence):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all)
+
+    def __repr__(self) -> str:
+        return f"Eliminations({len(self)})"
+
+
+def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
+    """Greatest fixed point of removing escapable cells, by rounds (linear in the graph).
+
+    Returns the surviving cells and the eliminations in the order they happened.
+    """
+    dec = graph.dec
+    alive, cell, slot, rnd, because = fixed_point_arrays(
+        cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
+    surviving = frozenset(cell_ids_of(dec, np.flatnonzero(alive)))
+    return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
+
+
+def cell_rank(dec: Decomposition) -> np.ndarray:
+    """The rank of every cell in the elimination's processing order: by region, then start
+    feature name, then end feature name (as strings; the order of :func:`_cell_key`)."""
+    region, start, end = dec.cell_codes()
+    name_rank = feature_name_rank(dec.env)
+    rs, re = name_rank[start + 1], name_rank[end + 1]
+    n = len(region)
+    if _increasing(region, rs, re):  # listed in that order already (decompose's, mostly)
+        return np.arange(n, dtype=np.int64)
+    order = np.lexsort((re, rs, region))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    return rank
+
+
+def _increasing(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
+    """Whether the rows ``(a[i], b[i], c[i])`` are strictly increasing (lexicographically)."""
+    if len(a) < 2:
+        return True
+    da, db, dc = np.diff(a), np.diff(b), np.diff(c)
+    return bool(np.all((da > 0) | ((da == 0) & ((db > 0) | ((db == 0) & (dc > 0))))))
+
+
+def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.ndarray,
+                       partner_slot: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The elimination on integer arrays, round by round (each round vectorized).
+
+    Cell ``c`` has slots ``slot_ptr[c]:slot_ptr[c + 1]`` (one per piece bounding its region,
+    in order); slot ``s`` has partner entries ``partner_ptr[s]:partner_ptr[s + 1]`` whose
+    ``partner_slot`` is the partner's slot for the same piece. ``rank`` orders the cells (all
+    distinct). A cell falls when one of its slots has no surviving partner left; the order of
+    the removals, the slot through which each falls and the partner whose removal made it fall
+    (``because``) are those of a worklist processing each round's cells by rank, their slots in
+    order and each slot's partners in order (the cell falls through its first slot to empty).
+
+    Returns ``alive`` (bool per cell) and, per removal in order, the cell, its slot, its round
+    (from 1) and the ``because`` cell (-1 in round 1).
+    """
+    ncell = len(slot_ptr) - 1
+    count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
+    slot_cell = np.repeat(np.arange(ncell, dtype=np.int32 if ncell < 2**31 else np.int64),
+                          np.diff(slot_ptr))  # the cell of every slot
+    entry_ptr = partner_ptr[slot_ptr]  # a cell's slots' partner entries, one run per cell
+    zs = np.flatnonzero(count == 0)
+    zc = slot_cell[zs].astype(np.int64)
+    head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
+    lvl_cell, lvl_slot = zc[head], zs[head]
+    lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
+    queued = np.zeros(ncell, dtype=bool)
+    queued[lvl_cell] = True
+    slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
+    cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
+    out_cell, out_slot, out_round, out_because = [], [], [], []
+    rnd = 0
+    while len(lvl_cell):
+        rnd += 1
+        order = np.argsort(rank[lvl_cell], kind="stable")
+        lvl_cell, lvl_slot, lvl_because = lvl_cell[order], lvl_slot[order], lvl_because[order]
+        out_cell.append(lvl_cell)
+        out_slot.append(lvl_slot)
+        out_round.append(np.full(len(lvl_cell), rnd, dtype=np.int64))
+        out_because.append(lvl_because)
+        # every partner entry of every slot of the level's cells, in processing order
+        first = entry_ptr[lvl_cell]
+        nentry = entry_ptr[lvl_cell + 1] - first
+        tgt = partner_slot[ragged_arange(first, nentry)]
+        _decrement(count, tgt)
+        # a slot empties at its last entry of the round (its count never rises again)
+        hit = np.flatnonzero(count[tgt] == 0)
+        slot = tgt[hit]
+        cell = slot_cell[slot].astype(np.int64)
+        fresh = ~queued[cell]
+        hit, slot, cell = hit[fresh], slot[fresh], cell[fresh]
+        # the entry position where each emptied slot reached 0 (its last), and each cell
+        # falls through its slot that emptied first
+        slot_end[slot] = -1
+        np.maximum.at(slot_end, slot, hit)
+        end = slot_end[slot]
+        cell_end[cell] = len(tgt)
+        np.minimum.at(cell_end, cell, end)
+        keep = (hit == end) & (cell_end[cell] == end)
+        pos, cell = hit[keep], cell[keep]
+        queued[cell] = True
+        # the level's cell whose run of entries holds each position
+        src = lvl_cell[np.searchsorted(np.cumsum(nentry), pos, side="right")]
+        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src
+    alive = ~queued
+    if out_cell:
+        return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
+                np.concatenate(out_round), np.concatenate(out_because))
+    empty = np.zeros(0, dtype=np.int64)
+    return alive, empty, empty, empty, empty
+
+
+def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
+    """``count[i] -= 1`` once per occurrence of ``i`` in ``idx`` (as ``np.subtract.at``,
+    which costs ~0.2-0.4 µs per entry: by distinct values, or a bincount when ``idx`` is
+    long)."""
+    if 16 * len(idx) < len(count):
+        u, k = np.unique(idx, return_counts=True)
+        count[u] -= k.astype(count.dtype)
+    else:
+        count -= np.bincount(idx, minlength=len(count))
+
+
+def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]],
+                partners: dict[tuple[str, int], tuple[str, ...]]
+                ) -> tuple[frozenset[str], list[tuple[str, int, int, str | None]]]:
+    """The elimination on abstract data: cells with their regions, the pieces bounding each
+    region, and each (cell, piece)'s partners (a missing key: no partner). Cells are processed
+    in the order of :func:`_cell_key`. Returns the survivors and ``(cell, piece, round,
+    because)`` per removal, in order (see :func:`fixed_point_arrays`)."""
+    cells = sorted(region_of, key=_cell_key)
+    nslot = [len(pieces_of[region_of[c]]) for c in cells]
+    slot_ptr = np.concatenate(([0], np.cumsum(nslot, dtype=np.int64))).astype(np.int64)
+    slot_of = {}
+    slot_piece = []
+    for i, c in enumerate(cells):
+        for j, k in enumerate(pieces_of[region_of[c]]):
+            slot_of[(c, k)] = int(slot_ptr[i]) + j
+            slot_piece.append(k)
+    counts, flat = [], []
+    for c in cells:
+        for k in pieces_of[region_of[c]]:
+            ps = partners.get((c, k), ())
+            counts.append(len(ps))
+            flat.extend(slot_of[(p, k)] for p in ps)
+    partner_ptr = np.concatenate(([0], np.cumsum(counts, dtype=np.int64))).astype(np.int64)
+    alive, cell, slot, rnd, because = fixed_point_arrays(
+        np.arange(len(cells), dtype=np.int64), slot_ptr, partner_ptr,
+        np.asarray(flat, dtype=np.int64))
+    removed = [(cells[c], slot_piece[s], r, None if b < 0 else cells[b]) for c, s, r, b in
+               zip(cell.tolist(), slot.tolist(), rnd.tolist(), because.tolist(), strict=True)]
+    return frozenset(c for c, a in zip(cells, alive.tolist(), strict=True) if a), removed
+
+
+def _cell_key(cid: str) -> tuple:
+    """Sort key of a cell id ``(R3,E1,V2)``; other ids sort as plain strings after them."""
+    parts = cid.strip("()").split(",")
+    if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
+        return (0, int(parts[0][1:]), parts[1], parts[2])
+    return (1, cid, "", "")
+
+
+def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
+            self_check: bool = True, near_critical: bool = True) -> Verdict:
+    """Build G (unless given), eliminate escapable cells, and decide.
+
+    The witness is a region without any cell (lowest id), else the first region emptied.
+    With ``self_check`` (the default) the decomposition is verified cheaply first (see
+    :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
+    With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
+    a critical length of the map (:func:`tether.analysis.critical.near_critical`), the map is also
+    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
+    """
+    report = None
+    if self_check:
+        from tether.decomposition import self_check as run_self_check
+
+        report = run_self_check(dec)
+    with gc_paused():
+        graph = build_graph(dec) if graph is None else graph
+        surviving, elim = eliminate(graph)
+    witness = None
+    if not surviving:
+        empty = np.flatnonzero(np.diff(cell_first(dec)) == 0)
+        if len(empty):
+            witness = int(empty[0])
+        else:
+            witness = _first_emptied(dec, elim)
+    critical = _beside_critical(dec, self_check) if near_critical else None
+    return Verdict(dec, graph, surviving, elim, witness, report, critical)
+
+
+def _beside_critical(dec: Decomposition, self_check: bool) -> CriticalLss | None:
+    """The verdicts just below and above ``dec.lss`` if it is near a critical length."""
+    rel_tol = dec.curve_tol / dec.env.diameter
+    events, value, delta = critical_events(dec.env, dec.lss, rel_tol)
+    if not events:
+        return None
+    sides = []
+    for lss in (value - delta, value + delta):
+        side = decompose(dec.env, lss, rel_tol)
+        sides.append(side_summary(analyze(side, self_check=self_check, near_critical=False)))
+    on = ON_CRITICAL_TOLS * REL_LENGTH_TOL * dec.env.diameter
+    return CriticalLss(dec.lss, value, delta, on, events, sides[0], sides[1])
+
+
+def _first_emptied(dec: Decomposition, elim: Eliminations) -> int | None:
+    """The first region whose last cell is eliminated (all its cells fell)."""
+    reg = cell_regions(dec)[elim.cell]
+    # the position of each region's last removal; the region emptied first has the smallest
+    last = np.full(len(dec.regions), -1, dtype=np.int64)
+    np.maximum.at(last, reg, np.arange(len(reg)))
+    left = np.bincount(reg, minlength=len(dec.regions))
+    full = np.diff(cell_first(dec)) == left
+    cand = np.flatnonzero(full & (last >= 0))
+    return int(cand[np.argmin(last[cand])]) if len(cand) else None
+
+
+def escape_story(v: Verdict) -> list[str]:
+    """Plain sentences following the chain of eliminations that empties the witness region."""
+    dec = v.dec
+    if v.strategy_exists:
+        lines = [f"{len(v.surviving)} of {len(dec.cells)} cells survive the elimination "
+                 f"({len(v.eliminated)} eliminated in {v.rounds} "
+                 f"round{'' if v.rounds == 1 else 's'}): a surveillance "
+                 "strategy can exist if the rod starts in a surviving cell."]
+        if v.eliminated:
+            e = v.eliminated[0]
+            lines.append(f"For example, from {e.cell} the target escapes by crossing "
+                         f"{_piece_text(dec, e.piece)} into {e.escapes_to}.")
+        return lines
+    w = v.witness_region
+    if w is not None and not dec.regions[w].cells:
+        return [f"In region R{w} no rod orientation is free at all: a target that reaches it "
+                "cannot be watched from distance lss. No surveillance strategy exists."]
+    chain = _witness_chain(v, w)
+    lines = []
+    for e in reversed(chain):
+        if e.because is None:
+            lines.append(f"Round {e.round}: cell {e.cell} is escapable. The target crosses "
+                         f"{_piece_text(dec, e.piece)} into {e.escapes_to}, where no free arc "
+                         "continues the rod's arc.")
+        else:
+            lines.append(f"Round {e.round}: {e.cell} falls. Across {_piece_text(dec, e.piece)} "
+                         f"into {e.escapes_to} its last continuation, {e.because}, was "
+                         "eliminated.")
+    lines.append(f"Every cell over R{w} is eliminated: wherever the observer is, a target in "
+                 f"R{w} can escape. No surveillance strategy exists (Proposition 1).")
+    return lines
+
+
+def _witness_chain(v: Verdict, w: int) -> list[Elimination]:
+    """The last elimination of a cell over region ``w``, then the elimination of its
+    ``because`` cell, and so on back to round 1 (on the arrays: no other elimination made)."""
+    el = v.eliminated
+    if not isinstance(el, Eliminations):
+        by_cell = {e.cell: e for e in el}
+        chain = [[e for e in el if e.cell in v.dec.regions[w].cells][-1]]
+        while chain[-1].because is not None:
+            chain.append(by_cell[chain[-1].because])
+        return chain
+    at = np.full(len(v.dec.cells), -1, dtype=np.int64)  # each cell's elimination
+    at[el.cell] = np.arange(len(el))
+    i = int(np.flatnonzero(cell_regions(v.dec)[el.cell] == w)[-1])
+    chain = [i]
+    while el.because[chain[-1]] >= 0:
+        chain.append(int(at[el.because[chain[-1]]]))
+    return [el[j] for j in chain]
+
+
+def _piece_text(dec: Decomposition, piece: str) -> str:
+    from tether.curves import KIND_NAMES
+
+    p = dec.pieces[int(piece[1:])]
+    kinds = "/".join(KIND_NAMES.get(k, k) for k in p.kind)
+    return f"{piece} ({kinds} of {', '.join(p.features)})"
