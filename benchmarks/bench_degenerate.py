@@ -5,7 +5,8 @@ Run: ``python benchmarks/bench_degenerate.py [--sizes 400 1000] [--repeat 3]``.
 Each size runs in a fresh process: one decomposition (CPU seconds, the reference), and, timed
 on their own within it, the steps this handling adds (CPU seconds):
 
-* ``merge``: collinear copies made one before noding (:func:`tether.coincidence.merge_collinear`);
+* ``merge``: collinear copies made one before noding
+  (:func:`tether.decomposition.coincidence.merge_collinear`);
 * ``stubs``: curve ends joined to walls they stop just short of (``_with_wall_stubs``);
 * ``offline``: faces' points moved off lines through walls (``_off_edge_lines``);
 * ``crit``: the search for critical lengths near ``lss``
@@ -29,6 +30,7 @@ CHILD = r"""
 import json, sys, time
 import tether.decomposition as D
 from tether.analysis.critical import near_critical
+from tether.decomposition import arrangement, pipeline
 from tether.floorplan import floor_plan
 
 n = int(sys.argv[1])
@@ -44,9 +46,9 @@ def timed(name, f):
         return out
     return g
 
-D.merge_collinear = timed("merge", D.merge_collinear)
-D._with_wall_stubs = timed("stubs", D._with_wall_stubs)
-D._off_edge_lines = timed("offline", D._off_edge_lines)
+arrangement.merge_collinear = timed("merge", arrangement.merge_collinear)
+arrangement._with_wall_stubs = timed("stubs", arrangement._with_wall_stubs)
+pipeline._off_edge_lines = timed("offline", pipeline._off_edge_lines)
 t = time.process_time()
 dec = D.decompose(env, lss)
 spent["decompose"] = time.process_time() - t

@@ -1,12 +1,11 @@
 """Compare a floor plan's decomposition with the noding in two strips against the whole noding.
 
 Run: ``python benchmarks/strips_compare.py [--sizes 400 1000]``. For each size it decomposes the
-seeded floor plan twice (``tether.noding.STRIP_MIN_SEGMENTS`` as is, and raised so the input is
-noded whole), matches every region of the whole by its representative point, and prints: the
-counts and verdicts, regions renumbered, structure mismatches, regions whose area differs by
-more than 1e-9 relative (faces at the resolution limit joining another neighbour), and whether
-the pieces and the eliminations are equal up to the renumbering.
-"""
+seeded floor plan twice (``tether.decomposition.noding.STRIP_MIN_SEGMENTS`` as is, and raised so
+the input is noded whole), matches every region of the whole by its representative point, and
+prints: the counts and verdicts, regions renumbered, structure mismatches, regions whose area
+differs by more than 1e-9 relative (faces at the resolution limit joining another neighbour),
+and whether the pieces and the eliminations are equal up to the renumbering."""
 
 from __future__ import annotations
 
@@ -15,7 +14,7 @@ import collections
 
 import numpy as np
 
-import tether.noding as noding
+import tether.decomposition.noding as noding
 from tether.analysis import analyze
 from tether.decomposition import decompose
 from tether.floorplan import floor_plan

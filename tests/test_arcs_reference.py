@@ -21,9 +21,10 @@ from tether.arcs import (
     rod_is_free_rows,
     rod_rows,
 )
-from tether.decomposition import _clearance, _segment_tree, _segments_near
+from tether.decomposition.pieces import _clearance
 from tether.environment import Environment
 from tether.floorplan import floor_plan
+from tether.spatial import segment_tree, segments_near
 from tether.tolerances import ANGLE_TOL
 
 
@@ -115,7 +116,7 @@ def _clearance_reference(pts, owner, sa, sb, sowner, reach):
     """Each point's distance to the nearest segment of another part, at most ``reach``: one
     search within ``reach`` (no stages)."""
     clear = np.full(len(pts), reach)
-    qi, sj, d = _segments_near(pts, sa, sb, reach, _segment_tree(sa, sb))
+    qi, sj, d = segments_near(pts, sa, sb, reach, segment_tree(sa, sb))
     other = sowner[sj] != owner[qi]
     np.minimum.at(clear, qi[other], d[other])
     return clear
@@ -134,7 +135,7 @@ def test_clearance_matches_one_search(seed):
     pts = 0.5 * (sa[take] + sb[take])
     owner = sowner[take]
     reach = 0.01
-    got = _clearance(pts, owner, sa, sb, sowner, _segment_tree(sa, sb), reach)
+    got = _clearance(pts, owner, sa, sb, sowner, segment_tree(sa, sb), reach)
     assert np.array_equal(got, _clearance_reference(pts, owner, sa, sb, sowner, reach))
     assert (got < reach).any() and (got == reach).any()
 

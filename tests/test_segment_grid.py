@@ -10,7 +10,8 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tether import decomposition as D
+from tether import spatial
+from tether.decomposition import pieces
 from tether.spatial import SegmentGrid, _Blocks
 
 
@@ -59,7 +60,7 @@ def test_meeting_is_strtree_query_on_rectangles():
     several sizes (one block set per size)."""
     rng = np.random.default_rng(11)
     a, b = _segments(rng, 2000)
-    grid, tree = SegmentGrid(a, b), D._segment_tree(a, b)
+    grid, tree = SegmentGrid(a, b), spatial.segment_tree(a, b)
     for r in (0.001, 0.01, 0.01, 0.04):
         c = rng.uniform(-0.1, 1.1, (700, 2))
         w = r * rng.uniform(0.5, 1.0, (700, 2))
@@ -133,8 +134,8 @@ def test_segments_near_grid_equals_strtree(seed, r):
     a, b = _segments(rng, 3000)
     take = rng.integers(0, 3000, 2000)
     pts = np.concatenate((0.5 * (a[take] + b[take]), rng.uniform(-0.1, 1.1, (500, 2))))
-    want = D._segments_near(pts, a, b, r, D._segment_tree(a, b))
-    got = D._segments_near(pts, a, b, r, SegmentGrid(a, b))
+    want = spatial.segments_near(pts, a, b, r, spatial.segment_tree(a, b))
+    got = spatial.segments_near(pts, a, b, r, SegmentGrid(a, b))
     assert len(want[0]) > 100
     assert sorted(zip(*(x.tolist() for x in got), strict=True)) == \
         sorted(zip(*(x.tolist() for x in want), strict=True))
@@ -148,8 +149,8 @@ def test_pair_distances_equal_the_column_formula():
     si = rng.integers(0, 2000, 50_000)
     p = rng.uniform(-0.1, 1.1, (50_000, 2))
     p[:1000] = a[si[:1000]]  # on a segment's end
-    got = D._pair_distances(p[:, 0], p[:, 1], grid, si)
-    want = D._point_segment_distance_xy(p[:, 0], p[:, 1], a[si, 0], a[si, 1], b[si, 0],
+    got = spatial.pair_distances(p[:, 0], p[:, 1], grid, si)
+    want = spatial.point_segment_distance_xy(p[:, 0], p[:, 1], a[si, 0], a[si, 1], b[si, 0],
                                         b[si, 1])
     assert np.array_equal(got, want)
 
@@ -161,8 +162,8 @@ def test_clearance_on_grid_equals_strtree():
     sowner = rng.integers(0, 500, 4000)
     take = rng.integers(0, 4000, 3000)
     pts, owner = 0.5 * (a[take] + b[take]), sowner[take]
-    want = D._clearance(pts, owner, a, b, sowner, D._segment_tree(a, b), 0.02)
-    got = D._clearance(pts, owner, a, b, sowner, SegmentGrid(a, b), 0.02)
+    want = pieces._clearance(pts, owner, a, b, sowner, spatial.segment_tree(a, b), 0.02)
+    got = pieces._clearance(pts, owner, a, b, sowner, SegmentGrid(a, b), 0.02)
     assert np.array_equal(got, want)
     assert (got < 0.02).any() and (got == 0.02).any()
 
@@ -173,7 +174,7 @@ def test_empty_inputs():
     a = np.array([[0.0, 0.0]])
     grid = SegmentGrid(a, a + 1.0)
     assert [len(x) for x in grid.meeting(np.zeros((0, 2)), np.zeros((0, 2)))] == [0, 0]
-    qi, si, d = D._segments_near(np.array([[0.5, 0.6]]), a, a + 1.0, 0.1, grid)
+    qi, si, d = spatial.segments_near(np.array([[0.5, 0.6]]), a, a + 1.0, 0.1, grid)
     assert qi.tolist() == [0] and si.tolist() == [0] and d[0] == pytest.approx(0.1 / 2**0.5)
 
 
@@ -182,8 +183,8 @@ def test_segment_pairs_grid_equals_strtree():
     a, b = _segments(rng, 2500)
     pts = rng.uniform(-0.05, 1.05, (1500, 2))
     for r in (0.002, 0.03):
-        got = D._segment_pairs(pts, r, SegmentGrid(a, b))
-        want = D._segment_pairs(pts, r, D._segment_tree(a, b))
+        got = spatial.segment_pairs(pts, r, SegmentGrid(a, b))
+        want = spatial.segment_pairs(pts, r, spatial.segment_tree(a, b))
         assert len(want[0]) > 100
         assert sorted(zip(*(x.tolist() for x in got), strict=True)) == \
             sorted(zip(*(x.tolist() for x in want), strict=True))

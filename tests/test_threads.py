@@ -104,10 +104,11 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
     import tether.arcs as arcs
     import tether.decomposition as decomposition
     from tether.analysis import analyze
+    from tether.decomposition import pieces
     from tether.floorplan import floor_plan
     monkeypatch.setattr(arcs, "POINT_BATCH", 300)
-    monkeypatch.setattr(decomposition, "ACROSS_BATCH", 200)
-    monkeypatch.setattr(decomposition, "CLEARANCE_BATCH", 250)
+    monkeypatch.setattr(pieces, "ACROSS_BATCH", 200)
+    monkeypatch.setattr(pieces, "CLEARANCE_BATCH", 250)
     env = floor_plan(30, seed=2)
     lss = (env.bounds[2] - env.bounds[0]) / 10
     got = {}

@@ -6,7 +6,7 @@ For each rasterized random shape of ``tests/lattice_maps.py`` (seeds ``0..N-1``,
 of 0.05) and each family of degenerate rooms there, at each lss:
 
 * **exact**: the decomposition scanned along ``--lines`` random lines against the exact free
-  arcs (:func:`tether.scan.scan`); any disagreement is printed;
+  arcs (:func:`tether.decomposition.scan.scan`); any disagreement is printed;
 * **invariance**: the same map scaled by 0.1, 8 and 10, turned by 90 degrees, mirrored and moved
   to (4.5e5, 5.4e6): counts (curves, regions, cells, pieces), verdict and the number of
   surviving cells must equal the original's, and the verdict must be verified. ``far`` lies
@@ -29,8 +29,8 @@ from lattice_maps import env_of, families, rasterized  # noqa: E402
 
 from tether.analysis import analyze  # noqa: E402
 from tether.decomposition import decompose  # noqa: E402
+from tether.decomposition.scan import scan  # noqa: E402
 from tether.errors import TetherError  # noqa: E402
-from tether.scan import scan  # noqa: E402
 
 TRANSFORMS = {"x0.1": (lambda x, y: (0.1 * x, 0.1 * y), 0.1),
               "x8": (lambda x, y: (8 * x, 8 * y), 8.0),

@@ -229,7 +229,7 @@ def near_edge_lines(env: Environment, pts: np.ndarray, lss: float) -> np.ndarray
     :func:`blocked_intervals` takes the point as on the line and skips the edge (its interval
     has no width on the line), so the free arcs at such a point can differ from those on both
     sides of the line by a sliver arc. A point that stands for a whole face must not lie there
-    (:func:`tether.decomposition._decompose` moves such points off the line)."""
+    (:func:`tether.decomposition.pipeline` moves such points off the line)."""
     out = np.zeros(len(pts), dtype=bool)
     if len(pts) == 0:
         return out

@@ -15,6 +15,7 @@ import threading
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
 from tether._util.arrays import ragged_arange
 
@@ -310,3 +311,85 @@ def _spread_bits(v: np.ndarray) -> np.ndarray:
                         (1, 0x5555555555555555)):
         v = (v | (v << np.uint64(shift))) & np.uint64(mask)
     return v
+
+
+def segment_tree(a: np.ndarray, b: np.ndarray) -> shapely.STRtree:
+    """An STRtree of the segments ``a[k]-b[k]``."""
+    return shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
+
+
+def segments_near(pts: np.ndarray, a: np.ndarray, b: np.ndarray, reach: float,
+                  tree: shapely.STRtree | SegmentGrid
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs (point, segment) closer than ``reach`` (map units) for points (m, 2) and
+    segments ``a[k]-b[k]`` indexed by ``tree`` (an STRtree or, faster, a
+    :class:`SegmentGrid`; the same pairs): point indices, segment indices, distances."""
+    if len(pts) == 0 or len(a) == 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    qi, si = segment_pairs(pts, reach, tree)  # envelopes only; exact distances below
+    if isinstance(tree, SegmentGrid):
+        d = pair_distances(pts[:, 0][qi], pts[:, 1][qi], tree, si)
+    else:
+        d = point_segment_distance_xy(pts[:, 0][qi], pts[:, 1][qi], a[:, 0][si],
+                                      a[:, 1][si], b[:, 0][si], b[:, 1][si])
+    near = np.flatnonzero(d <= reach)
+    return qi[near], si[near], d[near]
+
+
+def segment_pairs(pts: np.ndarray, reach: float, tree: shapely.STRtree | SegmentGrid
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (point, segment) of the points (m, 2) and the segments indexed by ``tree``
+    whose bounding box meets the point's box ``[p - reach, p + reach]``: an STRtree's
+    answer, or a :class:`SegmentGrid`'s (the same pairs, without making the boxes)."""
+    if isinstance(tree, SegmentGrid):
+        return tree.meeting(pts - reach, pts + reach)
+    box = shapely.box(pts[:, 0] - reach, pts[:, 1] - reach, pts[:, 0] + reach,
+                      pts[:, 1] + reach)
+    qi, si = tree.query(box)
+    return qi, si
+
+
+def pair_distances(px: np.ndarray, py: np.ndarray, grid: SegmentGrid, si: np.ndarray
+                   ) -> np.ndarray:
+    """:func:`point_segment_distance_xy` from points ``(px[k], py[k])`` to the grid's
+    segments ``si[k]`` (the same numbers: the segments' directions and squared lengths are
+    the grid's, computed alike once per segment), in place on few temporaries."""
+    ax, ay, ex, ey, den = grid.ax[si], grid.ay[si], grid.ex[si], grid.ey[si], grid.den[si]
+    u = px - ax
+    u *= ex
+    t = py - ay
+    t *= ey
+    u += t
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u /= den
+    u[~(den > 0)] = 0.0
+    np.clip(u, 0.0, 1.0, out=u)
+    np.multiply(u, ey, out=t)
+    t += ay
+    t -= py
+    u *= ex
+    u += ax
+    u -= px
+    return np.hypot(u, t, out=u)
+
+
+def point_segment_distance_xy(px: np.ndarray, py: np.ndarray, ax: np.ndarray,
+                              ay: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """:func:`point_segment_distance` on coordinate columns (the same numbers, without the
+    (k, 2) temporaries)."""
+    abx, aby = bx - ax, by - ay
+    den = abx * abx + aby * aby
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(den > 0, ((px - ax) * abx + (py - ay) * aby) / den, 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.hypot(ax + u * abx - px, ay + u * aby - py)
+
+
+def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise distance from points ``p`` to segments ``a-b`` (all shape (k, 2))."""
+    ab = b - a
+    den = np.einsum("ij,ij->i", ab, ab)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(den > 0, np.einsum("ij,ij->i", p - a, ab) / den, 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.hypot(*(a + u[:, None] * ab - p).T)

@@ -12,8 +12,8 @@ from lattice_maps import corridor, env_of
 from tether.analysis import analyze
 from tether.analysis.critical import distance_events, near_critical
 from tether.decomposition import decompose
+from tether.decomposition.scan import scan
 from tether.environment import Environment
-from tether.scan import scan
 
 
 def _square(side: float) -> Environment:

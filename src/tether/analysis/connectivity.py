@@ -22,7 +22,8 @@ import numpy as np
 from tether._util.arrays import ragged_arange
 from tether._util.memory import gc_paused, release_memory
 from tether.arcs import ArcTable, free_arcs_many
-from tether.decomposition import Decomposition, _Cells, _Pieces
+from tether.decomposition import Decomposition
+from tether.decomposition.views import Cells, Pieces
 from tether.tolerances import ANGLE_TOL
 
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
@@ -137,7 +138,7 @@ def cell_ids(dec: Decomposition) -> list[str]:
     got = dec.__dict__.get("_cell_id_list")
     if got is None:
         cells = dec.cells
-        got = cells._table.ids() if type(cells) is _Cells else [c.id for c in cells]
+        got = cells._table.ids() if type(cells) is Cells else [c.id for c in cells]
         dec.__dict__["_cell_id_list"] = got
     return got
 
@@ -147,7 +148,7 @@ def cell_ids_of(dec: Decomposition, which: Any) -> list[str]:
     of every id unless it exists already)."""
     which = np.asarray(which, dtype=np.int64).reshape(-1)
     cells = dec.cells
-    if "_cell_id_list" in dec.__dict__ or type(cells) is not _Cells:
+    if "_cell_id_list" in dec.__dict__ or type(cells) is not Cells:
         ids = cell_ids(dec)
         return [ids[i] for i in which.tolist()]
     return cells._table.ids(which)
@@ -363,7 +364,7 @@ def _starting_in(key: np.ndarray, base: np.ndarray, r0: np.ndarray | None,
 def piece_regions(dec: Decomposition) -> np.ndarray:
     """``(m, 2)`` int array of every piece's two regions: the pieces' column (never to be
     written), or read from the pieces and cached on the decomposition."""
-    if type(dec.pieces) is _Pieces:
+    if type(dec.pieces) is Pieces:
         return dec.pieces._table.pair
     got = dec.__dict__.get("_piece_regions")
     if got is None:

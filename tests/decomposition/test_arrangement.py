@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 import shapely
 
-from tether import decomposition as D
+from tether.curves import critical_curves
+from tether.decomposition import arrangement as arrangement_mod
+from tether.decomposition import faces
 from tether.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
@@ -24,21 +26,21 @@ def inputs():
     env = floor_plan(60, seed=3).internal
     lss = 0.1 * (env.bounds[2] - env.bounds[0])
     tol = REL_CURVE_TOL * env.diameter
-    return env, D.critical_curves(env, lss, REL_CURVE_TOL), tol
+    return env, critical_curves(env, lss, REL_CURVE_TOL), tol
 
 
 def test_input_lines_segments_are_the_lines_segments(inputs):
     env, curves, _ = inputs
-    lines, src, segs = D._input_lines(env, curves)
+    lines, src, segs = arrangement_mod._input_lines(env, curves)
     assert len(lines) == len(src) and len(segs[0]) > 1000
-    assert _same(segs, D._ring_segments(lines))
+    assert _same(segs, faces.ring_segments(lines))
 
 
 def test_part_segments_are_the_parts_segments(inputs):
     env, curves, tol = inputs
-    arr = D._arrangement(env, curves, tol)
-    want = D._ring_segments(arr.parts)
-    assert _same(D._part_segments(D._part_ends(arr.parts)), want)
+    arr = arrangement_mod.arrangement(env, curves, tol)
+    want = faces.ring_segments(arr.parts)
+    assert _same(faces.part_segments(faces.part_ends(arr.parts)), want)
     assert _same(arr.segments()[:3], want)  # kept from the arrangement's own
     assert "_part_segments" not in arr.__dict__  # handed over once
 
@@ -47,4 +49,4 @@ def test_part_segments_with_repeated_points():
     parts = np.array([shapely.linestrings([[0, 0], [0, 0], [1, -0.0], [2, 1]]),
                       shapely.linestrings([[5, 5], [6, 6]]),
                       shapely.linestrings([[-0.0, 1], [3, 3], [3, 3]])])
-    assert _same(D._part_segments(D._part_ends(parts)), D._ring_segments(parts))
+    assert _same(faces.part_segments(faces.part_ends(parts)), faces.ring_segments(parts))

@@ -1,6 +1,6 @@
-"""Coincident straight lines made one exactly (tether.coincidence): copies of one line that
-differ by rounding must node into one part, walls never move, and lines in general position
-are left alone."""
+"""Coincident straight lines made one exactly (tether.decomposition.coincidence): copies of
+one line that differ by rounding must node into one part, walls never move, and lines in
+general position are left alone."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tether.coincidence import COLLINEAR_TOL, merge_collinear
+from tether.decomposition.coincidence import COLLINEAR_TOL, merge_collinear
 
 
 def _lines(xy, line):

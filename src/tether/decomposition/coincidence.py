@@ -25,6 +25,9 @@ from typing import Any
 import numpy as np
 import shapely
 
+__all__ = ["COLLINEAR_TOL", "STUB_PAST_TOLS", "STUB_REACH_TOLS", "merge_collinear",
+           "wall_stubs"]
+
 #: Two segments are on one line when their directions agree within this angle (radians) and
 #: their distances from the origin within this length (normalized units, diameter near 1).
 COLLINEAR_TOL = 1e-11
@@ -209,6 +212,3 @@ def wall_stubs(ends: np.ndarray, free: np.ndarray, wa: np.ndarray, wb: np.ndarra
                     normal)
     return np.stack((p, foot + STUB_PAST_TOLS * tol * unit), axis=1)
 
-
-__all__ = ["COLLINEAR_TOL", "STUB_PAST_TOLS", "STUB_REACH_TOLS", "merge_collinear",
-           "wall_stubs"]

@@ -21,6 +21,9 @@ from shapely.errors import GEOSException
 from tether._util.threads import in_background
 from tether.errors import ArrangementError
 
+__all__ = ["CUT_WINDOW", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "cut_position", "geos_message",
+           "node_lines", "strip_cut"]
+
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
 #: tolerance: coarser grids only if a finer one fails too.
 SNAP_GRIDS = (0.25, 1.0, 4.0)

@@ -1,5 +1,5 @@
-"""The arrangement's faces traced from half-edges (``_trace_faces``) against
-``shapely.polygonize`` (``_polygonize_faces``, the fallback and the previous method): the same
+"""The arrangement's faces traced from half-edges (``trace_faces``) against
+``shapely.polygonize`` (``polygonize_faces``, the fallback and the previous method): the same
 polygons (as sets of points: normalized geometries) and the same faces on both sides of every
 part, on random segment arrangements and on the awkward cases (dangles, cut edges, islands
 touching their face at a point, holes in holes, a bay closed at a point)."""
@@ -10,23 +10,19 @@ import numpy as np
 import pytest
 import shapely
 
-from tether.decomposition import (
-    _first_max_per_group,
-    _polygonize_faces,
-    _ring_segments,
-    _trace_faces,
-)
+from tether._util.arrays import first_max_per_group
+from tether.decomposition.faces import polygonize_faces, ring_segments, trace_faces
 
 
 def _both(lines: list) -> tuple:
     noded = shapely.node(shapely.multilinestrings([shapely.linestrings(c) for c in lines]))
     parts = shapely.get_parts(noded)
     parts = parts[shapely.length(parts) > 0]
-    pa, pb, powner = _ring_segments(parts)
-    longest = _first_max_per_group(np.hypot(*(pb - pa).T), powner)
-    traced = _trace_faces(parts)
+    pa, pb, powner = ring_segments(parts)
+    longest = first_max_per_group(np.hypot(*(pb - pa).T), powner)
+    traced = trace_faces(parts)
     assert traced is not None
-    return traced, _polygonize_faces(parts, pa, pb, powner, longest)
+    return traced, polygonize_faces(parts, pa, pb, powner, longest)
 
 
 def _assert_same(lines: list) -> int:
@@ -91,7 +87,7 @@ def test_repeated_points_take_the_first_step_that_moves():
     parts = [shapely.linestrings(c) for c in ([(0, 0), (0, 0), (2, 0), (2, 2), (2, 2)],
                                               [(2, 2), (0, 2), (0, 2), (0, 0)],
                                               [(0, 0), (1, 1), (2, 2)])]
-    faces, pf = _trace_faces(np.asarray(parts, dtype=object))
+    faces, pf = trace_faces(np.asarray(parts, dtype=object))
     assert len(faces) == 2 and sorted(shapely.area(faces)) == [2.0, 2.0]
     assert pf.tolist() == [[0, -1], [1, -1], [0, 1]] or pf.tolist() == [[1, -1], [0, -1], [0, 1]]
 
@@ -100,7 +96,7 @@ def test_exactly_overlapping_directions_fall_back():
     # two parts leaving a node along the same direction: never after noding, but refused
     parts = [shapely.linestrings(c) for c in ([(0, 0), (1, 0), (1, 1)],
                                               [(0, 0), (2, 0), (2, 1)], [(1, 1), (2, 1)])]
-    assert _trace_faces(np.asarray(parts, dtype=object)) is None
+    assert trace_faces(np.asarray(parts, dtype=object)) is None
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -108,7 +104,7 @@ def test_origin_angle_order_is_the_lexsort(seed):
     """The half-edges' order by origin then angle (one sort of a combined key, checked) is
     the lexsort's: on random angles, on angles a few ulps apart (keys that round alike: the
     lexsort is made), on equal angles, and on a subset of the half-edges."""
-    from tether.decomposition import _by_origin_then_angle
+    from tether.decomposition.faces import _by_origin_then_angle
 
     rng = np.random.default_rng(seed)
     n = 5000
@@ -136,7 +132,7 @@ def test_cycle_labels_are_the_cycles_least_half_edge(seed):
     walking each cycle), dead ones their own index, and the steps to it; cycles of 1 to
     ~5,000 half-edges. Laid out from those: the order of ``_cycle_order`` (list ranking,
     sorted)."""
-    from tether.decomposition import _cycle_labels, _cycle_order, _cycles_laid_out
+    from tether.decomposition.faces import _cycle_labels, _cycle_order, _cycles_laid_out
 
     rng = np.random.default_rng(seed)
     n = 20_000
@@ -164,7 +160,7 @@ def test_rings_ccw_is_geos_is_ccw():
     """The rings' orientation by shoelace sums (one bincount over all consecutive pairs) is
     GEOS's ``is_ccw`` ring by ring: random simple rings (star-shaped) either way round,
     specks of 1e-16 map units."""
-    from tether.decomposition import _rings_ccw
+    from tether.decomposition.faces import _rings_ccw
 
     rng = np.random.default_rng(4)
     sizes = rng.integers(4, 30, 3000)
@@ -206,7 +202,7 @@ def _drop_dangles_reference(origin, nodes):
 def test_drop_dangles_equals_reference(seed):
     """Random graphs of parts (a few dense nodes, long dangling paths, isolated parts,
     loops at one node, paths ending on a loop): the same half-edges left."""
-    from tether.decomposition import _drop_dangles
+    from tether.decomposition.faces import _drop_dangles
 
     rng = np.random.default_rng(seed)
     nodes = 3000

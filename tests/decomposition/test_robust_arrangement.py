@@ -179,16 +179,17 @@ def test_random_maps_never_raise_geos_errors(case):
 def test_unverified_crossings_reach_the_users_verdict(monkeypatch):
     """Pieces whose crossings could not be verified while building (here: every one) make the
     self-check fail, through the conversion to the user's frame."""
-    import tether.decomposition as D
+    from tether.decomposition import pieces
+    from tether.decomposition.structure import StructureRows
 
-    real = D._arcs_across
+    real = pieces._arcs_across
 
     def garbage(env, lss, q, n, eps):  # the arcs as found, the structures unrecognizable
         table, sides = real(env, lss, q, n, eps)
-        return table, D._StructureRows(np.full(2 * len(q), -1), np.zeros(2 * len(q) + 1, int),
+        return table, StructureRows(np.full(2 * len(q), -1), np.zeros(2 * len(q) + 1, int),
                                        np.zeros(0, int))
 
-    monkeypatch.setattr(D, "_arcs_across", garbage)
+    monkeypatch.setattr(pieces, "_arcs_across", garbage)
     verdict = analyze(decompose(load_map(example_path("rectangle")), 1.0))
     assert verdict.verified is False
     assert verdict.self_check.piece_disagreements
@@ -225,7 +226,7 @@ def test_batched_arc_and_rod_tests_equal_unbatched(monkeypatch):
 
 
 def test_components_match_a_naive_union_find():
-    from tether.decomposition import _components
+    from tether._util.arrays import components
 
     rng = np.random.default_rng(5)
     for _ in range(100):
@@ -240,7 +241,7 @@ def test_components_match_a_naive_union_find():
 
         for a, b in zip(u.tolist(), v.tolist(), strict=True):
             parent[find(a)] = find(b)
-        label = _components(n, u, v)
+        label = components(n, u, v)
         roots = [find(i) for i in range(n)]
         assert all((label[i] == label[j]) == (roots[i] == roots[j])
                    for i in range(n) for j in range(n))

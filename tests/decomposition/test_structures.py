@@ -1,5 +1,6 @@
-"""Structures kept as integer rows (``_Structures``) and made into frozensets only when read,
-against the plain definition: a frozenset of each point's ``(start_code, end_code)`` pairs."""
+"""Structures kept as integer rows (:class:`~tether.decomposition.structure.Structures`) and made
+into frozensets only when read, against the plain definition: a frozenset of each point's
+``(start_code, end_code)`` pairs."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ import tether.decomposition as D
 from tether import free_arcs_many, load_map
 from tether.arcs import ArcTable
 from tether.cli import example_path
+from tether.decomposition import model
+from tether.decomposition import structure as structure_mod
 from tether.floorplan import floor_plan
 
 
@@ -72,7 +75,7 @@ def test_structure_rows_are_the_rows_of_the_frozensets():
     ids, structs = D.structure_ids(inner, table, len(table.full))
     base = 2 * inner.n + 1
     mine = structs.rows()
-    sets, of = D._set_rows([structs.structure(k) for k in ids.tolist()], base)
+    sets, of = structure_mod.set_rows([structs.structure(k) for k in ids.tolist()], base)
     for x, k in enumerate(ids.tolist()):
         r = of[x]
         assert mine.kind[k] == sets.kind[r]
@@ -86,15 +89,15 @@ def test_region_structures_made_on_first_read():
     frozensets, and they survive pickling."""
     dec = D.decompose(load_map(example_path("gallery")), 2.0)
     held = dec.regions[0]._structure
-    assert type(held) is D._Structures and not held._sets
+    assert type(held) is structure_mod.Structures and not held._sets
     assert all(r._structure is held for r in dec.regions)
     base = 2 * dec.env.internal.n + 1
-    rows, of = D._region_rows(list(dec.regions), base)
+    rows, of = model.region_rows(list(dec.regions), base)
     st = [r.structure for r in dec.regions]
     assert len(held._sets) == len(np.unique(held.region[held.region >= 2]))
-    sets, of_sets = D._set_rows(st, base)
+    sets, of_sets = structure_mod.set_rows(st, base)
     k = np.arange(len(st))
-    assert D._rows_equal(rows, of, sets, of_sets).all()
+    assert structure_mod.rows_equal(rows, of, sets, of_sets).all()
     pts = np.array([r.point for r in dec.regions])
     want = D.structures(dec.env, free_arcs_many(dec.env, pts, dec.lss, check=False), len(pts))
     assert sum(a == b for a, b in zip(st, want, strict=True)) > 0.9 * len(st)

@@ -28,8 +28,12 @@ from typing import Any
 import numpy as np
 import shapely
 
-from tether.arcs import free_arcs_many
+from tether.arcs import feature_name, free_arcs_many
+from tether.decomposition.model import region_rows
+from tether.decomposition.structure import FREE, Structures, rows_equal, table_rows
 from tether.tolerances import SCAN_POINTS_PER_DIAMETER
+
+__all__ = ["free_pieces", "random_chords", "scan", "scan_segments"]
 
 #: Bisection stops when a change is bracketed to this fraction of the margin.
 _BRACKET = 0.25
@@ -115,17 +119,15 @@ def _intervals(dec: Any, segments: np.ndarray, shapes: _RegionShapes
 class _Exact:
     """Exact structures at points as integer rows (no frozenset per point), comparable with
     the regions' own rows: in the internal frame and codes when the regions share the
-    decomposition's structure table (as :func:`tether.decomposition.decompose` makes them),
+    decomposition's structure table (as :func:`~tether.decomposition.decompose` makes them),
     else in the map's codes from the regions' structures."""
 
     def __init__(self, dec: Any) -> None:
-        from tether.decomposition import _region_rows, _Structures
-
         self.dec = dec
         env = dec.env
         held = dec.regions[0]._structure if dec.regions else None
         inner = env.internal
-        self.fast = (type(held) is _Structures and held.base == 2 * inner.n + 1
+        self.fast = (type(held) is Structures and held.base == 2 * inner.n + 1
                      and all(r._structure is held for r in dec.regions))
         if self.fast:
             self.env, self.frame, self.lss = inner, env.frame, dec.lss * env.frame.scale
@@ -133,21 +135,17 @@ class _Exact:
             self.codes = env.code_map if inner is not env else None
         else:
             self.env, self.frame, self.lss = env, None, dec.lss
-            self.regions, self.row_of = _region_rows(list(dec.regions), 2 * env.n + 1)
+            self.regions, self.row_of = region_rows(list(dec.regions), 2 * env.n + 1)
             self.codes = None
 
     def rows(self, pts: np.ndarray) -> Any:
         """The exact structures at ``pts`` (map units, (m, 2)) as rows."""
-        from tether.decomposition import _table_rows
-
         q = pts if self.frame is None else self.frame.to_internal(pts)
         table = free_arcs_many(self.env, q, self.lss, check=False)
-        return _table_rows(self.env, table, len(pts))
+        return table_rows(self.env, table, len(pts))
 
     def equal(self, a: Any, i: np.ndarray, b: Any, j: np.ndarray) -> np.ndarray:
-        from tether.decomposition import _rows_equal
-
-        return _rows_equal(a, np.asarray(i, np.int64), b, np.asarray(j, np.int64))
+        return rows_equal(a, np.asarray(i, np.int64), b, np.asarray(j, np.int64))
 
     def is_region(self, rows: Any, i: np.ndarray, region: np.ndarray) -> np.ndarray:
         """Whether structure ``i[k]`` of ``rows`` is region ``region[k]``'s."""
@@ -159,9 +157,6 @@ class _Exact:
 
     def names(self, rows: Any, i: int) -> list:
         """Structure ``i`` of ``rows`` as ``[start, end]`` feature names (the map's)."""
-        from tether.arcs import feature_name
-        from tether.decomposition import FREE
-
         if rows.kind[i] < 2:
             return [[FREE, FREE]] if rows.kind[i] == 1 else []
         base = 2 * self.env.n + 1
@@ -332,5 +327,3 @@ def scan(dec: Any, lines: int, seed: int = 0,
     segs = free_pieces(dec.env, random_chords(dec.env, lines, seed), 20 * dec.curve_tol)
     return scan_segments(dec, segs, spacing)
 
-
-__all__ = ["free_pieces", "random_chords", "scan", "scan_segments"]

@@ -9,8 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tether.decomposition as D
-from tether import free_arcs_many, load_map
+from tether import free_arcs_many, load_map, spatial
 from tether.cli import example_path
+from tether.curves import critical_curves
+from tether.decomposition import arrangement
+from tether.decomposition import pieces as pieces_mod
+from tether.decomposition import structure as structure_mod
 from tether.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
@@ -29,25 +33,26 @@ def test_structure_rows_compare_as_frozensets():
                      (floor_plan(30, seed=1), 0.6)):
         inner = env.internal
         table, st = _points_and_structures(env, lss, 300, seed=4)
-        rows = D._table_rows(inner, table, len(st))
+        rows = structure_mod.table_rows(inner, table, len(st))
         base = 2 * inner.n + 1
         copies = [frozenset(s) if isinstance(s, frozenset) else s for s in st]  # not shared
-        sets, of = D._set_rows(copies, base)
-        shared, of_shared = D._set_rows(st, base)
+        sets, of = structure_mod.set_rows(copies, base)
+        shared, of_shared = structure_mod.set_rows(st, base)
         i, j = (a.ravel() for a in np.meshgrid(np.arange(len(st)), np.arange(len(st))))
         want = np.array([st[a] == st[b] for a, b in zip(i.tolist(), j.tolist(), strict=True)])
         assert want.sum() > len(st) and not want.all()  # some equal, some not
-        assert np.array_equal(D._rows_equal(rows, i, rows, j), want)
-        assert np.array_equal(D._rows_equal(rows, i, sets, of[j]), want)
-        assert np.array_equal(D._rows_equal(shared, of_shared[i], rows, j), want)
+        assert np.array_equal(structure_mod.rows_equal(rows, i, rows, j), want)
+        assert np.array_equal(structure_mod.rows_equal(rows, i, sets, of[j]), want)
+        assert np.array_equal(structure_mod.rows_equal(shared, of_shared[i], rows, j), want)
         assert len(shared.kind) == len({id(s) for s in st})
 
 
 def test_structure_rows_of_empty_and_full():
     inner = GENERIC.internal
-    sets, of = D._set_rows(["EMPTY", "FULL", "FULL", frozenset({(1, 2)})], 2 * inner.n + 1)
+    sets, of = structure_mod.set_rows(["EMPTY", "FULL", "FULL", frozenset({(1, 2)})],
+                                      2 * inner.n + 1)
     i = np.arange(4)
-    eq = D._rows_equal(sets, of[np.repeat(i, 4)], sets, of[np.tile(i, 4)]).reshape(4, 4)
+    eq = structure_mod.rows_equal(sets, of[np.repeat(i, 4)], sets, of[np.tile(i, 4)]).reshape(4, 4)
     assert np.array_equal(eq, [[1, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 1]])
 
 
@@ -62,8 +67,8 @@ def test_staged_clearance_equals_brute_force(seed, reach):
     sowner = rng.integers(0, 40, 300)
     k = rng.integers(0, 300, 200)
     pts = 0.5 * (a[k] + b[k])
-    got = D._clearance(pts, sowner[k], a, b, sowner, D._segment_tree(a, b), reach)
-    d = D._point_segment_distance(np.repeat(pts, 300, axis=0), np.tile(a, (200, 1)),
+    got = pieces_mod._clearance(pts, sowner[k], a, b, sowner, spatial.segment_tree(a, b), reach)
+    d = spatial.point_segment_distance(np.repeat(pts, 300, axis=0), np.tile(a, (200, 1)),
                                   np.tile(b, (200, 1))).reshape(200, 300)
     d[sowner[k][:, None] == sowner[None, :]] = np.inf
     assert np.array_equal(got, np.minimum(d.min(axis=1), reach))
@@ -82,7 +87,7 @@ def test_crossing_table_gathers_each_points_rows():
     size = np.array([40, 30, 20])[rnd]
     at = np.column_stack((rnd, rng.integers(0, size), rng.integers(0, size)))
     given = list(tables)
-    got = D._crossing_table(given, at)
+    got = pieces_mod._crossing_table(given, at)
     assert given == []  # emptied: the rounds' columns freed as they are gathered
     for d in range(2 * m):
         r, s = at[d % m, 0], at[d % m, 1 + d // m]
@@ -99,15 +104,15 @@ def test_part_candidates_cached_in_batches_equal_one_pass():
     env = floor_plan(30, seed=1).internal
     lss = 0.15 * (env.bounds[2] - env.bounds[0])
     tol = REL_CURVE_TOL * env.diameter
-    curves = D.critical_curves(env, lss, REL_CURVE_TOL)
-    arr = D._arrangement(env, curves, tol)
+    curves = critical_curves(env, lss, REL_CURVE_TOL)
+    arr = arrangement.arrangement(env, curves, tol)
     rng = np.random.default_rng(2)
     first = rng.random(len(arr.parts)) < 0.5
     both = first | (rng.random(len(arr.parts)) < 0.5)
-    D._part_candidates(arr, first, tol, lss)
-    got = D._part_candidates(arr, both, tol, lss)
-    fresh = D._arrangement(env, curves, tol)
-    want = D._part_candidates(fresh, both, tol, lss)
+    pieces_mod.part_candidates(arr, first, tol, lss)
+    got = pieces_mod.part_candidates(arr, both, tol, lss)
+    fresh = arrangement.arrangement(env, curves, tol)
+    want = pieces_mod.part_candidates(fresh, both, tol, lss)
     assert len(want[0]) > 100
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
@@ -125,10 +130,10 @@ def test_arcs_across_in_batches_equal_one_table(monkeypatch):
     eps = rng.uniform(1e-6, 1e-3, len(q)) * lss
     pts = D.crossing_points(q, n, eps)
     whole = free_arcs_many(env, pts, lss, check=False)
-    rows = D._table_rows(env, whole, len(pts))
+    rows = structure_mod.table_rows(env, whole, len(pts))
     for batch in (7, 100, 10_000):
-        monkeypatch.setattr(D, "ACROSS_BATCH", batch)
-        table, sides = D._arcs_across(env, lss, q, n, eps)
+        monkeypatch.setattr(pieces_mod, "ACROSS_BATCH", batch)
+        table, sides = pieces_mod._arcs_across(env, lss, q, n, eps)
         for f in ("point", "start", "end", "start_code", "end_code", "full"):
             got, want = getattr(table, f), getattr(whole, f)
             assert got.dtype == want.dtype and np.array_equal(got, want), f
@@ -175,7 +180,7 @@ def test_project_on_sources_equals_the_sorted_choice():
     which = rng.permutation(400)[:300]
     q0 = np.vstack([c.polylines[0][len(c.polylines[0]) // 2] for c in curves])[
         rng.integers(0, len(curves), 300)] + rng.normal(0, 1e-3, (300, 2))
-    got = D._project_on_sources(curves, (ptr, src), which, q0)
+    got = pieces_mod._project_on_sources(curves, (ptr, src), which, q0)
     want = _project_on_sources_reference(curves, (ptr, src), which, q0)
     for a, b in zip(got, want, strict=True):
         assert a.tobytes() == b.tobytes()

@@ -21,14 +21,14 @@ from tether.arcs import feature_name
 from tether.decomposition import (
     FREE,
     Cell,
-    _RegionShapes,
-    _structure_cells,
-    _Structures,
     cell_name,
     decompose,
     structure_codes,
     structure_names,
 )
+from tether.decomposition.regions import _structure_cells
+from tether.decomposition.structure import Structures
+from tether.decomposition.views import RegionShapes
 from tether.floorplan import floor_plan
 
 
@@ -125,7 +125,7 @@ def test_structure_cells_sorts_like_structure_codes():
 
 
 def _as_structures(env, structs):
-    """Structures (frozensets, FULL, EMPTY) as a ``_Structures`` table (one id per distinct
+    """Structures (frozensets, FULL, EMPTY) as a ``Structures`` table (one id per distinct
     value, in order of first appearance) and the id of each."""
     base = 2 * env.n + 1
     ids = {"EMPTY": 0, "FULL": 1}
@@ -136,7 +136,7 @@ def _as_structures(env, structs):
             rows.append(sorted(a * base + b for a, b in s))
     ptr = np.cumsum([0, 0, 0] + [len(r) for r in rows])
     pairs = np.array([c for r in rows for c in r], dtype=np.int64)
-    return _Structures(base, ptr, pairs), np.array([ids[s] for s in structs], dtype=np.int64)
+    return Structures(base, ptr, pairs), np.array([ids[s] for s in structs], dtype=np.int64)
 
 
 @pytest.mark.slow
@@ -146,7 +146,7 @@ def test_multi_face_polygons_made_on_first_read():
     env, lss = _cases()[4]
     dec = decompose(env, lss)
     shapes = dec.regions[0]._polygon
-    assert type(shapes) is _RegionShapes and not shapes.converted
+    assert type(shapes) is RegionShapes and not shapes.converted
     multi = sorted(shapes._unions)
     assert len(multi) > 3
     few = shapes.some(multi[:3] + [0])

@@ -1,7 +1,7 @@
 """Maps that are not in general position (issue 21): lattice coordinates, round ``lss``, walls
 exactly ``lss`` and ``2·lss`` apart, powers of two and ten. Every answer is checked against
-the exact free arcs along random lines (:mod:`tether.scan`), an evaluation independent of the
-decomposition, and against the same map moved, turned, mirrored and scaled."""
+the exact free arcs along random lines (:mod:`tether.decomposition.scan`), an evaluation
+independent of the decomposition, and against the same map moved, turned, mirrored and scaled."""
 
 from __future__ import annotations
 
@@ -18,10 +18,10 @@ from lattice_maps import ROUND_LSS, env_of, families, rasterized, room_with_pill
 from tether.analysis import analyze
 from tether.cli import main
 from tether.decomposition import check, decompose, self_check
+from tether.decomposition.scan import scan
 from tether.environment import Environment, load_map
-from tether.scan import scan
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 
 
 def _square(side: float, x0: float = 0.0, y0: float = 0.0) -> Environment:
@@ -244,9 +244,9 @@ def test_only_the_line_scan_catches_a_room_taken_for_one_region():
 def test_the_lost_pocket_fails_the_self_check(monkeypatch):
     """The pocket between a wall and the circle of a vertex exactly lss from it, lost as it
     was before the wall stubs: the self-check fails, its lines among its findings."""
-    import tether.decomposition as D
+    from tether.decomposition import arrangement
 
-    monkeypatch.setattr(D, "wall_stubs", lambda *a, **k: np.zeros((0, 2, 2)))
+    monkeypatch.setattr(arrangement, "wall_stubs", lambda *a, **k: np.zeros((0, 2, 2)))
     env = load_map(DATA / "degenerate" / "vertex_lss_from_wall.json")
     dec = decompose(env, 1.0)
     rep = self_check(dec)

@@ -5,9 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
 
-from tether import decomposition as D
+from tether._util import arrays as arrays_mod
 from tether._util.arrays import ragged_arange
+from tether.curves import critical_curves
+from tether.decomposition import arrangement as arrangement_mod
+from tether.decomposition import faces as faces_mod
+from tether.decomposition import pieces
+from tether.decomposition import regions as regions_mod
 from tether.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
@@ -19,7 +25,7 @@ def _chains_reference(arr, face_region):
     ra, rb = fr[arr.part_faces[:, 0]], fr[arr.part_faces[:, 1]]
     parts = np.flatnonzero((ra >= 0) & (rb >= 0) & (ra != rb))
     if len(parts) == 0:
-        return D._Chains(np.zeros((0, 2), np.int64), np.zeros(1, np.int64),
+        return arrangement_mod.Chains(np.zeros((0, 2), np.int64), np.zeros(1, np.int64),
                          np.zeros(0, np.int64))
     lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
     first_id, last_id = arr.end_ids()
@@ -32,8 +38,8 @@ def _chains_reference(arr, face_region):
                                  np.repeat(end_id[len(parts):], nsrc)))
     src_row = np.tile(src, 2)
     k = parts[local]
-    group, first = D._row_ids(np.column_stack((lo[k], hi[k], end_of_row, src_row)))
-    comp = D._components(len(parts), local, local[first][group])
+    group, first = arrays_mod.row_ids(np.column_stack((lo[k], hi[k], end_of_row, src_row)))
+    comp = arrays_mod.components(len(parts), local, local[first][group])
     order = np.lexsort((parts, comp))
     comp_o, parts_o = comp[order], parts[order]
     starts = np.flatnonzero(np.r_[True, comp_o[1:] != comp_o[:-1]])
@@ -42,7 +48,7 @@ def _chains_reference(arr, face_region):
     rank = np.lexsort((head, hi[head], lo[head]))
     h = head[rank]
     size = (stops - starts)[rank]
-    return D._Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
+    return arrangement_mod.Chains(np.column_stack((lo[h], hi[h])), np.r_[0, np.cumsum(size)],
                      parts_o[ragged_arange(starts[rank], size)])
 
 
@@ -51,7 +57,7 @@ def arrangement():
     env = floor_plan(60, seed=3).internal
     lss = 0.1 * (env.bounds[2] - env.bounds[0])
     tol = REL_CURVE_TOL * env.diameter
-    return D._arrangement(env, D.critical_curves(env, lss, REL_CURVE_TOL), tol)
+    return arrangement_mod.arrangement(env, critical_curves(env, lss, REL_CURVE_TOL), tol)
 
 
 @pytest.mark.parametrize("nreg", [1, 3, 40, 10**6])
@@ -62,7 +68,7 @@ def test_chains_equal_reference(arrangement, nreg):
     for _ in range(3):
         face_region = rng.integers(0, min(nreg, nf), nf)
         face_region[rng.random(nf) < 0.1] = -1
-        got, want = D._chains(arrangement, face_region), _chains_reference(arrangement,
+        got, want = pieces.make_chains(arrangement, face_region), _chains_reference(arrangement,
                                                                             face_region)
         assert len(want) > 0 or nreg == 1
         for g, w in ((got.pair, want.pair), (got.ptr, want.ptr), (got.parts, want.parts)):
@@ -73,10 +79,10 @@ def test_equal_row_links_connect_exactly_the_equal_rows():
     rng = np.random.default_rng(1)
     for spans in ((5, 3, 7), (2**40, 2**30, 4)):  # packed, then hashed (too wide to pack)
         cols = tuple(rng.integers(0, min(s, 6), 3000) * (s // 6 + 1) for s in spans)
-        u, v = D._equal_row_links(cols)
+        u, v = pieces._equal_row_links(cols)
         rows = np.column_stack(cols)
         assert np.all(rows[u] == rows[v])
-        comp = D._components(len(rows), u, v)
+        comp = arrays_mod.components(len(rows), u, v)
         _, want = np.unique(rows, axis=0, return_inverse=True)
         # the same partition: equal rows together, different rows apart
         pairs = {(int(a), int(b)) for a, b in zip(comp, want.ravel(), strict=True)}
@@ -85,7 +91,7 @@ def test_equal_row_links_connect_exactly_the_equal_rows():
 
 def _number_regions_reference(arr, flat, size, pts, clear):
     """``_number_regions`` as it was (face lists first, a lexsort for the best faces)."""
-    face_area = D.shapely.area(arr.faces)
+    face_area = shapely.area(arr.faces)
     starts = (np.cumsum(size) - size).tolist()
     flat_list = flat.tolist()
     lists = [flat_list[a:a + n] for a, n in zip(starts, size.tolist(), strict=True)]
@@ -111,19 +117,19 @@ def test_number_regions_equal_reference(arrangement):
     and the regions' face groups as the face lists give them."""
     rng = np.random.default_rng(5)
     nf = len(arrangement.faces)
-    pts, clear = D._face_points(arrangement.faces, 1e-9)
+    pts, clear = faces_mod.face_points(arrangement.faces, 1e-9)
     clear = np.round(clear, 3)  # ties
     faces = rng.permutation(nf)[: nf - 10]
     size = rng.integers(1, 12, nf)
     size = size[np.cumsum(size) <= len(faces)]
     flat = faces[: size.sum()]
-    got = D._number_regions(arrangement, flat, size, pts, clear)
+    got = regions_mod._number_regions(arrangement, flat, size, pts, clear)
     want = _number_regions_reference(arrangement, flat, size, pts, clear)
     assert (size >= 8).any() and len(size) > 10
     for k in ("best", "area", "point", "rank", "face_region"):
         assert np.array_equal(got[k], want[k]), k
     # the regions' polygons: each region's group of faces (first face, or all of a union)
-    shapes = D._region_shapes(arrangement, flat, size, got["rank"], None)
+    shapes = regions_mod._region_shapes(arrangement, flat, size, got["rank"], None)
     lists = want["lists"]
     assert len(shapes._unions) == sum(len(lists[g]) > 1 for g in want["rank"]) > 10
     for rid, g in enumerate(want["rank"].tolist()):
@@ -132,7 +138,7 @@ def test_number_regions_equal_reference(arrangement):
             assert shapes._unions[rid].tolist() == arrangement.faces[lists[g]].tolist()
         else:
             assert rid not in shapes._unions
-    empty = D._region_shapes(arrangement, flat[:0], size[:0], got["rank"][:0], None)
+    empty = regions_mod._region_shapes(arrangement, flat[:0], size[:0], got["rank"][:0], None)
     assert len(empty) == 0 and empty._unions is None
 
 
@@ -144,7 +150,7 @@ def test_best_per_group_is_the_lexsort_head():
     for v in (value, np.where(rng.random(3000) < 0.05, np.nan, value)):
         order = np.lexsort((-v, group))
         want = order[np.r_[True, group[order][1:] != group[order][:-1]]]
-        assert np.array_equal(D._best_per_group(v, group), want)
+        assert np.array_equal(regions_mod._best_per_group(v, group), want)
 
 
 def test_descending_within_runs_is_the_lexsort():
@@ -156,9 +162,9 @@ def test_descending_within_runs_is_the_lexsort():
         value = rng.integers(0, 5, len(run)).astype(float)  # many ties
         value[rng.random(len(run)) < 0.05] = -np.inf
         for v in (value, np.where(rng.random(len(run)) < 0.03, np.nan, value)):
-            assert np.array_equal(D._descending_within_runs(v, start, count),
+            assert np.array_equal(pieces._descending_within_runs(v, start, count),
                                   np.lexsort((-v, run)))
-    assert len(D._descending_within_runs(np.zeros(0), np.zeros(0, int), np.zeros(0, int))) == 0
+    assert len(pieces._descending_within_runs(np.zeros(0), np.zeros(0, int), np.zeros(0, int))) == 0
 
 
 def _part_candidates_reference(arr, need, tol, lss):
@@ -174,7 +180,7 @@ def _part_candidates_reference(arr, need, tol, lss):
     take = order[(rank < 6) & (ln[order] > 0)]
     Q = 0.5 * (a[take] + b[take])
     mine = part[take]
-    return Q, mine, D._clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
+    return Q, mine, pieces._clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
 
 
 def _crossing_candidates_reference(arr, chains, tol, lss):
@@ -191,7 +197,7 @@ def _crossing_candidates_reference(arr, chains, tol, lss):
     ok = ok[rank < 8]
     eps = np.minimum(0.25 * (clear[ok] - tol), max(50 * tol, 1e-4 * lss))
     ptr = np.searchsorted(chain[ok], np.arange(len(chains) + 1))
-    return D._Candidates(ptr, Q[ok].reshape(-1, 2), eps)
+    return pieces.Candidates(ptr, Q[ok].reshape(-1, 2), eps)
 
 
 @pytest.mark.slow
@@ -202,15 +208,15 @@ def test_crossing_candidates_equal_reference(nreg, k):
     env = floor_plan(40, seed=2).internal
     lss = 0.12 * (env.bounds[2] - env.bounds[0])
     for tol in (k * REL_CURVE_TOL * env.diameter,):
-        curves = D.critical_curves(env, lss, REL_CURVE_TOL)
-        arr = D._arrangement(env, curves, tol)
+        curves = critical_curves(env, lss, REL_CURVE_TOL)
+        arr = arrangement_mod.arrangement(env, curves, tol)
         rng = np.random.default_rng(nreg)
         nf = len(arr.faces)
         face_region = rng.integers(0, min(nreg, nf), nf)
-        chains = D._chains(arr, face_region)
-        got = D._crossing_candidates(arr, chains, tol, lss)
-        want = _crossing_candidates_reference(D._arrangement(env, curves, tol), chains, tol,
-                                              lss)
+        chains = pieces.make_chains(arr, face_region)
+        got = pieces.crossing_candidates(arr, chains, tol, lss)
+        want = _crossing_candidates_reference(arrangement_mod.arrangement(env, curves, tol),
+                                              chains, tol, lss)
         assert len(want.eps) > 50 and (want.count < want.count.max()).any()
         for g, w in ((got.ptr, want.ptr), (got.q, want.q), (got.eps, want.eps)):
             assert np.array_equal(g, w)
@@ -223,22 +229,22 @@ def test_isolated_regions_are_those_of_the_chains():
     their own (some isolated at the larger tolerances)."""
     env = floor_plan(40, seed=5).internal
     lss = 0.12 * (env.bounds[2] - env.bounds[0])
-    curves = D.critical_curves(env, lss, REL_CURVE_TOL)
+    curves = critical_curves(env, lss, REL_CURVE_TOL)
     seen = 0
     for k in (1, 300):
         tol = k * REL_CURVE_TOL * env.diameter
-        arr = D._arrangement(env, curves, tol)
+        arr = arrangement_mod.arrangement(env, curves, tol)
         rng = np.random.default_rng(k)
         for nreg in (2, 30):
             face_region = rng.integers(0, nreg, len(arr.faces))
             face_region[rng.random(len(face_region)) < 0.2] = -1
-            small = np.argsort(D.shapely.area(arr.faces))[:40]
+            small = np.argsort(shapely.area(arr.faces))[:40]
             face_region[small] = nreg + np.arange(40)
-            chains = D._chains(arr, face_region)
-            cands = D._crossing_candidates(arr, chains, tol, lss)
+            chains = pieces.make_chains(arr, face_region)
+            cands = pieces.crossing_candidates(arr, chains, tol, lss)
             touched = np.zeros(nreg + 40, bool)
             touched[chains.pair[cands.count > 0].ravel()] = True
             want = set(np.flatnonzero(~touched).tolist())
-            assert D._isolated_regions(arr, face_region, nreg + 40, tol, lss) == want
+            assert regions_mod._isolated_regions(arr, face_region, nreg + 40, tol, lss) == want
             seen += len(want)
     assert seen

@@ -221,7 +221,8 @@ def test_self_check_converts_only_the_regions_it_samples():
     exactly as from the converted batch."""
     import shapely
 
-    from tether.decomposition import _polygons, decompose, sample_in_regions, self_check
+    from tether.decomposition import decompose, sample_in_regions, self_check
+    from tether.decomposition.verify import _polygons
 
     env, lss = _scaled_map()
     dec = decompose(env, lss)
@@ -241,7 +242,7 @@ def test_curves_converted_at_once_equal_each_curves_own_conversion():
     bit for bit, the curves of :meth:`Curve.to_user` one by one, on a scaled, offset and
     renumbered map (C and D parameters are lengths: scaled; the others kept)."""
     from tether.curves import critical_curves
-    from tether.userframe import UserFrame
+    from tether.decomposition.frame import UserFrame
 
     env, lss = _scaled_map()
     frame = UserFrame(env, lss)
@@ -290,7 +291,7 @@ def test_user_curves_converted_on_first_read_once():
     assert pickle.loads(pickle.dumps(dec)).curves[0].polylines[0].tolist() == \
         first.polylines[0].tolist()
     # the same numbers as converting each curve on its own
-    from tether.userframe import UserFrame
+    from tether.decomposition.frame import UserFrame
 
     names = UserFrame(env, lss).names
     fresh = decompose(env, lss)

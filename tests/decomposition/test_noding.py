@@ -12,13 +12,13 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import tether.noding as noding
+import tether.decomposition.noding as noding
 from tether import load_map
 from tether.analysis import analyze
 from tether.cli import example_path
 from tether.decomposition import check, decompose
+from tether.decomposition.noding import STRIP_MIN_SEGMENTS, cut_position, node_lines, strip_cut
 from tether.floorplan import floor_plan
-from tether.noding import STRIP_MIN_SEGMENTS, cut_position, node_lines, strip_cut
 
 coord = st.floats(-10, 10, allow_nan=False).map(lambda v: round(v, 2))
 

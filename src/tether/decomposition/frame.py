@@ -21,8 +21,11 @@ import numpy as np
 
 from tether.arcs import ArcTable
 from tether.curves import Curve, curves_to_user
-from tether.decomposition import FREE, _PieceTable, _Shapes, _Structures
+from tether.decomposition.structure import FREE, Structures
+from tether.decomposition.views import PieceTable, Shapes
 from tether.environment import Environment
+
+__all__ = ["UserFrame"]
 
 
 class UserFrame:
@@ -89,12 +92,12 @@ class UserFrame:
         at once (:func:`~tether.curves.curves_to_user`)."""
         return tuple(curves_to_user(curves, self.frame, self.names))
 
-    def pieces(self, table: _PieceTable) -> None:
+    def pieces(self, table: PieceTable) -> None:
         """Convert the pieces' columns to the user's frame, in place (they were just made in
         the internal frame and nothing else holds them): samples and offsets vectorized,
         features renamed in the small table of distinct descriptions. Their lines are kept as
         made, in the shared holder, now converting them all at once on the first read
-        (:class:`~tether.decomposition._Shapes`). Normals are unchanged (the frame scales
+        (:class:`~tether.decomposition.views.Shapes`). Normals are unchanged (the frame scales
         and translates)."""
         if not len(table):
             return
@@ -106,29 +109,29 @@ class UserFrame:
 
     def regions(self, regions: list) -> None:
         """Have the regions' structures read in the file's feature codes: the shared
-        :class:`~tether.decomposition._Structures` they hold makes its frozensets so from now
-        on (regions holding their own structure, just made and held by nothing else, have it
-        rewritten in place); their area, point and cell names are the user's already, their
-        polygons converted (and prepared) all at once on the first read of any of them
-        (``_make_regions``)."""
+        :class:`~tether.decomposition.structure.Structures` they hold makes its frozensets so
+        from now on (regions holding their own structure, just made and held by nothing else,
+        have it rewritten in place); their area, point and cell names are the user's already,
+        their polygons converted (and prepared) all at once on the first read of any of them
+        (:func:`~tether.decomposition.regions.make_regions`)."""
         if not regions or self.same:
             return
         held = regions[0]._structure
-        if type(held) is _Structures and all(r._structure is held for r in regions):
+        if type(held) is Structures and all(r._structure is held for r in regions):
             held.to_file(self.code_map)
             return
         put = object.__setattr__
         for r in regions:
             put(r, "_structure", self.structure(r.structure))
 
-    def shapes(self, geoms: Any, prepare: bool = False) -> _Shapes:
+    def shapes(self, geoms: Any, prepare: bool = False) -> Shapes:
         """The internal-frame ``geoms`` (a list or an object array) of regions or pieces in a
         holder converting them to the map's frame (and preparing them) on the first read.
         Item ``i`` is read by the object of id ``i``: regions and pieces are numbered in order
         as made."""
         arr = (geoms if isinstance(geoms, np.ndarray) else
                np.fromiter(geoms, dtype=object, count=len(geoms)))
-        return _Shapes(arr, self.frame, prepare)
+        return Shapes(arr, self.frame, prepare)
 
     def crossing_arcs(self, arcs: ArcTable) -> ArcTable:
         """The crossings' arc table with the file's feature codes (angles are those of the

@@ -16,19 +16,20 @@ import pytest
 import shapely
 from conftest import GENERIC, SQUARE_HOLE
 
-import tether.decomposition as D
 from tether import Environment
 from tether.analysis.connectivity import piece_regions
-from tether.decomposition import FREE, Piece, _describe_chains, decompose
+from tether.decomposition import FREE, Piece, decompose, pipeline, verify
+from tether.decomposition import pieces as pieces_mod
+from tether.decomposition.pieces import _describe_chains
 from tether.floorplan import floor_plan
 
 
 def _reference_pieces(env, arr, regions, chains, cands, curves, lss) -> list[Piece]:
     """The former construction: one Piece object per kept chain, internal frame."""
     sptr, ssrc = arr.chain_sources(chains)
-    got, _ = D._pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
+    got, _ = pieces_mod._pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
     kept = np.flatnonzero(cands.count > 0)
-    geoms = D._chain_geometries(arr, chains, kept).tolist()
+    geoms = pieces_mod._chain_geometries(arr, chains, kept).tolist()
     flat, ptr = ssrc.tolist(), sptr.tolist()
     pieces = []
     for k, i in enumerate(kept.tolist()):
@@ -64,13 +65,13 @@ def _decompose_with_reference(monkeypatch, env, lss):
     """``decompose(env, lss)`` and the pieces the former construction made from the same
     inputs (internal frame)."""
     refs = []
-    made = D._make_pieces
+    made = pieces_mod.make_pieces
 
     def spy(*args):
         refs.append(_reference_pieces(*args))
         return made(*args)
 
-    monkeypatch.setattr(D, "_make_pieces", spy)
+    monkeypatch.setattr(pipeline, "make_pieces", spy)
     dec = decompose(env, lss)
     return dec, refs[0]
 
@@ -149,9 +150,9 @@ def test_columns_read_by_g_the_crossings_and_the_self_check():
     table = dec.pieces._table
     table.ok = table.ok.copy()
     table.ok[[1, 4]] = False
-    got = D._unverified(dec.pieces)
+    got = verify._unverified(dec.pieces)
     assert got == [p for p in dec.pieces if not p.verified] == [dec.pieces[1], dec.pieces[4]]
-    assert D._unverified(tuple(dec.pieces)) == got
+    assert verify._unverified(tuple(dec.pieces)) == got
 
 
 def _describe_reference(sptr, ssrc, which, curves):

@@ -21,9 +21,9 @@ from shapely.geometry import LineString, Point, Polygon
 from tether.arcs import free_arcs, rod_is_free
 from tether.cli import main
 from tether.decomposition import check, decompose
+from tether.decomposition.scan import scan
 from tether.environment import Environment, from_dict
 from tether.errors import InvalidMapError
-from tether.scan import scan
 
 #: name -> (boundary, holes, the touching point)
 MAPS = {

@@ -1,0 +1,436 @@
+"""The faces of the noded arrangement: traced on the planar graph of the parts' half-edges
+(``shapely.polygonize`` the fallback), the faces on the two sides of every part, and a point
+well inside each face with its clearance (inscribed circles where it matters)."""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from tether._util.arrays import ragged_arange, row_ids
+from tether._util.threads import map_chunks
+
+__all__ = ["MIC_MIN_BOUND", "face_points", "part_ends", "part_segments", "polygonize_faces",
+           "ring_segments", "trace_faces"]
+
+
+def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """An integer id per undirected segment ``a[k]-b[k]``, equal for equal coordinates."""
+    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
+    lo = np.where(swap[:, None], b, a)
+    hi = np.where(swap[:, None], a, b)
+    return row_ids(np.column_stack((lo, hi)))[0]
+
+
+def _point_ids(pts: np.ndarray) -> np.ndarray:
+    """An integer id per point, equal for equal coordinates."""
+    return row_ids(pts)[0]
+
+
+def ring_segments(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All segments of the rings of polygons (or of linestrings): (a, b, owner index)."""
+    rings = shapely.get_rings(geoms, return_index=True) if len(geoms) and \
+        shapely.get_type_id(geoms[0]) == 3 else (geoms, np.arange(len(geoms)))
+    lines, owner = rings
+    coords, idx = shapely.get_coordinates(lines, return_index=True)
+    same = idx[1:] == idx[:-1]
+    k = np.flatnonzero(same)
+    return np.take(coords, k, axis=0), np.take(coords, k + 1, axis=0), owner[idx[k]]
+
+
+def polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: np.ndarray,
+                     longest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`trace_faces` by ``shapely.polygonize`` (the fallback): the faces, and which
+    faces lie on the two sides of each part, by matching the part's longest segment
+    (``longest``: its index in the parts' segments ``pa-pb`` of owner ``powner``) with the
+    faces' ring segments (polygonize keeps the noded coordinates exactly)."""
+    faces = shapely.get_parts(shapely.polygonize(parts))
+    fa, fb, fowner = ring_segments(faces)
+    ids = _segment_ids(np.vstack((pa[longest], fa)), np.vstack((pb[longest], fb)))
+    part_ids, face_ids = ids[: len(longest)], ids[len(longest):]
+    part_faces = np.full((len(parts), 2), -1)
+    # the first two faces (in face order) having each part's longest segment in their ring
+    order = np.argsort(face_ids, kind="stable")
+    sorted_ids, owner_sorted = face_ids[order], fowner[order]
+    pos = np.searchsorted(sorted_ids, part_ids)
+    for slot in (0, 1):
+        at = np.minimum(pos + slot, max(len(sorted_ids) - 1, 0))
+        hit = (pos + slot < len(sorted_ids)) & (sorted_ids[at] == part_ids) if len(
+            sorted_ids) else np.zeros(len(part_ids), bool)
+        part_faces[powner[longest[hit]], slot] = owner_sorted[at[hit]]
+    return faces, part_faces
+
+
+def part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The parts' coordinates, each part's number of points, index of its first and of its
+    last point there, and an id per end point (first points, then last points), equal for
+    equal coordinates."""
+    coords, idx = shapely.get_coordinates(parts, return_index=True)
+    count = np.bincount(idx, minlength=len(parts))
+    start = np.cumsum(count) - count  # parts have 2 or more points
+    last = start + count - 1
+    return coords, count, start, last, _point_ids(np.take(coords, np.r_[start, last], axis=0))
+
+
+def part_segments(ends: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`ring_segments` of the parts from their :func:`part_ends` (the same arrays,
+    without reading the coordinates again)."""
+    coords, count, start = ends[:3]
+    i = ragged_arange(start, count - 1)
+    return (np.take(coords, i, axis=0), np.take(coords, i + 1, axis=0),
+            np.repeat(np.arange(len(count)), count - 1))
+
+
+def trace_faces(parts: np.ndarray, ends: tuple | None = None
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The faces of the noded ``parts`` (polygons) and the faces on the two sides of every
+    part (``(nparts, 2)``, the smaller face id first, -1 for none), traced on the planar
+    graph of the parts' half-edges in numpy instead of ``shapely.polygonize`` and matching
+    rings back to parts (several times slower). As polygonize: dangles and cut edges bound
+    no face (their parts get ``(-1, -1)``), rings touching themselves at a node are split
+    into simple rings, counter-clockwise rings are shells, clockwise rings holes of the
+    smallest shell containing them, the unbounded face is none. Returns None where the
+    tracing cannot decide (two half-edges leaving a node in exactly the same direction,
+    which noding rules out, or a ring with no point off its cycle's other rings): the caller
+    polygonizes then. ``ends``: :func:`part_ends` of the parts, if already computed."""
+    n = len(parts)
+    coords, count, start, last, ends = ends if ends is not None else part_ends(parts)
+    origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
+    origin[0::2], origin[1::2] = ends[:n], ends[n:]
+    nodes = int(ends.max(initial=-1)) + 1
+    alive = _drop_dangles(origin, nodes)
+    step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
+    step[0::2] = coords[start + 1] - coords[start]
+    step[1::2] = coords[last - 1] - coords[last]
+    for h in np.flatnonzero(~step.any(axis=1)).tolist():  # a repeated point (none seen)
+        k, sign = h // 2, 1 - 2 * (h % 2)
+        at = start[k] if sign > 0 else last[k]
+        j = at + sign
+        while not (coords[j] != coords[at]).any():  # parts have length > 0
+            j += sign
+        step[h] = coords[j] - coords[at]
+    angle = np.arctan2(step[:, 1], step[:, 0])
+    label = off = None
+    for _ in range(2):  # the second pass without the cut edges
+        nxt = _next_half_edges(origin, angle, alive)
+        if nxt is None:
+            return None
+        label, off = _cycle_labels(nxt, alive)
+        cut = alive[0::2] & (label[0::2] == label[1::2])  # one face on both sides
+        if not cut.any():
+            break
+        alive[0::2] &= ~cut
+        alive[1::2] &= ~cut
+        off = None  # the labels are not those of the half-edges left
+    # alive half-edges, cycle after cycle, in order
+    seq = _cycle_order(nxt, label, alive) if off is None else _cycles_laid_out(label, off,
+                                                                                alive)
+    at = np.where(np.arange(2 * n) % 2 == 0, np.repeat(start, 2), np.repeat(last, 2))
+    inner = np.where(np.repeat(count, 2) > 2, np.repeat(start + 1, 2), -1)
+    loop = _split_pinched(seq, label[seq], origin, at, inner)
+    if loop is None:
+        return None
+    ring_of, test_pt = loop
+    # each ring's coordinates: every half-edge's points but its last, then the first again
+    fwd = seq % 2 == 0
+    k = seq // 2
+    m = count[k] - 1
+    # a half-edge's j-th point: its first point's index, then forwards or backwards
+    ci = ragged_arange(np.zeros(len(seq), np.int64), m)
+    ci *= np.repeat(np.where(fwd, 1, -1), m)
+    ci += np.repeat(np.where(fwd, start[k], last[k]), m)
+    ring_pt = np.repeat(ring_of, m)
+    if np.any(ring_pt[1:] < ring_pt[:-1]):  # rings split off pinched cycles: numbered last
+        order = np.argsort(ring_pt, kind="stable")
+        ci, ring_pt = ci[order], ring_pt[order]
+    nring = int(ring_of.max(initial=-1)) + 1
+    first = np.searchsorted(ring_pt, np.arange(nring))
+    ci = np.insert(ci, np.r_[first[1:], len(ci)], ci[first])  # close each ring
+    xy = coords[ci]
+    size = np.bincount(ring_pt, minlength=nring) + 1
+    ring_ptr = np.r_[0, np.cumsum(size)]
+    ccw = _rings_ccw(xy, ring_ptr)
+    shell = np.flatnonzero(ccw)
+    hole = np.flatnonzero(~ccw)
+    face_of_ring = np.full(nring, -1)
+    face_of_ring[shell] = np.arange(len(shell))
+    faces = _ragged_polygons(xy, ring_ptr, shell, np.ones(len(shell), np.int64))
+    # holes: in the smallest shell whose interior holds a point of theirs off every pinch
+    # (the faces have no holes yet: their polygons are their shells)
+    pts = shapely.points(coords[test_pt[hole]])
+    hi, si = shapely.STRtree(faces).query(pts, predicate="within")
+    area = shapely.area(faces)
+    pick = np.lexsort((area[si], hi))
+    hi, si = hi[pick], si[pick]
+    head = np.r_[True, hi[1:] != hi[:-1]] if len(hi) else np.zeros(0, bool)
+    face_of_ring[hole[hi[head]]] = si[head]
+    # the faces with holes again: each shell then its holes
+    inner = hole[face_of_ring[hole] >= 0]
+    if len(inner):
+        with_holes = np.unique(face_of_ring[inner])
+        rows = np.concatenate((shell[with_holes], inner))
+        o = np.argsort(face_of_ring[rows], kind="stable")
+        faces[with_holes] = _ragged_polygons(xy, ring_ptr, rows[o], np.bincount(
+            face_of_ring[rows], minlength=len(shell))[with_holes])
+    side = np.full(2 * n, -1)
+    side[seq] = face_of_ring[ring_of]
+    pf = np.sort(side.reshape(n, 2), axis=1)
+    one = pf[:, 0] < 0  # -1 (none) goes second
+    pf[one] = pf[one][:, ::-1]
+    pf[pf[:, 0] == pf[:, 1]] = -1
+    return faces, pf
+
+
+def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """Whether each closed ring ``xy[ptr[r]:ptr[r + 1]]`` runs counter-clockwise: the sign of
+    its shoelace sum about its first point where that exceeds the sum's rounding bound
+    (nearly all), GEOS's robust ``is_ccw`` for the others (specks of ~1e-16 map units)."""
+    nring = len(ptr) - 1
+    size = np.diff(ptr)
+    ring = np.repeat(np.arange(nring), size)
+    d = xy - np.repeat(np.take(xy, ptr[:-1], axis=0), size, axis=0)
+    a = d[:-1, 0] * d[1:, 1]
+    b = d[1:, 0] * d[:-1, 1]
+    # pairs of consecutive points, each summed in its first point's ring: a ring's last
+    # point (its first again: d = 0) and the next ring's first (d = 0) add 0 to its sums
+    row = ring[:-1]
+    total = np.bincount(row, weights=a - b, minlength=nring)
+    bound = np.bincount(row, weights=np.abs(a) + np.abs(b), minlength=nring)
+    ccw = total > 0
+    unsure = np.flatnonzero(np.abs(total) <= 8 * np.diff(ptr) * np.finfo(float).eps * bound)
+    if len(unsure):
+        idx = ragged_arange(ptr[unsure], ptr[unsure + 1] - ptr[unsure])
+        rings = shapely.linearrings(xy[idx], indices=np.repeat(np.arange(len(unsure)),
+                                                                size[unsure]))
+        ccw[unsure] = shapely.is_ccw(rings)
+    return ccw
+
+
+def _ragged_polygons(xy: np.ndarray, ptr: np.ndarray, rings: np.ndarray,
+                     per_polygon: np.ndarray) -> np.ndarray:
+    """Polygons from closed rings ``xy[ptr[r]:ptr[r + 1]]``: ``rings`` in order, the first
+    ``per_polygon[0]`` of them the first polygon (shell, then holes), and so on; built in one
+    call, without intermediate ring objects."""
+    size = ptr[rings + 1] - ptr[rings]
+    idx = ragged_arange(ptr[rings], size)
+    offsets = (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_polygon)])
+    return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy[idx],
+                                                offsets), dtype=object)
+
+
+def _drop_dangles(origin: np.ndarray, nodes: int) -> np.ndarray:
+    """Which half-edges (``origin``: each one's start node, twins ``2k``, ``2k + 1``) remain
+    once dangles are removed: parts with an end of degree 1, repeatedly."""
+    alive = np.ones(len(origin), bool)
+    deg = np.bincount(origin, minlength=nodes)  # alive half-edges leaving each node
+    # and the sum of their indices (exact in floats): at a tip, its one half-edge
+    total = np.bincount(origin, weights=np.arange(len(origin), dtype=float), minlength=nodes)
+    tip = np.flatnonzero(deg == 1)
+    while len(tip):
+        part = np.unique(total[tip].astype(np.int64) // 2)
+        alive[2 * part] = alive[2 * part + 1] = False
+        gone = np.concatenate((2 * part, 2 * part + 1))
+        end = origin[gone]
+        np.subtract.at(deg, end, 1)
+        np.subtract.at(total, end, gone.astype(float))
+        tip = np.unique(end[deg[end] == 1])
+    return alive
+
+
+def _next_half_edges(origin: np.ndarray, angle: np.ndarray, alive: np.ndarray
+                     ) -> np.ndarray | None:
+    """The next half-edge of each alive one along its face (the face on its left): at its end
+    node, the outgoing half-edge just clockwise of its twin. None if two half-edges leave a
+    node in exactly the same direction."""
+    live = np.flatnonzero(alive)
+    order = _by_origin_then_angle(origin, angle, live)
+    o, a = origin[order], angle[order]
+    if np.any((o[1:] == o[:-1]) & (a[1:] == a[:-1])):
+        return None
+    pos = np.empty(len(origin), np.int64)
+    pos[order] = np.arange(len(order))
+    gstart = np.flatnonzero(np.r_[True, o[1:] != o[:-1]])
+    prev = np.arange(-1, len(order) - 1)  # the one before in the sorted order, cyclic per node
+    prev[gstart] = np.r_[gstart[1:], len(order)] - 1
+    nxt = np.full(len(origin), -1)
+    nxt[live] = order[prev[pos[live ^ 1]]]  # from each half-edge's twin, in the sorted order
+    return nxt
+
+
+def _by_origin_then_angle(origin: np.ndarray, angle: np.ndarray, live: np.ndarray
+                          ) -> np.ndarray:
+    """``live[np.lexsort((angle[live], origin[live]))]`` (``origin``: integers from 0,
+    ``angle``: radians in ``[-pi, pi]``), by one sort of ``origin + (angle + pi) / (4 pi)``:
+    that key grows with the origin, then with the angle, but may round distinct angles of
+    one origin to equal keys. The order is the lexsort's if the angles then strictly
+    increase within each origin (no ties: the sorted order is unique), else the lexsort
+    is made."""
+    o, a = origin[live], angle[live]
+    order = live[np.argsort(o + (a + np.pi) * (0.25 / np.pi))]
+    o, a = origin[order], angle[order]
+    if np.all(o[1:] >= o[:-1]) and not np.any((o[1:] == o[:-1]) & (a[1:] <= a[:-1])):
+        return order
+    return live[np.lexsort((angle[live], origin[live]))]
+
+
+def _cycle_labels(nxt: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest half-edge of each alive half-edge's cycle under ``nxt`` (dead ones: their
+    own index), and the steps from the half-edge to it along ``nxt`` (0 for itself).
+    Pointer doubling: ``label[h]`` is the least of the ``2^k`` half-edges from ``h`` on,
+    first met ``off[h]`` steps on, ``jump[h]`` the one after them; once a round changes no
+    label, each label is its cycle's least (following ``jump`` from ``h`` the labels cannot
+    decrease, so they are equal all around, and those windows cover the cycle)."""
+    small = np.int32 if len(nxt) < 2**31 else np.int64  # less memory read per round
+    label = np.arange(len(nxt), dtype=small)
+    off = np.zeros(len(nxt), small)
+    jump = np.where(alive, nxt, np.arange(len(nxt)))
+    span = 1
+    while True:
+        ahead = label[jump]
+        take = np.flatnonzero(ahead < label)  # the least only in the window's second half
+        if len(take) == 0:
+            return label.astype(np.int64), off.astype(np.int64)
+        label[take] = ahead[take]
+        off[take] = off[jump[take]] + span
+        jump = jump[jump]
+        span *= 2
+
+
+def _cycles_laid_out(label: np.ndarray, off: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """:func:`_cycle_order` from the cycles' labels and each half-edge's steps to its label
+    (:func:`_cycle_labels`): every half-edge put at its place, no sort."""
+    live = np.flatnonzero(alive)
+    lab = label[live]
+    first = live[lab == live]  # the cycles' least half-edges, increasing
+    cycle = np.empty(len(label), np.int64)
+    cycle[first] = np.arange(len(first))
+    c = cycle[lab]
+    size = np.bincount(c, minlength=len(first))
+    n = size[c]
+    at = (n - off[live]) % np.maximum(n, 1)  # steps from the label to it
+    seq = np.empty(len(live), np.int64)
+    seq[(np.cumsum(size) - size)[c] + at] = live
+    return seq
+
+
+def _cycle_order(nxt: np.ndarray, label: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """The alive half-edges cycle after cycle (by smallest half-edge), each cycle from its
+    smallest half-edge along ``nxt`` (list ranking by pointer doubling)."""
+    live = np.flatnonzero(alive)
+    succ = nxt.copy()
+    tail = np.zeros(len(nxt), bool)
+    tail[live] = nxt[live] == label[live]  # the last half-edge of its cycle
+    succ[~alive | tail] = np.flatnonzero(~alive | tail)
+    dist = np.where(alive & ~tail, 1, 0)  # steps to the cycle's last half-edge
+    act = np.flatnonzero(succ[succ] != succ)  # not yet pointing at their cycle's last
+    while len(act):  # pointer doubling on the half-edges still jumping (long cycles)
+        s = succ[act]
+        dist[act] += dist[s]
+        succ[act] = succ[s]
+        act = act[succ[succ[act]] != succ[act]]
+    return live[np.lexsort((-dist[live], label[live]))]
+
+
+def _split_pinched(seq: np.ndarray, lab: np.ndarray, origin: np.ndarray, at: np.ndarray,
+                   inner: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Simple rings from the cycles ``seq`` (half-edges cycle after cycle, in order; ``lab``:
+    their cycle): a cycle passing a node twice is cut there into rings (rare: a Python loop
+    over those cycles only). Returns the ring of every position of ``seq`` and, per ring, the
+    coordinate index of a point of it on no other ring of its cycle (a node passed once, or
+    an inner point of a part: ``at`` and ``inner`` per half-edge, -1 for none), None if a
+    ring has none."""
+    new = np.r_[True, lab[1:] != lab[:-1]] if len(lab) else np.zeros(0, bool)
+    ring = np.cumsum(new) - 1
+    test = at[seq[new]]
+    key = ring * (int(origin.max(initial=0)) + 1) + origin[seq]
+    srt = np.sort(key)
+    dup = srt[1:][srt[1:] == srt[:-1]]
+    pinched = np.unique(dup // (int(origin.max(initial=0)) + 1))
+    if len(pinched) == 0:
+        return ring, test
+    ring = ring.copy()
+    tests = test.tolist()
+    starts = np.flatnonzero(new)
+    stops = np.r_[starts[1:], len(seq)]
+    for c in pinched.tolist():
+        a, b = int(starts[c]), int(stops[c])
+        nodes = origin[seq[a:b]].tolist()
+        seen: dict[int, int] = {}
+        for v in nodes:
+            seen[v] = seen.get(v, 0) + 1
+        loops: list[list[int]] = []
+        stack: list[int] = []  # positions in seq
+        where: dict[int, int] = {}
+        for p, v in zip(range(a, b), nodes, strict=True):
+            if v in where:
+                i = where[v]
+                loops.append(stack[i:])
+                for q in stack[i:]:
+                    del where[int(origin[seq[q]])]
+                del stack[i:]
+            where[v] = len(stack)
+            stack.append(p)
+        loops.append(stack)
+        for j, lp in enumerate(loops):
+            free = [int(at[seq[q]]) for q in lp if seen[int(origin[seq[q]])] == 1]
+            free += [int(inner[seq[q]]) for q in lp if inner[seq[q]] >= 0]
+            if not free:
+                return None
+            r = c if j == 0 else len(tests)
+            if j:
+                tests.append(0)
+            ring[lp] = r
+            tests[r] = free[0]
+    return ring, np.asarray(tests, dtype=np.int64)
+
+
+def face_points(faces: np.ndarray, tol: float, grid: float = 0.0
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """A point well inside each face and its distance to the face's boundary (map units).
+
+    ``point_on_surface`` first; faces where it lies closer than ``4 tol`` to the boundary get
+    the centre of their maximum inscribed circle instead if that is farther. The circle (the
+    costly step) is skipped where it cannot change a result: faces that cannot be resolved
+    (:data:`MIC_MIN_BOUND`; the pipeline only compares clearances with ``2 tol`` and, among
+    resolved faces, with each other) whose point is clear of the boundary by more than
+    rounding and the noding ``grid`` (whether the face is in the free space is then the same
+    at either point; specks of ~1e-16 map units, where it is not, get their circle: cheap)."""
+    inside = map_chunks(shapely.point_on_surface, faces)  # element-wise: on every core
+    pts = shapely.get_coordinates(inside)
+    clear = map_chunks(_boundary_distance, np.arange(len(faces)), faces=faces, points=inside)
+    thin = np.flatnonzero(clear < 4 * tol)
+    speck = clear[thin] < 1e-6 * tol + 2 * grid
+    thin = thin[speck | (_inradius_bound(faces[thin]) >= MIC_MIN_BOUND * tol)]
+    if len(thin):
+        # the costly step (long slivers), face by face: on every core
+        circ = map_chunks(shapely.maximum_inscribed_circle, faces[thin], tolerance=0.1 * tol)
+        c = shapely.get_coordinates(circ)[::2]
+        r = shapely.length(circ)
+        better = r > clear[thin]
+        pts[thin[better]] = c[better]
+        clear[thin[better]] = r[better]
+    return pts, clear
+
+
+def _boundary_distance(rows: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The distance from ``points[rows]`` to the boundaries of ``faces[rows]`` (map units)."""
+    return shapely.distance(shapely.boundary(faces[rows]), points[rows])
+
+
+#: Faces whose inradius bound (:func:`_inradius_bound`) is below this many curve tolerances
+#: get no inscribed circle: their inradius is below ``2 tol`` with a margin of 4/3 (the bound
+#: holds up to rounding: measured within 4e-8 relative on faces clear of specks, the faces
+#: that get the circle anyway; specks of ~1e-16 map units exceed it by up to 2x).
+MIC_MIN_BOUND = 1.5
+
+
+def _inradius_bound(polys: np.ndarray) -> np.ndarray:
+    """An upper bound of each polygon's inradius (map units): ``2 area / perimeter`` of its
+    convex hull (a convex set containing a disc of radius ``r`` has area at least
+    ``r * perimeter / 2``; the polygon's disc lies in its hull). Vectorized, cheap."""
+    if len(polys) == 0:
+        return np.zeros(0)
+    hull = shapely.convex_hull(polys)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bound = 2 * shapely.area(hull) / shapely.length(hull)
+    return np.nan_to_num(bound, nan=0.0)

@@ -1,0 +1,284 @@
+"""The decomposition's result: :class:`Decomposition` (curves, regions, cells, pieces and
+point location) and its :class:`Region` records (see ``docs/formulas.md``, "The verdict")."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+from tether.arcs import TWO_PI, ArcTable, feature_name, free_arcs_many
+from tether.curves import Curve
+from tether.decomposition.structure import (
+    FREE,
+    Structure,
+    StructureRows,
+    Structures,
+    crossing_points,
+    set_rows,
+)
+from tether.decomposition.views import (
+    Cell,
+    Cells,
+    CellsById,
+    CellTable,
+    Piece,
+    Pieces,
+    RegionShapes,
+    Shapes,
+    cell_name,
+    unique_pairs,
+)
+from tether.environment import Environment
+
+__all__ = ["Decomposition", "Region", "region_rows"]
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class Region:
+    """A noncritical region: polygon, area, a representative interior point, its structure.
+
+    ``_polygon`` is the polygon, or the decomposition's :class:`Shapes` holding it (item
+    ``id``, converted to the map's frame on the first read of any region's polygon);
+    ``_structure`` the structure, or the decomposition's :class:`Structures` holding it
+    (the frozenset made on the first read)."""
+
+    id: int
+    _polygon: Any = field(repr=False)
+    area: float
+    point: tuple[float, float]
+    _structure: Any = field(repr=False)
+    _cells: Any = field(repr=False)  # the ids, or the decomposition's CellTable
+
+    @property
+    def name(self) -> str:
+        return f"R{self.id}"
+
+    @property
+    def structure(self) -> Structure:
+        """``"FULL"``, ``"EMPTY"`` or the frozenset of the cells' ``(start_code, end_code)``
+        pairs (the file's feature codes)."""
+        s = self._structure
+        return s.of_region(self.id) if type(s) is Structures else s
+
+    @property
+    def cells(self) -> tuple[str, ...]:
+        """The ids of the region's cells (made from the cells' columns on the first read)."""
+        c = self._cells
+        if type(c) is CellTable:
+            c = c.region_ids(self.id)
+            object.__setattr__(self, "_cells", c)
+        return c
+
+    def __repr__(self) -> str:
+        return (f"Region(id={self.id!r}, area={self.area!r}, point={self.point!r}, "
+                f"cells={self.cells!r})")
+
+    @property
+    def polygon(self) -> Any:
+        """The region's polygon (a shapely Polygon or MultiPolygon, map units, prepared)."""
+        g = self._polygon
+        return g[self.id] if isinstance(g, Shapes) else g
+
+    def to_dict(self) -> dict:
+        return {"id": self.name, "area": self.area, "point": list(self.point),
+                "cells": list(self.cells)}
+
+
+@dataclass(frozen=True, eq=False)
+class Decomposition:
+    """The result of :func:`decompose`: curves, regions, cells, pieces and point location."""
+
+    env: Environment = field(repr=False)
+    lss: float
+    curves: tuple[Curve, ...] = field(repr=False)
+    regions: tuple[Region, ...] = field(repr=False)
+    #: the cells, region by region (a tuple, or from :func:`decompose` an equal sequence
+    #: making each :class:`Cell` when read: ``cells[i] is cells[i]`` may be False)
+    cells: Sequence[Cell] = field(repr=False)
+    #: the pieces, in piece order (a tuple, or from :func:`decompose` an equal sequence
+    #: making each :class:`Piece` when read: ``pieces[i] is pieces[i]`` may be False)
+    pieces: Sequence[Piece] = field(repr=False)
+    curve_tol: float
+    unresolved_pieces: int = 0  # boundary stretches below resolution (see make_pieces)
+    #: the longest of those stretches: ``{"length", "regions", "point"}`` (map units), or None;
+    #: the self-check fails when it is longer than the resolution (``UNRESOLVED_MAX_ROOT``)
+    unresolved_longest: dict | None = None
+
+    def __repr__(self) -> str:
+        return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
+                f"curves={len(self.curves)}, regions={len(self.regions)}, "
+                f"cells={len(self.cells)}, pieces={len(self.pieces)})")
+
+    @property
+    def counts(self) -> dict:
+        return {"curves": len(self.curves), "regions": len(self.regions),
+                "cells": len(self.cells), "pieces": len(self.pieces)}
+
+    def cell(self, cell_id: str) -> Cell:
+        """The cell named ``cell_id`` (e.g. ``"(R1,E1,E2)"``)."""
+        return self._cell_by_id[cell_id]
+
+    def cell_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The cells' ``(region, start code, end code)`` as three int arrays in the order of
+        :attr:`cells` (feature codes in :attr:`env`'s numbering, -1 for both ends of a FULL
+        region's cell), cached: recorded by :func:`decompose`, else read from the cells."""
+        got = self.__dict__.get("_cell_codes")
+        if got is None and type(self.cells) is Cells:
+            t = self.cells._table
+            got = self.__dict__["_cell_codes"] = (t.region, t.start, t.end)
+        if got is None:
+            code = {feature_name(self.env, c): c for c in range(2 * self.env.n)}
+            code[FREE] = -1
+            n = len(self.cells)
+            got = (np.fromiter((c.region for c in self.cells), np.int64, n),
+                   np.fromiter((code[c.start_feature] for c in self.cells), np.int64, n),
+                   np.fromiter((code[c.end_feature] for c in self.cells), np.int64, n))
+            self.__dict__["_cell_codes"] = got
+        return got
+
+    @property
+    def _cell_by_id(self) -> Mapping[str, Cell]:
+        d = self.__dict__.get("_cells_by_id")
+        if d is None:
+            d = (CellsById(self.cells._table) if type(self.cells) is Cells else
+                 {c.id: c for c in self.cells})
+            self.__dict__["_cells_by_id"] = d
+        return d
+
+    @property
+    def _tree(self) -> shapely.STRtree:
+        t = self.__dict__.get("_region_tree")
+        if t is None:
+            t = shapely.STRtree([r.polygon for r in self.regions])
+            self.__dict__["_region_tree"] = t
+        return t
+
+    def piece_crossings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every piece's crossing sample: points (k, 2), unit normals into ``regions[0]``
+        (k, 2), offsets (k,), map units."""
+        if type(self.pieces) is Pieces:  # copies of the columns
+            t = self.pieces._table
+            return t.q.copy(), t.n.copy(), t.eps.copy()
+        return (np.array([p.sample for p in self.pieces]).reshape(-1, 2),
+                np.array([p.normal for p in self.pieces]).reshape(-1, 2),
+                np.array([p.eps for p in self.pieces], dtype=float))
+
+    def crossing_arcs(self) -> ArcTable:
+        """The exact free arcs at both sides of every piece's crossing (the points
+        :func:`crossing_points` of :meth:`piece_crossings`: point ``k`` is ``sample + eps
+        normal`` of piece ``k``, point ``m + k`` the other side), as found while the
+        crossings were chosen (computed now if the decomposition was built otherwise)."""
+        got = self.__dict__.get("_crossing_arcs")
+        if got is None:
+            got = free_arcs_many(self.env, crossing_points(*self.piece_crossings()), self.lss,
+                                 check=False)
+            self.__dict__["_crossing_arcs"] = got
+        return got
+
+    def regions_crossing(self, geoms: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs ``(i, r)`` (two int arrays, sorted) such that region ``r``'s polygon
+        intersects the shapely geometry ``geoms[i]`` (an array of them, map coordinates).
+        Makes no region polygon that was not made yet."""
+        geoms = np.asarray(geoms, dtype=object).reshape(-1)
+        shapes = self.regions[0]._polygon if self.regions else None
+        if type(shapes) is RegionShapes and not shapes.converted:
+            return shapes.crossing(geoms)
+        gi, ri = self._tree.query(geoms, predicate="intersects")
+        return unique_pairs(gi, ri)
+
+    def region_polygons(self, ids: Any) -> np.ndarray:
+        """The polygons of the regions ``ids`` (map coordinates, an object array), making and
+        converting only those if the regions' polygons were not read yet."""
+        ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+        shapes = self.regions[0]._polygon if self.regions else None
+        if isinstance(shapes, Shapes) and not shapes.converted:
+            return shapes.some(ids)
+        return np.fromiter((self.regions[i].polygon for i in ids.tolist()), dtype=object,
+                           count=len(ids))
+
+    def region_at(self, points: Any) -> np.ndarray:
+        """Index of the region containing each point (``-1`` outside every region: outside the
+        free space, or on a region boundary). Vectorized over points of shape (m, 2)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full(len(pts), -1)
+        pi, ri = self._tree.query(shapely.points(pts), predicate="within")
+        out[pi] = ri
+        return out
+
+    def cell_at(self, points: Any, angles: Any) -> list[str | None]:
+        """The cell containing each rod configuration ``(x, y, a)``: the region's cell whose
+        labels match the exact free arc containing ``a`` (``None`` if the rod is not free or
+        the point is on a region boundary)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        ang = np.broadcast_to(np.asarray(angles, dtype=float), (len(pts),))
+        reg = self.region_at(pts)
+        table = free_arcs_many(self.env, pts, self.lss, check=False)
+        out: list[str | None] = [None] * len(pts)
+        for i in range(len(pts)):
+            if reg[i] < 0:
+                continue
+            region = self.regions[reg[i]]
+            if table.full[i]:
+                out[i] = region.cells[0] if region.structure == "FULL" else None
+                continue
+            rows = table.rows_of(i)
+            for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],
+                                    table.end_code[rows], strict=True):
+                if (ang[i] - s) % TWO_PI <= (e - s) % TWO_PI:
+                    cid = cell_name(region.id, feature_name(self.env, sc),
+                                    feature_name(self.env, ec))
+                    out[i] = cid if cid in self._cell_by_id else None
+                    break
+        return out
+
+    def to_dict(self, geometry: bool = False) -> dict:
+        """Counts, regions and cells; with ``geometry`` also the pieces, the curves and each
+        region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
+        small on large maps (the full one is tens of MB at a few hundred vertices)."""
+        table = self.cells._table if type(self.cells) is Cells else None
+        if table is not None:
+            table.fill(self.regions)
+        out = {
+            "map": self.env.name,
+            "lss": self.lss,
+            "curve_tolerance": self.curve_tol,
+            "unresolved_pieces": self.unresolved_pieces,
+            "counts": {k: v for k, v in self.counts.items() if k != "curves"},
+            "regions": [r.to_dict() for r in self.regions],
+            "cells": ([c.to_dict() for c in self.cells] if table is None else
+                      table.dicts()),
+        }
+        if geometry:
+            pieces = self.pieces._table if type(self.pieces) is Pieces else None
+            out["pieces"] = ([p.to_dict() for p in self.pieces] if pieces is None else
+                             pieces.dicts())
+            out["curves"] = [c.to_dict() for c in self.curves]
+            wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
+            for d, w in zip(out["regions"], wkt, strict=True):
+                d["polygon"] = w
+            wkt = shapely.to_wkt([p.geometry for p in self.pieces] if pieces is None else
+                                 pieces.shapes.all(), rounding_precision=-1)
+            for d, w in zip(out["pieces"], wkt, strict=True):
+                d["geometry"] = w
+        return out
+
+    def plot(self, ax: Any = None, **kw: Any) -> list:
+        """Draw the decomposition (see :func:`tether.plot.plot_decomposition`)."""
+        from tether.plot.decomposition import plot_decomposition
+
+        return plot_decomposition(self, ax, **kw)
+
+
+def region_rows(regions: list[Region], base: int) -> tuple[StructureRows, np.ndarray]:
+    """The regions' structures as integer rows (internal codes) and the row of each region:
+    the rows of the :class:`Structures` the regions share, as made (else
+    :func:`set_rows` of their structures)."""
+    held = regions[0]._structure if regions else None
+    if (type(held) is Structures and held._code_map is None
+            and held.base == base and all(r._structure is held for r in regions)):
+        return held.rows(), held.region[[r.id for r in regions]]
+    return set_rows([r.structure for r in regions], base)

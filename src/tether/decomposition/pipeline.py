@@ -1,0 +1,156 @@
+"""``decompose``: the stages in order (critical curves, arrangement, face structures, regions,
+pieces), the progress reported between them, the memory released after each, the result made
+in the map's frame (:mod:`tether.decomposition.frame`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from shapely.errors import GEOSException
+
+from tether._util.memory import gc_paused, release_memory
+from tether.arcs import check_lss, free_arcs_many, near_edge_lines
+from tether.curves import critical_curves
+from tether.decomposition.arrangement import arrangement
+from tether.decomposition.faces import face_points
+from tether.decomposition.frame import UserFrame
+from tether.decomposition.model import Decomposition
+from tether.decomposition.noding import geos_message
+from tether.decomposition.pieces import longest_unresolved, make_pieces
+from tether.decomposition.regions import face_regions, make_regions
+from tether.decomposition.structure import structure_ids
+from tether.decomposition.views import Pieces
+from tether.environment import Environment
+from tether.errors import ArrangementError
+from tether.tolerances import REL_CURVE_TOL
+
+__all__ = ["decompose"]
+
+
+def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
+              progress: Any = None) -> Decomposition:
+    """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
+
+    Parameters
+    ----------
+    env : Environment
+    lss : float
+        Rod length, map units, > 0.
+    rel_tol : float
+        Curve approximation tolerance relative to the map diameter.
+    progress : callable, optional
+        Called as ``progress(stage_name, fraction_done)``.
+
+    Returns
+    -------
+    Decomposition
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``lss`` is not a finite positive number within the range of
+        :func:`tether.arcs.check_lss` relative to the map's diameter.
+    ArrangementError
+        If the geometry engine fails even with snap rounding (one line, no traceback).
+    """
+    lss = check_lss(lss, env)
+    out, inner_lss = None, lss
+    if not env.is_internal:  # computed in the normalized frame, reported in the user's
+        out = UserFrame(env, lss)
+        inner_lss = check_lss(lss * env.frame.scale, env.internal)
+    try:
+        with gc_paused():
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
+    except GEOSException as exc:  # never a traceback from the geometry engine
+        raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
+                               f"{geos_message(exc)}") from exc
+    if out is not None:
+        release_memory()  # the arrangement and the internal frame's geometries, freed
+    return dec
+
+
+def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
+               out: UserFrame | None = None) -> Decomposition:
+    """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
+    reported as is, or in the user's frame of ``out`` (the result objects made once)."""
+    tol = rel_tol * env.diameter
+    report = progress or (lambda stage, frac: None)
+    report("critical curves", 0.0)
+    curves = critical_curves(env, lss, rel_tol)
+    report("arrangement", 0.3)
+    arr = arrangement(env, curves, tol)
+    release_memory()  # the noder's and the face tracing's temporaries
+    report("face structures", 0.5)
+    pts, clear = face_points(arr.faces, tol, arr.grid)
+    inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
+    # and not on a wall: walls are arrangement parts (moved at most 0.71 grid by snapping),
+    # so a point farther than tol + grid from its face's boundary is off every wall
+    near = np.flatnonzero(inside & (clear < tol + arr.grid))
+    inside[near] = np.asarray(env.boundary_distance(pts[near, 0], pts[near, 1]) > 0)
+    # a face belongs to the free space iff its interior point does (faces inside holes, or
+    # between an overshooting curve end and an obstacle, are dropped)
+    keep = np.flatnonzero(inside)
+    resolved = clear[keep] >= 2 * tol
+    ok = keep[resolved]
+    _off_edge_lines(env, pts, ok, lss)
+    table = free_arcs_many(env, np.take(pts, ok, axis=0), lss, check=False)
+    sid, structs = structure_ids(env, table, len(ok))
+    del table
+    face_sid = np.full(len(arr.faces), -1, dtype=np.int64)  # the structure id of each face
+    face_sid[ok] = sid
+    release_memory()
+    report("regions", 0.7)
+    numbering, chains, cands = face_regions(arr, keep, resolved, face_sid, pts, clear, tol,
+                                            lss)
+    # the segments' grid and the candidates cache are no longer needed: freed before the
+    # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
+    arr.__dict__.pop("_segments", None)
+    arr.__dict__.pop("_part_candidates", None)
+    release_memory()
+    # the regions made after that: their polygons and cells do not add to the grid's peak
+    regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
+    report("pieces", 0.85)
+    pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
+                                                   lss)
+    longest = longest_unresolved(arr, chains, cands)
+    report("done", 1.0)
+    if out is None:
+        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, Pieces(pieces),
+                            tol, unresolved_pieces, longest)
+    else:  # the regions' polygons and structures and the pieces to the user's frame
+        del arr, chains, cands  # the arrangement, freed first
+        out.regions(regions)
+        out.pieces(pieces)
+        if longest is not None:
+            longest["length"] /= out.scale
+            longest["point"] = out.points(longest["point"])[0].tolist()
+        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+                            Pieces(pieces), tol / out.scale, unresolved_pieces, longest)
+        arcs = out.crossing_arcs(arcs)
+    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
+    dec.__dict__["_cell_codes"] = codes  # known when the cells were made
+    return dec
+
+
+#: Directions in which a face's point is moved off an edge's supporting line (tried in
+#: turn; neither along the lattice's axes nor its diagonals), and by how many length
+#: tolerances: far past the band where the edge is skipped, far inside a resolved face.
+_OFF_LINE_STEPS = ((0.6, 0.8), (0.8, -0.6), (-0.28, 0.96), (0.96, 0.28))
+
+
+_OFF_LINE_TOLS = 64.0
+
+
+def _off_edge_lines(env: Environment, pts: np.ndarray, rows: np.ndarray, lss: float) -> None:
+    """Move the points ``pts[rows]`` (faces' points, each at least ``2 tol`` inside its face)
+    that lie within ``length_tol`` of an edge's supporting line, on its free side
+    (:func:`tether.arcs.near_edge_lines`), by ``_OFF_LINE_TOLS`` length tolerances: a face's
+    structure is read at its point alone, and on such a line the free arcs can show a sliver
+    arc that neither side of the line has (a symmetric face whose axis carries a wall)."""
+    todo = rows
+    for step in _OFF_LINE_STEPS:
+        todo = todo[near_edge_lines(env, np.take(pts, todo, axis=0), lss)]
+        if len(todo) == 0:
+            return
+        pts[todo] += _OFF_LINE_TOLS * env.length_tol * np.asarray(step)

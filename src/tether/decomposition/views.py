@@ -1,0 +1,501 @@
+"""The storage of a decomposition's results and the views over it: the geometry holders
+(:class:`Shapes`, :class:`RegionShapes`: converted to the map's frame all at once on the first
+read), the cells' and pieces' column tables (:class:`CellTable`, :class:`PieceTable`), the lazy
+sequences over them (:class:`Cells`, :class:`Pieces`, :class:`CellsById`), and the row records
+they make, :class:`Cell` and :class:`Piece`, with the cells' names (:func:`cell_name`,
+:func:`parse_cell_name`)."""
+
+from __future__ import annotations
+
+import operator
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+__all__ = ["PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById", "Piece", "PieceTable",
+           "Pieces", "RegionShapes", "RowSequence", "Shapes", "cell_name", "parse_cell_name",
+           "unique_pairs", "valid_polygons"]
+
+
+@dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
+class Cell:
+    """A connected component of free rod orientations above a region: ``(R, start, end)``."""
+
+    id: str
+    region: int
+    start_feature: str
+    end_feature: str
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "region": f"R{self.region}",
+                "start_feature": self.start_feature, "end_feature": self.end_feature}
+
+
+def cell_name(region: int, start: str, end: str) -> str:
+    """The paper's cell name, e.g. ``(R1,E1,E2)``."""
+    return f"(R{region},{start},{end})"
+
+
+def parse_cell_name(name: Any) -> tuple[int, str, str] | None:
+    """The ``(region, start, end)`` of a cell name such as ``"(R1,E1,E2)"`` (the inverse of
+    :func:`cell_name`), None if ``name`` is not one; whether the features exist is not
+    checked."""
+    if not isinstance(name, str) or name[:2] != "(R" or name[-1:] != ")":
+        return None
+    parts = name[2:-1].split(",")
+    if len(parts) != 3 or not parts[0].isdigit():
+        return None
+    return int(parts[0]), parts[1], parts[2]
+
+
+class Shapes:
+    """The geometries of a decomposition's regions (or of its pieces), shared by them: item
+    ``i`` is the geometry of the object whose ``id`` is ``i``. Kept as made, in the internal
+    frame, and converted to the map's frame all at once on the first read (one vectorized
+    ``shapely.transform``, the very numbers an eager conversion gives, then cached; the
+    internal ones are dropped): building the graph and analyzing read no geometry and never
+    pay for it, and reading one region's polygon converts the batch once, never one by one.
+    ``frame`` None: the geometries are the map's already."""
+
+    __slots__ = ("_geoms", "_frame", "_prepare")
+
+    def __init__(self, geoms: np.ndarray, frame: Any = None, prepare: bool = False) -> None:
+        self._geoms = geoms  # object array of shapely geometries (None stays None)
+        self._frame = frame  # tether.environment frame: internal -> map coordinates
+        self._prepare = prepare  # shapely.prepare the converted geometries
+
+    @property
+    def converted(self) -> bool:
+        """Whether the geometries are in the map's frame already (read or made so)."""
+        return self._frame is None
+
+    def all(self) -> np.ndarray:
+        """Every geometry in map coordinates (an object array; converted on the first call)."""
+        if self._frame is not None:
+            geoms = self._to_user(self._geoms)
+            if self._prepare:
+                shapely.prepare(geoms)
+            self._geoms, self._frame = geoms, None
+        return self._geoms
+
+    def __getitem__(self, i: int) -> Any:
+        return self.all()[i]
+
+    def some(self, ids: Any) -> np.ndarray:
+        """The geometries ``ids`` in map coordinates, converting only those if the batch is
+        not converted yet (not cached: the same numbers, the transform is pointwise; not
+        prepared): a few reads need not convert them all."""
+        if self._frame is None:
+            return self._geoms[ids]
+        return self._to_user(self._geoms[ids])
+
+    def _to_user(self, geoms: np.ndarray) -> np.ndarray:
+        """Geometries converted to the map's frame (:class:`RegionShapes` also repairs
+        polygons that rounding made invalid)."""
+        return self._frame.geometry_to_user(geoms)
+
+    def __len__(self) -> int:
+        return len(self._geoms)
+
+
+class RegionShapes(Shapes):
+    """The regions' polygons (see :class:`Shapes`), the unions of the multi-face regions made
+    on the first read: ``unions[i]`` the faces (an object array) whose ``shapely.union_all``
+    is item ``i``, all made at once on the first read of all (then prepared, converted),
+    only those asked for by :meth:`some`. Building G and analyzing never pay for them."""
+
+    __slots__ = ("_unions", "_face_tree", "_face_owner")
+
+    def __init__(self, geoms: np.ndarray, unions: dict[int, np.ndarray], frame: Any = None,
+                 prepare: bool = True) -> None:
+        super().__init__(geoms, frame, prepare)
+        self._unions = unions or None
+
+    @property
+    def converted(self) -> bool:
+        """Whether the polygons are made and in the map's frame already (read or made so)."""
+        return self._unions is None and self._frame is None
+
+    def all(self) -> np.ndarray:
+        if self._unions is not None:
+            geoms = self._geoms.copy()  # never the caller's array
+            for i, faces in self._unions.items():
+                geoms[i] = shapely.union_all(faces)
+            self._geoms, self._unions = geoms, None
+            self._face_tree = None  # the faces' tree: no longer valid once converted
+            if self._frame is None and self._prepare:
+                shapely.prepare(geoms)
+        return super().all()
+
+    def crossing(self, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs ``(i, region)`` where region's polygon intersects ``geoms[i]`` (map
+        coordinates), sorted, found over the faces as made (a face tree built once) without
+        making or converting any region's polygon. Only while :attr:`converted` is False."""
+        if self._frame is not None:
+            geoms = shapely.transform(geoms, self._frame.to_internal)
+        gi, hit = self._tree().query(geoms, predicate="intersects")
+        return unique_pairs(gi, self._face_owner[hit])
+
+    def _tree(self) -> shapely.STRtree:
+        """An STRtree of the single-face regions' polygons and the multi-face regions' faces
+        (``_face_owner``: the region of each), built on the first call."""
+        got = getattr(self, "_face_tree", None)
+        if got is None:
+            items, owner = [self._geoms], [np.arange(len(self._geoms))]
+            if self._unions:
+                items += list(self._unions.values())
+                owner += [np.full(len(f), i) for i, f in self._unions.items()]
+            geoms, owner_arr = np.concatenate(items), np.concatenate(owner)
+            keep = ~shapely.is_missing(geoms)
+            self._face_owner = owner_arr[keep]
+            got = self._face_tree = shapely.STRtree(geoms[keep])
+        return got
+
+    def _to_user(self, geoms: np.ndarray) -> np.ndarray:
+        return valid_polygons(self._frame.geometry_to_user(geoms))
+
+    def some(self, ids: Any) -> np.ndarray:
+        if self._unions is None:
+            return super().some(ids)
+        ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+        geoms = self._geoms[ids]
+        for k, i in enumerate(ids.tolist()):
+            faces = self._unions.get(i)
+            if faces is not None:
+                geoms[k] = shapely.union_all(faces)
+        return geoms if self._frame is None else self._to_user(geoms)
+
+
+def unique_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct pairs ``(a[k], b[k])`` of two int arrays, sorted by ``a`` then ``b``."""
+    if len(a) == 0:
+        return a.astype(np.int64), b.astype(np.int64)
+    pairs = np.unique(np.column_stack((a, b)).astype(np.int64), axis=0)
+    return pairs[:, 0], pairs[:, 1]
+
+
+def valid_polygons(geoms: np.ndarray) -> np.ndarray:
+    """The polygons ``geoms`` with those that are invalid repaired: a region's polygon is
+    valid in the internal frame, but its conversion to the map's coordinates can round a
+    cusp's tip (two circles, or a circle and a line, touching) or two nodes one unit in the
+    last place apart into a collinear back-track, a self-touching ring. Such rings get
+    ``make_valid``'s structure method without the collapsed parts (the same area to rounding).
+    The array is changed in place and returned."""
+    bad = np.flatnonzero(~shapely.is_valid(geoms) & ~shapely.is_missing(geoms))
+    if len(bad):
+        fixed = shapely.make_valid(geoms[bad], method="structure", keep_collapsed=False)
+        geoms[bad] = fixed
+    return geoms
+
+
+class CellTable:
+    """The cells of a decomposition as int columns, in cell order (region by region):
+    ``region``, ``start`` and ``end`` feature codes (the reported map's numbering, -1 for both
+    ends of a FULL region's cell); ``names[code + 1]`` is a code's feature name (``FREE`` for
+    -1); region ``r``'s cells are ``first[r]:first[r + 1]``. :class:`Cell` objects and id
+    strings are made from it when read."""
+
+    __slots__ = ("region", "start", "end", "names", "first", "_codes")
+
+    def __init__(self, region: np.ndarray, start: np.ndarray, end: np.ndarray,
+                 names: list[str], nregions: int) -> None:
+        self.region, self.start, self.end, self.names = region, start, end, names
+        count = np.bincount(region, minlength=nregions)
+        self.first = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
+        self._codes: dict[str, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.region)
+
+    def cell(self, i: int) -> Cell:
+        r, s, e = int(self.region[i]), self.names[self.start[i] + 1], self.names[self.end[i] + 1]
+        return Cell(f"(R{r},{s},{e})", r, s, e)
+
+    def cells(self, lo: int = 0, hi: int | None = None) -> Iterator[Cell]:
+        """The cells ``lo:hi``, made one by one."""
+        names = self.names
+        for r, s, e in zip(self.region[lo:hi].tolist(), self.start[lo:hi].tolist(),
+                           self.end[lo:hi].tolist(), strict=True):
+            a, b = names[s + 1], names[e + 1]
+            yield Cell(f"(R{r},{a},{b})", r, a, b)
+
+    def ids(self, which: Any = None) -> list[str]:
+        """The ids of the cells ``which`` (indices; default all), in that order."""
+        names = self.names
+        reg, st, en = ((self.region, self.start, self.end) if which is None else
+                       (self.region[which], self.start[which], self.end[which]))
+        return [f"(R{r},{names[s + 1]},{names[e + 1]})" for r, s, e in zip(
+            reg.tolist(), st.tolist(), en.tolist(), strict=True)]
+
+    def dicts(self) -> list[dict]:
+        """Every cell's :meth:`Cell.to_dict`, made from the columns."""
+        names = self.names
+        return [{"id": f"(R{r},{names[s + 1]},{names[e + 1]})", "region": f"R{r}",
+                 "start_feature": names[s + 1], "end_feature": names[e + 1]}
+                for r, s, e in zip(self.region.tolist(), self.start.tolist(),
+                                   self.end.tolist(), strict=True)]
+
+    def fill(self, regions: Any) -> None:
+        """Make the cell ids of every region of ``regions`` still reading this table, in one
+        pass (each region's :attr:`Region.cells`)."""
+        todo = [r for r in regions if r._cells is self]
+        if not todo:
+            return
+        ids, first = self.ids(), self.first.tolist()
+        put = object.__setattr__
+        for r in todo:
+            put(r, "_cells", tuple(ids[first[r.id]:first[r.id + 1]]))
+
+    def region_ids(self, r: int) -> tuple[str, ...]:
+        """The ids of region ``r``'s cells."""
+        names = self.names
+        lo, hi = int(self.first[r]), int(self.first[r + 1])
+        return tuple([f"(R{r},{names[s + 1]},{names[e + 1]})" for s, e in zip(
+            self.start[lo:hi].tolist(), self.end[lo:hi].tolist(), strict=True)])
+
+    def index(self, cell_id: Any) -> int:
+        """The index of the cell named ``cell_id``, -1 if there is none."""
+        parsed = parse_cell_name(cell_id)
+        if parsed is None:
+            return -1
+        r, start, end = parsed
+        if r >= len(self.first) - 1:
+            return -1
+        code = self._codes
+        if code is None:
+            code = self._codes = {n: c - 1 for c, n in enumerate(self.names) if n is not None}
+        s, e = code.get(start), code.get(end)
+        if s is None or e is None:
+            return -1
+        lo, hi = int(self.first[r]), int(self.first[r + 1])
+        hit = np.flatnonzero((self.start[lo:hi] == s) & (self.end[lo:hi] == e))
+        if len(hit) == 0:
+            return -1
+        i = lo + int(hit[0])
+        return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
+
+
+class RowSequence(Sequence):
+    """An immutable sequence over the rows of a column table, each item made when read (so
+    ``seq[i] is seq[i]`` may be False; they are equal). Equal to the tuple of the same items,
+    and hashed as it. Subclasses say how one item (``_one``) and a run (``_many``) are made."""
+
+    __slots__ = ("_table",)
+    _what = "item"
+
+    def __init__(self, table: Any) -> None:
+        self._table = table
+
+    def _one(self, i: int) -> Any:
+        raise NotImplementedError
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Any]:
+        raise NotImplementedError
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+    def __getitem__(self, i: Any) -> Any:
+        n = len(self._table)
+        if isinstance(i, slice):
+            lo, hi, step = i.indices(n)
+            if step == 1:
+                return tuple(self._many(lo, max(lo, hi)))
+            return tuple(self._one(j) for j in range(lo, hi, step))
+        j = operator.index(i)
+        j = j + n if j < 0 else j
+        if not 0 <= j < n:
+            raise IndexError(f"{self._what} index out of range")
+        return self._one(j)
+
+    def __iter__(self) -> Iterator[Any]:
+        return self._many()
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, type(self))):
+            return len(self) == len(other) and tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
+class Cells(RowSequence):
+    """:attr:`Decomposition.cells`: the :class:`Cell` s of a :class:`CellTable`, each made
+    when read (see :class:`RowSequence`)."""
+
+    __slots__ = ()
+    _what = "cell"
+
+    def _one(self, i: int) -> Cell:
+        return self._table.cell(i)
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Cell]:
+        return self._table.cells(lo, hi)
+
+    def __contains__(self, x: object) -> bool:
+        if not isinstance(x, Cell):
+            return False
+        i = self._table.index(x.id)
+        return i >= 0 and self._table.cell(i) == x
+
+
+class CellsById(Mapping):
+    """``dec.cell(id)``'s lookup over a :class:`CellTable` (no dict of every cell)."""
+
+    __slots__ = ("_table",)
+
+    def __init__(self, table: CellTable) -> None:
+        self._table = table
+
+    def __getitem__(self, cell_id: Any) -> Cell:
+        i = self._table.index(cell_id)
+        if i < 0:
+            raise KeyError(cell_id)
+        return self._table.cell(i)
+
+    def __contains__(self, cell_id: object) -> bool:
+        return self._table.index(cell_id) >= 0
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._table.ids())
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+
+@dataclass(frozen=True, slots=True)
+class Piece:
+    """A maximal stretch of critical curve separating two regions (``docs/formulas.md``, "The
+    verdict").
+
+    ``sample`` is a point of the piece, ``normal`` the unit normal there pointing into
+    ``regions[0]``, ``eps`` an offset small enough that ``sample ± eps * normal`` lie in the two
+    regions (and on the right sides of the exact curve). Pieces compare (and hash) by value,
+    their line aside: a decomposition's pieces are made when read (:class:`Pieces`), so two
+    reads of one piece are equal objects, not the same one.
+    """
+
+    id: int
+    regions: tuple[int, int]
+    curves: tuple[int, ...]
+    kind: str
+    features: tuple[str, ...]
+    # the line, or a Shapes holding it (item ``id``)
+    _geometry: Any = field(repr=False, compare=False)
+    sample: tuple[float, float]
+    normal: tuple[float, float]
+    eps: float
+    #: whether the two sides of the crossing showed the two regions' structures when the
+    #: decomposition was built (False: no candidate point did; ``check`` reports it)
+    verified: bool = True
+
+    @property
+    def name(self) -> str:
+        return f"P{self.id}"
+
+    @property
+    def geometry(self) -> Any:
+        """The piece's line (a shapely LineString or MultiLineString, map units)."""
+        g = self._geometry
+        return g[self.id] if type(g) is Shapes else g
+
+    @property
+    def length(self) -> float:
+        return float(self.geometry.length)
+
+    def to_dict(self) -> dict:
+        return {"id": self.name, "regions": [f"R{r}" for r in self.regions],
+                "type": self.kind, "features": list(self.features), "length": self.length,
+                "point": list(self.sample)}
+
+
+class PieceTable:
+    """The pieces of a decomposition as columns, in piece order (piece ``i`` is row ``i``):
+    ``pair`` (m, 2) int64, the two regions (``regions[0]`` the side ``n`` points into);
+    ``q`` (m, 2) crossing samples and ``n`` (m, 2) unit normals, ``eps`` (m,) offsets (map
+    units once :meth:`tether.decomposition.frame.UserFrame.pieces` converted them); ``ok`` (m,)
+    bool, verified; ``desc`` (m,) int ids into ``descs``, the distinct ``(curves, kind, features)``
+    (many pieces share their curves); ``shapes`` the lines (a :class:`Shapes`, item ``i``
+    piece ``i``). :class:`Piece` objects are made from it when read."""
+
+    __slots__ = ("pair", "q", "n", "eps", "ok", "desc", "descs", "shapes")
+
+    def __init__(self, pair: np.ndarray, q: np.ndarray, n: np.ndarray, eps: np.ndarray,
+                 ok: np.ndarray, desc: np.ndarray, descs: list[tuple], shapes: Shapes) -> None:
+        self.pair, self.q, self.n, self.eps, self.ok = pair, q, n, eps, ok
+        self.desc, self.descs, self.shapes = desc, descs, shapes
+        pair.flags.writeable = False  # G reads it as is (graph._piece_regions)
+
+    def __len__(self) -> int:
+        return len(self.pair)
+
+    def piece(self, i: int) -> Piece:
+        a, b = self.pair[i].tolist()
+        qx, qy = self.q[i].tolist()
+        nx, ny = self.n[i].tolist()
+        curves, kind, feats = self.descs[self.desc[i]]
+        return Piece(i, (a, b), curves, kind, feats, self.shapes, (qx, qy), (nx, ny),
+                     float(self.eps[i]), bool(self.ok[i]))
+
+    def pieces(self, lo: int = 0, hi: int | None = None) -> Iterator[Piece]:
+        """The pieces ``lo:hi``, made one by one (the columns read a bounded batch at a
+        time: the lists of a batch, not of all)."""
+        hi = len(self) if hi is None else hi
+        descs, shapes = self.descs, self.shapes
+        for b in range(lo, hi, PIECE_BATCH):
+            e = min(b + PIECE_BATCH, hi)
+            q, n = self.q[b:e], self.n[b:e]
+            for i, a, r, d, qx, qy, nx, ny, eps, ok in zip(
+                    range(b, e), self.pair[b:e, 0].tolist(), self.pair[b:e, 1].tolist(),
+                    self.desc[b:e].tolist(), q[:, 0].tolist(), q[:, 1].tolist(),
+                    n[:, 0].tolist(), n[:, 1].tolist(), self.eps[b:e].tolist(),
+                    self.ok[b:e].tolist(), strict=True):
+                curves, kind, feats = descs[d]
+                yield Piece(i, (a, r), curves, kind, feats, shapes, (qx, qy), (nx, ny), eps,
+                            ok)
+
+    def dicts(self) -> list[dict]:
+        """Every piece's :meth:`Piece.to_dict`, made from the columns (lengths all at once,
+        the same numbers as one by one)."""
+        descs = self.descs
+        length = shapely.length(self.shapes.all()).tolist()
+        return [{"id": f"P{i}", "regions": [f"R{a}", f"R{b}"], "type": descs[d][1],
+                 "features": list(descs[d][2]), "length": ln, "point": [qx, qy]}
+                for i, (a, b, d, ln, qx, qy) in enumerate(zip(
+                    self.pair[:, 0].tolist(), self.pair[:, 1].tolist(), self.desc.tolist(),
+                    length, self.q[:, 0].tolist(), self.q[:, 1].tolist(), strict=True))]
+
+
+#: Pieces made per batch when iterating: the batch's columns are Python lists, this bounds
+#: their memory.
+PIECE_BATCH = 16_384
+
+
+class Pieces(RowSequence):
+    """:attr:`Decomposition.pieces`: the :class:`Piece` s of a :class:`PieceTable`, each
+    made when read (see :class:`RowSequence`)."""
+
+    __slots__ = ()
+    _what = "piece"
+
+    def _one(self, i: int) -> Piece:
+        return self._table.piece(i)
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Piece]:
+        return self._table.pieces(lo, hi)
+
+    def __contains__(self, x: object) -> bool:
+        if not isinstance(x, Piece):
+            return False
+        try:
+            i = operator.index(x.id)
+        except TypeError:
+            return False
+        return 0 <= i < len(self) and self._table.piece(i) == x
