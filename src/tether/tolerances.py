@@ -55,8 +55,9 @@ MAX_MAP_BYTES = 64 * 2**20
 #: ``tether check --samples`` per region.
 SAMPLES_RANGE = (1, 100_000)
 
-#: Random lines scanned (:mod:`tether.decomposition.scan`): by ``tether check --lines`` (its range and
-#: default) and by ``analyze``'s self-check; points evaluated along a line per map diameter.
+#: Random lines scanned (:mod:`tether.decomposition.scan`): by ``tether check --lines`` (its
+#: range and default) and by ``analyze``'s self-check; points evaluated along a line per map
+#: diameter.
 LINES_RANGE = (0, 10_000)
 CHECK_LINES = 20
 SELF_CHECK_LINES = 6
