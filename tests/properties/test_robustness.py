@@ -1,5 +1,5 @@
 """Never a traceback: each class of bad input ends in one line and exit status 2, nothing left
-behind. One representative per class; ``benchmarks/bad_input_corpus.py`` runs hundreds."""
+behind. One representative per class; ``tools/bad_input_corpus.py`` runs hundreds."""
 
 from __future__ import annotations
 
@@ -303,5 +303,5 @@ def test_help_examples_run(capsys, monkeypatch, name):
 
     from tether.cli import EXAMPLES
 
-    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])
     assert main(shlex.split(EXAMPLES[name])[1:]) == 0

@@ -1,6 +1,6 @@
 """Compare a floor plan's decomposition with the noding in two strips against the whole noding.
 
-Run: ``python benchmarks/strips_compare.py [--sizes 400 1000]``. For each size it decomposes the
+Run: ``python tools/strips_compare.py [--sizes 400 1000]``. For each size it decomposes the
 seeded floor plan twice (``tether.decomposition.noding.STRIP_MIN_SEGMENTS`` as is, and raised so
 the input is noded whole), matches every region of the whole by its representative point, and
 prints: the counts and verdicts, regions renumbered, structure mismatches, regions whose area

@@ -217,7 +217,7 @@ def _known_random_map(name: str = "random_incomplete") -> tuple[Environment, flo
     import json
     from pathlib import Path
 
-    data = json.loads((Path(__file__).parent / "data" / f"{name}.json").read_text())
+    data = json.loads((Path(__file__).parents[1] / "data" / f"{name}.json").read_text())
     m = data["map"]
     env = Environment(m["boundary"], tuple(np.asarray(h) for h in m["holes"]), m["name"])
     return env, data["lss"]

@@ -14,9 +14,9 @@ there with stdout/stderr captured, and is classified as
 
 Usage::
 
-    python benchmarks/bad_input_corpus.py            # this checkout
-    python benchmarks/bad_input_corpus.py -v         # one row per case
-    PYTHONPATH=/path/to/other/src python benchmarks/bad_input_corpus.py   # another version
+    python tools/bad_input_corpus.py            # this checkout
+    python tools/bad_input_corpus.py -v         # one row per case
+    PYTHONPATH=/path/to/other/src python tools/bad_input_corpus.py   # another version
 
 The table counts outcomes per input class; the exit status is the number of cases that are
 neither ``ok`` nor ``clean error``.

@@ -1,7 +1,7 @@
 """Fingerprints of decompositions and verdicts, to check that a speed change keeps the results.
 
-Run: ``python benchmarks/fingerprint.py OUT.json [--big] [--src DIR]`` then
-``python benchmarks/fingerprint.py --compare A.json B.json``. For every case (the test maps and
+Run: ``python tools/fingerprint.py OUT.json [--big] [--src DIR]`` then
+``python tools/fingerprint.py --compare A.json B.json``. For every case (the test maps and
 examples at three rod lengths, ``tests/data``, 40 seeded random maps, floor plans of 100
 vertices, with ``--big`` also 200 and 400) it records the counts, and hashes of the regions
 (cells, area, representative point), the pieces (regions, kind, features), the pieces'
@@ -31,7 +31,7 @@ def _cases(big: bool):
     import numpy as np
 
     sys.path.insert(0, str(ROOT / "tests"))
-    sys.path.insert(0, str(ROOT / "benchmarks"))
+    sys.path.insert(0, str(ROOT / "tools"))
     import conftest
     from invariance_sweep import random_map  # the same seeded random maps
 

@@ -1,7 +1,7 @@
 """Invariance sweep: random maps under random similarities, ring reorderings and collinear
 vertex insertions; counts, G's edges, verdict and check must not change.
 
-Run: ``python benchmarks/invariance_sweep.py [maps] [seed]`` (default 20 maps, seed 0). Prints
+Run: ``python tools/invariance_sweep.py [maps] [seed]`` (default 20 maps, seed 0). Prints
 one row per map and transform and a summary line (issue 9). Maps are random star-shaped
 boundaries with up to two convex holes, lss in [1, 5].
 """
