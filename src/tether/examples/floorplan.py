@@ -15,6 +15,8 @@ from shapely.geometry import Polygon, box
 
 from tether.environment import Environment
 
+__all__ = ["floor_plan"]
+
 ROOM_W, ROOM_H = 6.0, 5.0  # metres
 WALL = 0.2  # wall thickness
 JUNCTION_GAP = 0.6  # free gap where walls would meet
