@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from tether import free_arcs_many, rod_is_free_many
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def interior(env, m, rng):

@@ -12,9 +12,9 @@ import time
 import numpy as np
 
 from tether.analysis import analyze
-from tether.cli import example_path
 from tether.decomposition import decompose
-from tether.environment import load_map
+from tether.examples import path as example_path
+from tether.io import load_map
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
 from tether.strategies import CONTROLLERS, make_target

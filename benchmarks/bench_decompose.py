@@ -32,7 +32,7 @@ from pathlib import Path
 CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.decomposition import decompose
 
 n = int(sys.argv[1])

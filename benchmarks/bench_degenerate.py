@@ -31,7 +31,7 @@ import json, sys, time
 import tether.decomposition as D
 from tether.analysis.critical import near_critical
 from tether.decomposition import arrangement, pipeline
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 n = int(sys.argv[1])
 env = floor_plan(n, seed=0)

@@ -16,9 +16,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from tether.cli.common import example_path
-from tether.environment import load_map
+from tether.examples import path as example_path
 from tether.game import build_grid, surveillance_kernel
+from tether.io import load_map
 
 
 def main() -> None:

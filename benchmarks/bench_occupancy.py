@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from tether.occupancy import (
+from tether.io.ros import (
     _drop_small_holes,
     _to_environment,
     free_component,

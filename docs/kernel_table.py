@@ -21,13 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from tether.analysis import analyze, escape_table
-from tether.cli.common import example_path
 from tether.decomposition import decompose
-from tether.environment import load_map
+from tether.examples import path as example_path
 from tether.game import build_grid, surveillance_kernel
 from tether.game.controller import KernelController
 from tether.game.evader import KernelEvader
 from tether.game.lstar import lstar_cases, summary
+from tether.io import load_map
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
 from tether.strategies import make_target

@@ -6,8 +6,8 @@ from pathlib import Path
 
 from tether import load_map
 from tether.analysis import analyze
-from tether.cli import example_path
 from tether.decomposition import decompose
+from tether.examples import path as example_path
 from tether.plot import new_axes, plot_decomposition, plot_verdict, save
 
 OUT = Path(__file__).with_name("figures")

@@ -61,8 +61,8 @@ def short(reason):
 
 
 #: (label, map source, lss): the paper's maps and the gallery at lss 2; two generated floor
-#: plans (``tether.floorplan``, seed 0) at lss 0.6, the largest tenth of a metre at which both
-#: have a strategy.
+#: plans (``tether.examples.floorplan``, seed 0) at lss 0.6, the largest tenth of a metre at
+#: which both have a strategy.
 MAP_SPECS = [("nonconvex_corner", "nonconvex_corner", 2.0),
              ("convex_corner", "convex_corner", 2.0),
              ("gallery", "gallery", 2.0),
@@ -80,10 +80,10 @@ def _world(label, ratio):
     key = (label, ratio)
     if key not in _WORLDS:
         from tether.analysis import analyze
-        from tether.cli import example_path
         from tether.decomposition import decompose
-        from tether.environment import load_map
-        from tether.floorplan import floor_plan
+        from tether.examples import path as example_path
+        from tether.examples.floorplan import floor_plan
+        from tether.io import load_map
         from tether.sim.protocols import World
 
         _, src, lss = next(m for m in MAP_SPECS if m[0] == label)
@@ -103,12 +103,13 @@ def _children_cpu():
 
 def save_floor_plans():
     """The floor plans of :data:`MAP_SPECS` as JSON under ``docs/maps/`` (for reruns)."""
-    from tether.floorplan import floor_plan
+    from tether.examples.floorplan import floor_plan
+    from tether.io import save_map
 
     (HERE / "maps").mkdir(exist_ok=True)
     for label, src, _ in MAP_SPECS:
         if isinstance(src, int):
-            floor_plan(src, seed=0).save(HERE / "maps" / f"{label}.json")
+            save_map(floor_plan(src, seed=0), HERE / "maps" / f"{label}.json")
 
 
 def _run(job):
@@ -346,7 +347,7 @@ def write(rows, losses, scen, runs, duration, dt, secs, g=None):
               f"{duration:g} s per run, up to {runs} seeded starts per (map, ratio) that "
               "`assess` calls safe, the same starts for every target kind (seed = the start's "
               f"number); {total} simulations in all. The floor plans are "
-              "`tether.floorplan.floor_plan(n, seed=0)`, saved as "
+              "`tether.examples.floorplan.floor_plan(n, seed=0)`, saved as "
               "`docs/maps/floorplan-40.json` and `docs/maps/floorplan-80.json`.", "",
               "*Kernel %*: the share of free configurations in the optimistic (`outer`) "
               "surveillance kernel (§11, default grid); *starts in kernel*: how many of the "

@@ -23,7 +23,7 @@ from tether.arcs import (
 )
 from tether.decomposition.pieces import _clearance
 from tether.environment import Environment
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.spatial import segment_tree, segments_near
 from tether.tolerances import ANGLE_TOL
 

@@ -9,7 +9,7 @@ from conftest import random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.spatial import EdgeIndex
 
 

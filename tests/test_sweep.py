@@ -11,11 +11,12 @@ import pytest
 
 from tether.analysis import analyze
 from tether.cli import main
-from tether.cli.common import example_path
 from tether.decomposition import decompose
-from tether.environment import Environment, load_map
+from tether.environment import Environment
 from tether.errors import InvalidParameterError
-from tether.occupancy import rasterize
+from tether.examples import path as example_path
+from tether.io import load_map, save_map
+from tether.io.ros import rasterize
 from tether.sweep import evaluate, parse_lss_range, sweep
 
 RECT = load_map(example_path("rectangle"))  # 1.5 x 3: a strategy at 0.5, none at 1.0
@@ -163,7 +164,7 @@ def test_same_verdict_through_every_format(tmp_path):
 
 
 def _save_json(env, tmp_path):
-    env.save(tmp_path / "m.json")
+    save_map(env, tmp_path / "m.json")
     return tmp_path / "m.json"
 
 

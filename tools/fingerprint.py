@@ -35,8 +35,8 @@ def _cases(big: bool):
     import conftest
     from invariance_sweep import random_map  # the same seeded random maps
 
-    from tether.environment import from_dict, load_map
-    from tether.floorplan import floor_plan
+    from tether.examples.floorplan import floor_plan
+    from tether.io import from_dict, load_map
 
     for env in conftest.MAPS:
         for lss in (1.0, 2.5, 4.0):

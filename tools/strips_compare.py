@@ -17,7 +17,7 @@ import numpy as np
 import tether.decomposition.noding as noding
 from tether.analysis import analyze
 from tether.decomposition import decompose
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def compare(n: int) -> dict:

@@ -8,13 +8,14 @@ Pure computation never imports matplotlib; :mod:`tether.plot` does.
 """
 
 from tether.arcs import Arc, FreeArcs, free_arcs, free_arcs_many, rod_is_free, rod_is_free_many
-from tether.environment import Environment, load_map
+from tether.environment import Environment
 from tether.errors import (
     InvalidMapError,
     InvalidParameterError,
     OutsideFreeSpaceError,
     TetherError,
 )
+from tether.io import load_map
 
 __version__ = "0.1.0"
 

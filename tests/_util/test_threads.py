@@ -105,7 +105,7 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
     import tether.decomposition as decomposition
     from tether.analysis import analyze
     from tether.decomposition import pieces
-    from tether.floorplan import floor_plan
+    from tether.examples.floorplan import floor_plan
     monkeypatch.setattr(arcs, "POINT_BATCH", 300)
     monkeypatch.setattr(pieces, "ACROSS_BATCH", 200)
     monkeypatch.setattr(pieces, "CLEARANCE_BATCH", 250)

@@ -18,10 +18,10 @@ from tether.analysis import (
 )
 from tether.analysis.escape_points import sweep_row, sweeps
 from tether.arcs import free_arcs
-from tether.cli import example_path
 from tether.decomposition import decompose
-from tether.environment import load_map
 from tether.errors import InvalidParameterError
+from tether.examples import path as example_path
+from tether.io import load_map
 
 _V = {}
 

@@ -24,9 +24,9 @@ from tether import load_map
 from tether.analysis.connectivity import _arc_rows, _cell_index, _overlap, build_graph
 from tether.analysis.elimination import analyze, fixed_point
 from tether.arcs import free_arcs_many
-from tether.cli import example_path
 from tether.decomposition import crossing_points, decompose
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import ANGLE_TOL
 
 

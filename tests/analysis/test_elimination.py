@@ -24,8 +24,9 @@ from hypothesis import strategies as st
 from tether import Environment, load_map
 from tether.analysis.connectivity import build_graph
 from tether.analysis.elimination import analyze, fixed_point
-from tether.cli import example_path, main
+from tether.cli import main
 from tether.decomposition import decompose
+from tether.examples import path as example_path
 
 DECS = [decompose(SQUARE_HOLE, 2.0), decompose(GENERIC, 2.5), decompose(STAR_HOLE, 1.5),
         decompose(load_map(example_path("rectangle")), 1.0)]

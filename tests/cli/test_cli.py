@@ -9,7 +9,8 @@ import sys
 
 import pytest
 
-from tether.cli import example_path, main
+from tether.cli import main
+from tether.examples import path as example_path
 
 
 def run_json(capsys, argv):

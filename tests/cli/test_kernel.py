@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from tether.cli import example_path, main
+from tether.cli import main
+from tether.examples import path as example_path
 from tether.game import load_kernel
 
 BASE = ["kernel", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "--vo", "1",

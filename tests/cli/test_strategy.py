@@ -4,7 +4,8 @@ import json
 
 import pytest
 
-from tether.cli import example_path, main
+from tether.cli import main
+from tether.examples import path as example_path
 
 NC = str(example_path("nonconvex_corner"))
 GAL = str(example_path("gallery"))

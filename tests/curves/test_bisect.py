@@ -12,7 +12,7 @@ import tether.curves.critical as critical
 from tether.arcs import rod_is_free_many
 from tether.curves import candidate_families
 from tether.curves.critical import _BISECTIONS, critical_intervals
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def _bisect_reference(env, sub, ta, tb, fa):

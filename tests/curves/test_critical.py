@@ -14,7 +14,7 @@ from tether import Environment
 from tether.arcs import rod_is_free_many
 from tether.curves import candidate_families
 from tether.curves.critical import critical_intervals
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
 

@@ -21,7 +21,7 @@ from tether.curves.draw import (
     overshoot_family,
     vertex_estimates,
 )
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
 

@@ -8,7 +8,7 @@ from conftest import GENERIC, STAR_HOLE
 
 import tether.curves.families as F
 from tether.curves import critical_curves, curves_to_user
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def reference_mark_apexes(fa, fe):

@@ -8,7 +8,7 @@ import numpy as np
 import tether.curves.project as P
 from tether._util.arrays import first_nearest, ragged_arange
 from tether.curves import critical_curves
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def test_pruned_conchoid_projection_equals_the_full_search(monkeypatch):

@@ -11,7 +11,7 @@ from conftest import GENERIC, SQUARE_HOLE, STAR_HOLE
 import tether.curves as C
 import tether.curves.share as S
 from tether.curves import Curve
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import ANGLE_TOL, REL_CURVE_TOL
 
 

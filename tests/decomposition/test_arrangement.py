@@ -11,7 +11,7 @@ import shapely
 from tether.curves import critical_curves
 from tether.decomposition import arrangement as arrangement_mod
 from tether.decomposition import faces
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
 

@@ -21,9 +21,9 @@ from hypothesis import strategies as st
 
 from tether import Environment, free_arcs, free_arcs_many, load_map
 from tether.arcs import TWO_PI
-from tether.cli import example_path
 from tether.decomposition import check, decompose, sample_in_regions, structures
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
 
 CASES = [(SQUARE_HOLE, 2.0), (L_SHAPE, 3.0), (STAR_HOLE, 1.5), (GENERIC, 2.5),
          (floor_plan(50, seed=3), 0.8)]

@@ -19,7 +19,8 @@ from tether.analysis import analyze
 from tether.cli import main
 from tether.decomposition import check, decompose, self_check
 from tether.decomposition.scan import scan
-from tether.environment import Environment, load_map
+from tether.environment import Environment
+from tether.io import load_map
 
 DATA = Path(__file__).parents[1] / "data"
 

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 import tether.decomposition.noding as noding
 from tether import load_map
 from tether.analysis import analyze
-from tether.cli import example_path
 from tether.decomposition import check, decompose
 from tether.decomposition.noding import STRIP_MIN_SEGMENTS, cut_position, node_lines, strip_cut
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
 
 coord = st.floats(-10, 10, allow_nan=False).map(lambda v: round(v, 2))
 

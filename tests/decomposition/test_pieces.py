@@ -21,7 +21,7 @@ from tether.analysis.connectivity import piece_regions
 from tether.decomposition import FREE, Piece, decompose, pipeline, verify
 from tether.decomposition import pieces as pieces_mod
 from tether.decomposition.pieces import _describe_chains
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def _reference_pieces(env, arr, regions, chains, cands, curves, lss) -> list[Piece]:

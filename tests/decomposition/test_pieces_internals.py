@@ -10,12 +10,12 @@ from hypothesis import strategies as st
 
 import tether.decomposition as D
 from tether import free_arcs_many, load_map, spatial
-from tether.cli import example_path
 from tether.curves import critical_curves
 from tether.decomposition import arrangement
 from tether.decomposition import pieces as pieces_mod
 from tether.decomposition import structure as structure_mod
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
 

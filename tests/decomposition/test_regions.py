@@ -14,7 +14,7 @@ from tether.decomposition import arrangement as arrangement_mod
 from tether.decomposition import faces as faces_mod
 from tether.decomposition import pieces
 from tether.decomposition import regions as regions_mod
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
 
 

@@ -14,11 +14,12 @@ from shapely.errors import GEOSException
 
 from tether import load_map
 from tether.analysis import analyze
-from tether.cli import example_path, main
+from tether.cli import main
 from tether.cli.maps import format_verdict
 from tether.decomposition import ArrangementError, check, decompose, self_check
 from tether.environment import Environment
 from tether.errors import TetherError
+from tether.examples import path as example_path
 
 
 def square(x: float, y: float, s: float) -> list[tuple[float, float]]:

@@ -12,10 +12,10 @@ from conftest import GENERIC, interior_points
 import tether.decomposition as D
 from tether import free_arcs_many, load_map
 from tether.arcs import ArcTable
-from tether.cli import example_path
 from tether.decomposition import model
 from tether.decomposition import structure as structure_mod
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
 
 
 def _plain(table: ArcTable, npts: int) -> list:

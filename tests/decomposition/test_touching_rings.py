@@ -22,8 +22,9 @@ from tether.arcs import free_arcs, rod_is_free
 from tether.cli import main
 from tether.decomposition import check, decompose
 from tether.decomposition.scan import scan
-from tether.environment import Environment, from_dict
+from tether.environment import Environment
 from tether.errors import InvalidMapError
+from tether.io import from_dict
 
 #: name -> (boundary, holes, the touching point)
 MAPS = {

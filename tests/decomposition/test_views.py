@@ -29,7 +29,7 @@ from tether.decomposition import (
 from tether.decomposition.regions import _structure_cells
 from tether.decomposition.structure import Structures
 from tether.decomposition.views import RegionShapes
-from tether.floorplan import floor_plan
+from tether.examples.floorplan import floor_plan
 
 
 def _cases():
@@ -315,7 +315,7 @@ def test_escape_story_chain_on_arrays_as_on_objects():
     import dataclasses
 
     from tether import load_map
-    from tether.cli import example_path
+    from tether.examples import path as example_path
 
     seen = 0
     cases = _cases() + [(load_map(example_path("rectangle")), 1.0)]

@@ -17,11 +17,12 @@ import shapely
 from tether.analysis import analyze
 from tether.arcs import free_arcs, rod_is_free_many
 from tether.decomposition import decompose
-from tether.environment import Environment, load_map
+from tether.environment import Environment
 from tether.errors import InvalidParameterError
 from tether.game import build_grid, load_kernel, surveillance_kernel
 from tether.game.controller import KernelController
 from tether.game.evader import KernelEvader
+from tether.io import load_map
 from tether.sim.protocols import World
 from tether.sim.simulate import simulate
 from tether.strategies import TARGETS, make_target

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from tether import load_map
-from tether.cli import example_path
+from tether.examples import path as example_path
 from tether.plot.axes import save
 from tether.plot.kernel import kernel_figure, kernel_run_strip, plot_kernel_run
 

@@ -43,8 +43,8 @@ def test_stale_block_is_detected():
 
 @pytest.mark.parametrize("name", ["gallery", "rectangle", "convex_corner", "nonconvex_corner"])
 def test_example_maps_agree_in_every_format(name):
-    from tether.cli.common import example_path
-    from tether.environment import load_map
+    from tether.examples import path as example_path
+    from tether.io import load_map
 
     ref = load_map(example_path(name)).to_dict()
     for ext in ("wkt", "geojson"):

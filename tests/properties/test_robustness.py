@@ -12,8 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tether.cli import main
-from tether.environment import from_dict, from_geojson, load_map
 from tether.errors import InvalidMapError, TetherError
+from tether.io import from_dict, from_geojson, load_map
 
 SQUARE = {"name": "square", "boundary": [[0, 0], [4, 0], [4, 3], [0, 3]], "holes": []}
 

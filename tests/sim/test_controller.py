@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 
 from tether.analysis import analyze
 from tether.arcs import rod_is_free, rod_is_free_many
-from tether.cli import example_path
 from tether.decomposition import decompose
-from tether.environment import load_map
+from tether.examples import path as example_path
+from tether.io import load_map
 from tether.rates import edge_end_rate
 from tether.sim.controller import PaperController
 from tether.sim.protocols import World
@@ -183,7 +183,7 @@ def test_pinned_rotation_hands_over_to_the_closer_escape_point():
     trigger commits to the pillar's far corner V39, the rotation is pinned against the pillar,
     and the near corner V37 (the other sense) comes within reach. Lost at 3.16 s by a pivot
     about V37 when the commitment was kept; held once a pinned commitment is handed over."""
-    from tether.floorplan import floor_plan
+    from tether.examples.floorplan import floor_plan
 
     env = floor_plan(40, seed=0)
     dec = decompose(env, 0.6)

@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from tether.analysis import analyze, assess
-from tether.cli import example_path, main
+from tether.cli import main
 from tether.decomposition import decompose
-from tether.environment import load_map
-from tether.floorplan import floor_plan
+from tether.examples import path as example_path
+from tether.examples.floorplan import floor_plan
+from tether.io import load_map
 from tether.sim.controller import PaperController
 from tether.sim.diagnose import CAUSES, explain_loss
 from tether.sim.protocols import World

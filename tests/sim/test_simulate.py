@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tether.arcs import free_arcs, rod_is_free_many
-from tether.environment import load_map
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
+from tether.io import load_map
 from tether.rates import rate_interval, step_rate_interval
 from tether.sim.controller import FollowController
 from tether.sim.local import LocalArcs

@@ -7,15 +7,9 @@ import json
 import math
 import sys
 from collections.abc import Callable
-from importlib import resources
-from pathlib import Path
 
 from tether.errors import NonFiniteResultError
-
-
-def example_path(name: str) -> Path:
-    """Path of a bundled example map (``rectangle``, ``gallery``, ...)."""
-    return Path(str(resources.files("tether") / "examples" / f"{name}.json"))
+from tether.examples import path as example_path  # noqa: F401 (tether.cli.example_path)
 
 
 def print_json(obj: object) -> None:
@@ -125,7 +119,7 @@ def add_map_lss(sp: argparse.ArgumentParser) -> None:
 def load_map_lss(args: argparse.Namespace):
     """Load ``args.map`` and check ``args.lss`` against its diameter; return the map."""
     from tether.arcs import check_lss
-    from tether.environment import load_map
+    from tether.io import load_map
 
     env = load_map(args.map)
     check_lss(args.lss, env)

@@ -32,7 +32,7 @@ def vertex_rows(env) -> list[dict]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from tether.environment import load_map
+    from tether.io import load_map
 
     env = load_map(args.map)
     info = env.summary()
@@ -92,7 +92,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from tether.analysis import analyze
     from tether.arcs import free_arcs
     from tether.decomposition import decompose
-    from tether.environment import load_map
+    from tether.io import load_map
     from tether.plot import plot_verdict, save
 
     out = make_output_dir(args.out)

@@ -4,13 +4,13 @@ and ``sweep`` (the verdict over a range of ``lss``, on local processes or a Dask
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from tether._util.files import IMAGE_KINDS
 from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_json
 from tether.errors import InvalidParameterError, TetherError
+from tether.io.polygon import text_of as map_text
 
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
 
@@ -38,8 +38,7 @@ def _load(args: argparse.Namespace):
 
 def _load_with_summary(args: argparse.Namespace):
     """The map and, for a ROS map, a line saying what the conversion kept (else ``None``)."""
-    from tether.environment import load_map
-    from tether.occupancy import read_grid
+    from tether.io import load_map, read_grid
 
     ros_opts = (args.seed, args.simplify, args.min_hole_area)
     if Path(args.map).suffix.lower() in (".yaml", ".yml"):
@@ -62,20 +61,6 @@ def _add_ros_options(sp: argparse.ArgumentParser) -> None:
 
 
 # ---------------------------------------------------------------------- convert
-def map_text(env, suffix: str) -> str:
-    """The map ``env`` as the text of a ``.json``, ``.geojson`` or ``.wkt`` file."""
-    import shapely
-
-    if suffix == ".json":
-        return json.dumps(env.to_dict(), indent=1) + "\n"
-    if suffix == ".geojson":
-        rings = [[*r.tolist(), r[0].tolist()] for r in env.rings]
-        feature = {"type": "Feature", "properties": {"name": env.name},
-                   "geometry": {"type": "Polygon", "coordinates": rings}}
-        return json.dumps(feature, indent=1) + "\n"
-    return shapely.to_wkt(env.polygon, rounding_precision=-1) + "\n"
-
-
 def cmd_convert(args: argparse.Namespace) -> int:
     out = _check_output(args.out, _MAP_KINDS)
     suffix = out.suffix.lower()
@@ -85,7 +70,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--resolution applies to a ROS map output (.yaml) only")
     env, summary = _load_with_summary(args)
     if suffix == ".yaml":
-        from tether.occupancy import rasterize
+        from tether.io.ros import rasterize
 
         grid = rasterize(env, args.resolution)
         img = grid.save(out)

@@ -280,7 +280,7 @@ def load_kernel(path: str | Path) -> Kernel:
     """Read a kernel written by :meth:`Kernel.save` (the grid is rebuilt from the map)."""
     import json
 
-    from tether.environment import from_dict
+    from tether.io import from_dict
 
     with np.load(path, allow_pickle=False) as z:
         n_a = int(z["n_a"])

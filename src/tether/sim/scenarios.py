@@ -24,7 +24,7 @@ from typing import Any
 
 from tether.analysis.elimination import analyze
 from tether.decomposition import decompose
-from tether.environment import load_map
+from tether.io import load_map
 from tether.sim.controller import FollowController, PaperController, TranslateController
 from tether.sim.protocols import World
 from tether.sim.simulate import SimResult, simulate

@@ -1,4 +1,5 @@
-"""The map model: readers, feature names, reflex flags and validation errors."""
+"""Map files: the readers agree, validation and format errors name the file (library and CLI),
+the writers, and the deprecated names of the readers."""
 
 from __future__ import annotations
 
@@ -6,31 +7,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import L_SHAPE, SQUARE_HOLE
+from conftest import SQUARE_HOLE
 
-from tether import Environment, InvalidMapError, load_map
+from tether import InvalidMapError, load_map
 from tether.cli import main
-
-
-def test_feature_numbering_follows_the_file_not_the_orientation():
-    # boundary given clockwise, hole given counter-clockwise: both opposite to the convention
-    env = Environment([[0, 0], [0, 12], [12, 12], [12, 0]], ([[4, 4], [6, 4], [6, 6], [4, 6]],))
-    assert np.allclose(env.vertices[0], [0, 0]) and np.allclose(env.vertices[4], [4, 4])
-    # edge E0 runs V0 -> V1 = (0,0)->(0,12); free side is +x, i.e. to its right
-    assert not env.free_on_left[0]
-    assert np.allclose(env.free_normals[0], [1, 0])
-    # hole edge E4 runs (4,4)->(6,4): the free space is below it (outside the hole)
-    assert np.allclose(env.free_normals[4], [0, -1])
-    assert list(env.reflex_indices) == [4, 5, 6, 7]
-
-
-def test_reflex_vertices_of_an_l_shape():
-    assert list(L_SHAPE.reflex_indices) == [3]  # (4, 4)
-
-
-def test_collinear_vertex_is_not_reflex():
-    env = Environment([[0, 0], [5, 0], [10, 0], [10, 10], [0, 10]])
-    assert not env.reflex.any()
+from tether.errors import InvalidParameterError, OutputPathError
+from tether.io import from_dict, save_map
+from tether.io.polygon import text_of
 
 
 def test_readers_agree(tmp_path):
@@ -43,7 +26,7 @@ def test_readers_agree(tmp_path):
         {"type": "Feature", "properties": {"name": "g"},
          "geometry": {"type": "Polygon", "coordinates": [ring, hole]}}]}))
     js = tmp_path / "m.json"
-    SQUARE_HOLE.save(js)
+    save_map(SQUARE_HOLE, js)
     maps = [load_map(p) for p in (wkt, geo, js)]
     for m in maps:
         assert np.allclose(m.vertices, SQUARE_HOLE.vertices)
@@ -104,3 +87,67 @@ def test_file_format_errors(tmp_path, capsys, name, text, message):
 def test_missing_file(capsys):
     assert main(["info", "/nonexistent/map.json"]) == 2
     assert "cannot read" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("suffix", [".json", ".geojson", ".wkt"])
+def test_save_map_round_trips(tmp_path, suffix):
+    path = tmp_path / f"m{suffix}"
+    save_map(SQUARE_HOLE, path)
+    back = load_map(path)
+    assert back.to_dict() == SQUARE_HOLE.to_dict() | {"name": back.name}
+    assert path.read_text() == text_of(SQUARE_HOLE, suffix)
+
+
+def test_save_map_writes_what_convert_writes(tmp_path, capsys):
+    """``tether convert`` and :func:`save_map` write the same bytes."""
+    src = tmp_path / "src.json"
+    save_map(SQUARE_HOLE, src)
+    for suffix in (".json", ".geojson", ".wkt"):
+        assert main(["convert", str(src), str(tmp_path / f"cli{suffix}")]) == 0
+        save_map(load_map(src), tmp_path / f"lib{suffix}")
+        assert (tmp_path / f"cli{suffix}").read_bytes() == (tmp_path / f"lib{suffix}").read_bytes()
+    capsys.readouterr()
+
+
+def test_save_map_ros_needs_a_resolution(tmp_path):
+    with pytest.raises(InvalidParameterError, match="needs a resolution"):
+        save_map(SQUARE_HOLE, tmp_path / "m.yaml")
+    with pytest.raises(InvalidParameterError, match="ROS map"):
+        save_map(SQUARE_HOLE, tmp_path / "m.json", resolution=0.1)
+    with pytest.raises(OutputPathError, match="unknown extension"):
+        save_map(SQUARE_HOLE, tmp_path / "m.txt")
+    save_map(SQUARE_HOLE, tmp_path / "m.yaml", resolution=0.25)
+    assert (tmp_path / "m.pgm").exists()
+    assert load_map(tmp_path / "m.yaml").n > 0
+
+
+def test_a_map_without_a_name_is_named_after_its_file(tmp_path):
+    path = tmp_path / "room.json"
+    path.write_text(json.dumps({"boundary": [[0, 0], [4, 0], [4, 4], [0, 4]], "name": ""}))
+    assert load_map(path).name == "room"
+    assert from_dict({"boundary": [[0, 0], [4, 0], [4, 4]]}, name="given").name == "given"
+    assert from_dict({"boundary": [[0, 0], [4, 0], [4, 4]], "name": "own"}, name="x").name == "own"
+
+
+@pytest.mark.parametrize("name", ["load_map", "from_dict", "from_geojson", "from_wkt"])
+def test_readers_deprecated_in_environment(name):
+    import tether.environment
+    import tether.io
+
+    with pytest.warns(DeprecationWarning, match=f"tether.io.{name}"):
+        old = getattr(tether.environment, name)
+    assert old is getattr(tether.io, name)
+
+
+def test_environment_save_deprecated(tmp_path):
+    with pytest.warns(DeprecationWarning, match="tether.io.save_map"):
+        SQUARE_HOLE.save(tmp_path / "old.json")
+    save_map(SQUARE_HOLE, tmp_path / "new.json")
+    assert (tmp_path / "old.json").read_bytes() == (tmp_path / "new.json").read_bytes()
+
+
+def test_unknown_attribute_of_environment():
+    import tether.environment
+
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        tether.environment.nothing  # noqa: B018

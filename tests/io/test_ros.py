@@ -19,9 +19,10 @@ from PIL import Image
 from scipy import ndimage
 
 from tether.cli import main
-from tether.environment import Environment, load_map
+from tether.environment import Environment
 from tether.errors import InvalidMapError, InvalidParameterError
-from tether.occupancy import (
+from tether.io import load_map
+from tether.io.ros import (
     FREE,
     OCCUPIED,
     OccupancyGrid,
@@ -301,7 +302,7 @@ def test_convert_cli_round_trip(tmp_path, capsys):
 
 
 def test_office_example(capsys):
-    from tether.cli.common import example_path
+    from tether.examples import path as example_path
 
     yp = example_path("office").with_suffix(".yaml")
     env = read_ros_map(yp)
@@ -325,3 +326,16 @@ def test_rgb_png_and_free_cells_on_the_image_border(tmp_path):
     env = read_ros_map(tmp_path / "c.yaml")
     assert env.bounds == pytest.approx((0, 0, 8, 6))
     assert env.area == pytest.approx((12 * 16 - 6) * 0.25) and len(env.holes) == 1
+
+
+def test_occupancy_is_a_deprecated_alias_of_io_ros():
+    import importlib
+    import sys
+
+    import tether.io.ros as ros
+
+    sys.modules.pop("tether.occupancy", None)
+    with pytest.warns(DeprecationWarning, match="tether.io.ros"):
+        old = importlib.import_module("tether.occupancy")
+    assert old.read_ros_map is ros.read_ros_map and old.OccupancyGrid is ros.OccupancyGrid
+    assert set(ros.__all__) <= set(old.__all__)

@@ -6,8 +6,7 @@ in the corridor, a table in the middle room, a cupboard corner nobody scanned (u
 closet (a free component of its own), sensor speckles (single occupied cells) and unknown space
 outside the walls. The map frame's origin is offset, as in a real SLAM map.
 
-Run ``python examples/make_office.py [OUT_DIR]`` (default: this folder; ``examples/`` is the
-packaged ``src/tether/examples``).
+Run ``python tools/make_office.py [OUT_DIR]`` (default: the packaged ``src/tether/examples``).
 """
 
 from __future__ import annotations
@@ -82,6 +81,7 @@ def write(out_dir: Path) -> Path:
 
 
 if __name__ == "__main__":
-    outs = [Path(a) for a in sys.argv[1:]] or [Path(__file__).resolve().parent]
+    outs = ([Path(a) for a in sys.argv[1:]]
+            or [Path(__file__).resolve().parents[1] / "src" / "tether" / "examples"])
     for d in outs:
         print(write(d))
