@@ -18,13 +18,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from importlib import resources
-from pathlib import Path
 from typing import Any
 
+from tether import examples
 from tether.analysis.elimination import analyze
 from tether.decomposition import decompose
-from tether.io import load_map
 from tether.sim.controller import FollowController, PaperController, TranslateController
 from tether.sim.protocols import World
 from tether.sim.simulate import SimResult, simulate
@@ -39,12 +37,8 @@ def _controller(controller: str | Callable[[World], Any], world: World) -> Any:
     return (_CONTROLLERS[controller] if isinstance(controller, str) else controller)(world)
 
 
-def _example(name: str) -> Path:
-    return Path(str(resources.files("tether") / "examples" / f"{name}.json"))
-
-
 def _world(name: str, lss: float, vt: float, vo: float) -> World:
-    env = load_map(_example(name))
+    env = examples.load(name)
     dec = decompose(env, lss)
     return World(env, lss, vt, vo, dec, analyze(dec, near_critical=False))
 
