@@ -16,6 +16,7 @@ checked against the layer table below, bottom to top:
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import networkx as nx
@@ -126,6 +127,7 @@ def _target_module(modules: dict[str, Path], target: str, name: str | None) -> s
     return target
 
 
+@functools.cache
 def _violations() -> tuple[set[tuple[str, str, str]], nx.DiGraph]:
     modules = _modules()
     found: set[tuple[str, str, str]] = set()
