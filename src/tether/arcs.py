@@ -1,4 +1,5 @@
-"""Exact free orientation arcs of the rod at target points (``math.md`` §6), and the rod test.
+"""Exact free orientation arcs of the rod at target points (``docs/formulas.md``,
+"Free orientations at a point"), and the rod test.
 
 For a target ``p`` and rod length ``lss``, the rod at orientation ``a`` is the segment from ``p``
 to ``p + lss (cos a, sin a)``. Each edge ``Ei`` seen from its free side blocks the closed interval

@@ -1,6 +1,7 @@
 """Rotation time, the paper's distance bound ``L`` and the worst-case (steering target) bound.
 
-Conventions (``math.md`` §2-§3): the paper's angle ``θ = a - ψ + π/2`` is the angle from the
+Conventions (``docs/conventions.md``, "Frames and angles"; ``docs/formulas.md``, "Turning as
+fast as possible"): the paper's angle ``θ = a - ψ + π/2`` is the angle from the
 target velocity (heading ``ψ``) to the CCW tangent ``u⊥(a)`` of the rod orientation ``a``.
 Angles are *lifted* (not reduced mod 2π): the sense of a rotation from ``theta0`` to
 ``thetaf`` is the sign of ``thetaf - theta0`` and several turns are allowed. Times in seconds,
@@ -117,7 +118,7 @@ def ellipe_inc(phi: np.ndarray, m: float) -> np.ndarray:
 
 def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) -> Any:
     """Time of the saturated rotation from ``theta0`` to ``thetaf`` (lifted radians) while the
-    target runs straight at speed ``vt`` (closed form R3 of ``math.md`` §2).
+    target runs straight at speed ``vt`` (``docs/formulas.md``, "Turning as fast as possible").
 
     ``T = lss/(vo²-vt²) [vo |E(θf|m) - E(θ0|m)| + vt (sin θf - sin θ0)]`` with ``m = (vt/vo)²``.
     Vectorized over ``theta0`` and ``thetaf``.
@@ -149,7 +150,8 @@ def distance_bound(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) -
 
 
 def worst_case_time(sweep: Any, vt: float, vo: float, lss: float) -> Any:
-    """Guaranteed time to sweep ``|sweep|`` radians whatever the target does (``math.md`` §3):
+    """Guaranteed time to sweep ``|sweep|`` radians whatever the target does
+    (``docs/formulas.md``, "Distance bounds"):
     ``T_g = lss |Δ| / (vo - vt)``, tight against a target running tangentially. Seconds."""
     vt, vo, lss = check_speeds(vt, vo, lss)
     d = np.abs(_finite("sweep", sweep))
@@ -165,7 +167,7 @@ def worst_case_distance(sweep: Any, vt: float, vo: float, lss: float) -> Any:
 
 def worst_straight_time(sweep: Any, vt: float, vo: float, lss: float) -> Any:
     """Rotation time against the worst *straight* heading for a sweep ``|Δ| <= 2π``: the sweep
-    centred on ``θ = 0`` (``math.md`` §3). Seconds."""
+    centred on ``θ = 0`` (``docs/formulas.md``, "Turning as fast as possible"). Seconds."""
     d = np.abs(_finite("sweep", sweep))
     return rotation_time(-d / 2, d / 2, vt, vo, lss)
 

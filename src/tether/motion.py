@@ -1,4 +1,5 @@
-"""The three observer motions of the paper as velocity laws (``math.md`` §2-§5).
+"""The three observer motions of the paper as velocity laws (``docs/formulas.md``, "The
+observer's motions" and "Turning as fast as possible").
 
 Every law takes the target position ``T``, the observer position ``O`` (so the rod is
 ``[T, O]``, its orientation ``a`` points from ``T`` to ``O``) and the target velocity ``Vt``,
@@ -74,7 +75,8 @@ def rotate(T: Vec, O: Vec, Vt: Vec, vo: float, sense: int) -> Velocity:
 
     The observer copies the radial part ``v_r = Vt·u`` and spends the rest of ``vo`` on the
     tangent: ``ȧ = σ (sqrt(vo² - v_r²) - σ Vt·u⊥) / |O-T|``, so ``|Vo| = vo`` exactly
-    (``math.md`` §3). For a straight target this is the paper's ``w₊``/``w₋``. Feasible whenever
+    (``docs/formulas.md``, "Distance bounds"). For a straight target this is the paper's
+    ``w₊``/``w₋``. Feasible whenever
     ``|Vt| < vo``.
     """
     ux, uy, length = _rod(T, O)
@@ -90,7 +92,7 @@ def rotate(T: Vec, O: Vec, Vt: Vec, vo: float, sense: int) -> Velocity:
 # ---------------------------------------------------------------------- compliant
 def slide_on_wall(T: Vec, O: Vec, Vt: Vec, wall_dir: Vec, vo: float) -> Velocity:
     """Observer end sliding along a wall line with unit direction ``e = wall_dir``, whose free
-    side is on the left of ``e`` (``math.md`` §5a).
+    side is on the left of ``e`` (``docs/formulas.md``, "The observer's motions").
 
     With ``α = a - γ`` the rod orientation relative to the wall and ``Vtx = Vt·e``,
     ``Vty = Vt·n``: ``ṡ = Vtx + Vty tan α``, ``ȧ = -Vty / (|O-T| cos α)``, ``Vo = ṡ e``.
@@ -113,7 +115,8 @@ def slide_on_wall(T: Vec, O: Vec, Vt: Vec, wall_dir: Vec, vo: float) -> Velocity
 
 
 def contact_vertex(T: Vec, O: Vec, Vt: Vec, vertex: Vec, vo: float) -> Velocity:
-    """Rod kept in contact with a (reflex) vertex ``V`` lying on the rod (``math.md`` §5b).
+    """Rod kept in contact with a (reflex) vertex ``V`` lying on the rod (``docs/formulas.md``,
+    "The observer's motions").
 
     With ``l_t = |T - V|``, ``l_o = |O-T| - l_t`` and ``u`` the rod direction:
     ``Vo = (Vt·u) u - (l_o/l_t)(Vt·u⊥) u⊥``, ``ȧ = -(Vt·u⊥)/l_t``; the speed is
@@ -137,7 +140,8 @@ def wall_contact_needed(Vt: Vec, wall_dir: Vec) -> bool:
 # ---------------------------------------------------------------------- closed forms
 def tractrix(s: Any, lss: float, side: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """The follow motion's path against a target on the +x axis at ``(lss·s, 0)``
-    (``math.md`` §4): ``x_o = lss (s - tanh s)``, ``y_o = side · lss · sech s``."""
+    (``docs/formulas.md``, "The observer's motions"): ``x_o = lss (s - tanh s)``,
+    ``y_o = side · lss · sech s``."""
     s = np.asarray(s, dtype=float)
     return lss * (s - np.tanh(s)), side * lss / np.cosh(s)
 

@@ -1,4 +1,5 @@
-"""The observer's admissible rod rates and the rates of the free-arc ends (``math.md`` §10).
+"""The observer's admissible rod rates and the rates of the free-arc ends (``docs/formulas.md``,
+"The observer's choice at each instant").
 
 The state is ``(p, a)``: target position and rod orientation (observer at ``p + lss·u(a)``).
 For a target velocity ``v`` the observer's only freedom is the rod rate ``ȧ``; its speed stays

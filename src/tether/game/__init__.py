@@ -1,4 +1,5 @@
-"""The surveillance kernel: the bounded-speed game solved on a grid (``math.md`` §11).
+"""The surveillance kernel: the bounded-speed game solved on a grid (``docs/formulas.md``,
+"The surveillance kernel"; ``docs/kernel.md``).
 
 * :mod:`tether.game.grid` — the grid over ``(x, y, a)`` and its free-state mask from the exact
   free arcs (:mod:`tether.arcs`), with the free run of orientations each state lies in;

@@ -1,4 +1,5 @@
-"""The state grid of the surveillance game: target points × rod orientations (``math.md`` §11).
+"""The state grid of the surveillance game: target points × rod orientations
+(``docs/formulas.md``, "The surveillance kernel").
 
 Target points are the centres of a square lattice of spacing ``h`` over the map's bounding box,
 kept where they lie strictly inside the free space. Orientations are ``n_a`` bin centres

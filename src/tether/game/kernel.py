@@ -1,4 +1,5 @@
-"""The discriminating kernel of the surveillance game on a grid (``math.md`` §11).
+"""The discriminating kernel of the surveillance game on a grid (``docs/formulas.md``,
+"The surveillance kernel").
 
 ``K_0`` is the set of free states of the :class:`~tether.game.grid.StateGrid`; a state ``(p, a)``
 stays in ``K_{n+1}`` iff for every target move ``d`` (a lattice step to a neighbour ``p'``) some

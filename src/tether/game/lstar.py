@@ -1,5 +1,5 @@
 """``L*`` on real escape points: the kernel's critical distance against the paper's ``L`` and
-the safe ``L_g`` (issue #11, ``math.md`` §3).
+the safe ``L_g`` (issue #11, ``docs/formulas.md``, "Distance bounds"; ``docs/kernel.md``).
 
 For an escape sample ``q`` of :func:`tether.analysis.escape_table` (a point just inside a
 surviving cell, next to a piece the rod must not cross outside its goal), a rod orientation

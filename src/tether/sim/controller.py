@@ -1,4 +1,5 @@
-"""Observer controllers: the rod rate each step (``math.md`` §10).
+"""Observer controllers: the rod rate each step (``docs/formulas.md``, "The observer's choice at
+each instant").
 
 Every controller here picks a *preferred* rate (follow law, translation, or a saturated rotation
 when the paper's trigger fires) and then makes it admissible in two stages:
@@ -155,8 +156,9 @@ class TranslateController(_Compliant):
 
 
 class PaperController(_Compliant):
-    """The paper's strategy (§§IV–VI, ``math.md`` §10): reactive far from escape points,
-    saturated rotation toward the goal once the trigger fires, compliant at arc ends.
+    """The paper's strategy (§§IV–VI; ``docs/formulas.md``, "Escape points and the trigger"):
+    reactive far from escape points, saturated rotation toward the goal once the trigger fires,
+    compliant at arc ends.
 
     The trigger: for the rod orientation ``a``, every escape sample ``q`` that concerns it
     (:meth:`tether.analysis.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when

@@ -4,10 +4,10 @@
 call safe (as :func:`tether.analysis.assessment` applies them: every concerning escape point farther
 than its ``L_g``, no Prop. 3 conflict) and names what changed at the next step. Each cause is
 either a *gap* of the paper's conditions (the controller did what the paper prescribes and the
-target still won: ``math.md`` §10, last paragraph) or a *bug* (the controller or the escape
-table did not do what the paper prescribes). The trace itself is the evidence: the state at
-``t_safe`` is safe by the paper's conditions, the one a step later is not, and the loss follows
-without the state becoming safe again.
+target still won: ``docs/formulas.md``, "Escape points and the trigger") or a *bug* (the
+controller or the escape table did not do what the paper prescribes). The trace itself is the
+evidence: the state at ``t_safe`` is safe by the paper's conditions, the one a step later is
+not, and the loss follows without the state becoming safe again.
 """
 
 from __future__ import annotations

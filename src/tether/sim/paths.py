@@ -1,7 +1,8 @@
 """Shortest paths for targets: a visibility graph of the free space shrunk by a clearance.
 
 Targets walk polylines that keep ``clearance`` map units off the walls (a target on a wall is
-outside the model, ``math.md`` §6). The graph's nodes are the vertices of the shrunk free space;
+outside the model, ``docs/conventions.md``). The graph's nodes are the vertices of the shrunk
+free space;
 two nodes are joined when the segment between them stays inside it. Lengths in map units.
 """
 
