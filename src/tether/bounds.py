@@ -132,6 +132,17 @@ def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) ->
     ------
     InvalidParameterError
         On non-finite angles or invalid speeds (see :func:`check_speeds`).
+
+    Examples
+    --------
+    A quarter turn at ``vt = 1``, ``vo = 2``, ``lss = 1`` (seconds):
+
+    >>> import math
+    >>> from tether.bounds import rotation_time
+    >>> round(float(rotation_time(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)), 5)
+    1.31164
+    >>> round(float(rotation_time(0.0, math.pi / 2, vt=0.0, vo=2.0, lss=1.0)), 5)  # lss·Δ/vo
+    0.7854
     """
     vt, vo, lss = check_speeds(vt, vo, lss)
     t0 = _finite("theta0", theta0)
@@ -145,7 +156,15 @@ def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) ->
 
 def distance_bound(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) -> Any:
     """The paper's ``L(x, y, θ) = vt * rotation_time(...)``: how far the target runs (straight)
-    during the rotation, map units. Vectorized like :func:`rotation_time`."""
+    during the rotation, map units. Vectorized like :func:`rotation_time`.
+
+    Examples
+    --------
+    >>> import math
+    >>> from tether.bounds import distance_bound
+    >>> round(float(distance_bound(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)), 5)  # map units
+    1.31164
+    """
     return vt * rotation_time(theta0, thetaf, vt, vo, lss)
 
 
@@ -228,7 +247,17 @@ def best_rotation(a0: float, af: float, psi: float, vt: float, vo: float, lss: f
 
 def bound_report(theta0: float, thetaf: float, vt: float, vo: float, lss: float) -> dict:
     """The ``tether bound`` result: rotation time and distance bound for the given lifted
-    angles, and the worst-case (steering target) time and distance for the same sweep."""
+    angles, and the worst-case (steering target) time and distance for the same sweep.
+
+    Examples
+    --------
+    >>> import math
+    >>> from tether.bounds import bound_report
+    >>> report = bound_report(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)
+    >>> {key: round(float(value), 5) for key, value in report.items()
+    ...  if key in ("distance_bound", "worst_case_distance")}
+    {'distance_bound': 1.31164, 'worst_case_distance': 1.5708}
+    """
     t = rotation_time(theta0, thetaf, vt, vo, lss)
     tg = worst_case_time(thetaf - theta0, vt, vo, lss)
     return {

@@ -35,6 +35,15 @@ def rate_interval(v: Any, a: Any, lss: float, vo: float) -> tuple[np.ndarray, np
     -------
     lo, hi : ndarray
         ``(∓sqrt(vo² − v_r²) − v_s) / lss`` with ``v_r = v·u(a)``, ``v_s = v·u⊥(a)``.
+
+    Examples
+    --------
+    A target running at 0.5 across a rod of length 1 pointing along +x (radians per second):
+
+    >>> from tether.rates import rate_interval
+    >>> lo, hi = rate_interval([0.0, 0.5], 0.0, lss=1.0, vo=1.0)
+    >>> round(float(lo), 3), round(float(hi), 3)
+    (-1.5, 0.5)
     """
     v = np.asarray(v, dtype=float)
     a = np.asarray(a, dtype=float)

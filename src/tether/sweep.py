@@ -285,6 +285,19 @@ def sweep(env: Environment, lss_values: Iterable[float], executor: Executor | No
     ------
     InvalidParameterError
         If a length is not positive, the speeds are inconsistent or ``tol`` is negative.
+
+    Examples
+    --------
+    The 1.5 × 3 room has no strategy at ``lss`` 1 but has one for short rods:
+
+    >>> from tether import Environment
+    >>> from tether.sweep import sweep
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> result = sweep(room, [0.25, 1.0])
+    >>> [(row.lss, row.strategy_exists) for row in result.rows if not row.refined]
+    [(0.25, True), (1.0, False)]
+    >>> result.longest is not None and 0.25 <= result.longest < 1.0
+    True
     """
     vals = _check_values(lss_values)
     _check_speeds(vt, vo)

@@ -58,7 +58,20 @@ class EscapePoint:
 
 @dataclass(frozen=True)
 class Assessment:
-    """The analysis of a start ``(x, y, a)`` (see the module docstring)."""
+    """The analysis of a start ``(x, y, a)`` (see the module docstring).
+
+    Examples
+    --------
+    Each escape point in reach lies farther (map units) than its safe bound ``L_g``:
+
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze, assess
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> start = assess(analyze(decompose(ell, 0.5)), vt=0.3, vo=1.0, x=1.0, y=1.0, a=0.0)
+    >>> [(e.kind, round(e.distance, 3), round(e.L_g, 3)) for e in start.escape_points]
+    [('vertex', 1.414, 0.303), ('wall', 1.118, 0.065)]
+    """
 
     start: tuple[float, float, float]
     lss: float
@@ -94,6 +107,17 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
     ------
     InvalidParameterError
         ``vo <= vt`` or non-positive speeds.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze, assess
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> verdict = analyze(decompose(ell, 0.5))
+    >>> start = assess(verdict, vt=0.3, vo=1.0, x=1.0, y=1.0, a=0.0)
+    >>> start.safe, start.cell
+    (True, '(R5,*,*)')
     """
     dec = verdict.dec
     vt, vo, lss = check_speeds(vt, vo, dec.lss)

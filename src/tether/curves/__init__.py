@@ -96,6 +96,17 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     -------
     list of Curve
         In the order A, B, C, D, E, then by feature; curves with no critical part are dropped.
+
+    Examples
+    --------
+    In a rectangle only walls and corners matter: one offset (A) per wall and one circle (B) per
+    corner.
+
+    >>> from tether import Environment
+    >>> from tether.curves import critical_curves
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> [curve.kind for curve in critical_curves(room, 1.0)]
+    ['A', 'A', 'A', 'A', 'B', 'B', 'B', 'B']
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()

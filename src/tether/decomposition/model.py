@@ -90,7 +90,19 @@ class Region:
 
 @dataclass(frozen=True, eq=False)
 class Decomposition:
-    """The result of :func:`decompose`: curves, regions, cells, pieces and point location."""
+    """The result of :func:`decompose`: curves, regions, cells, pieces and point location.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> dec = decompose(room, 1.0)
+    >>> dec.counts
+    {'curves': 8, 'regions': 19, 'cells': 32, 'pieces': 28}
+    >>> dec.cell_at([(0.75, 1.5)], [1.5708])  # the cell of the rod pointing up from the centre
+    ['(R9,E1,E3)']
+    """
 
     env: Environment = field(repr=False)
     lss: float

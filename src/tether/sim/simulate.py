@@ -92,7 +92,22 @@ class Trace:
 @dataclass(frozen=True, eq=False)
 class SimResult:
     """Outcome of :func:`simulate`: ``held`` for the whole duration or ``lost`` at ``lost_at``
-    (s) with ``reason``; time per mode (s), monitor statistics, events and the trace."""
+    (s) with ``reason``; time per mode (s), monitor statistics, events and the trace.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.sim.controller import FollowController
+    >>> from tether.sim.protocols import World
+    >>> from tether.sim.simulate import simulate
+    >>> from tether.strategies import make_target
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> world = World(ell, lss=0.5, vt=0.3, vo=1.0)
+    >>> result = simulate(world, FollowController(), make_target("random", world),
+    ...                   (1.0, 1.0, 1.5708), duration=1.0, dt=0.05)
+    >>> result.held, len(result.trace), result.monitor.max_speed_ratio <= 1
+    (True, 21, True)
+    """
 
     outcome: str
     lost_at: float | None
@@ -281,6 +296,33 @@ def simulate(world: World, controller: Controller, target: Target,
     ------
     InvalidParameterError, OutsideFreeSpaceError
         Bad speeds or step, or a start that is not a free rod in the free space.
+
+    Examples
+    --------
+    The follow law against a target walking 2 map units along an L-shaped room, rod 0.5 long
+    (``vt/vo = 0.3``), and the same walk toward the far wall of a 1.5 × 3 room with a rod of 1:
+
+    >>> from tether import Environment
+    >>> from tether.sim.controller import FollowController
+    >>> from tether.sim.protocols import World
+    >>> from tether.sim.simulate import simulate
+    >>> from tether.strategies import make_target
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> world = World(ell, lss=0.5, vt=0.3, vo=1.0)
+    >>> target = make_target("path", world, waypoints=[(1.0, 1.0), (3.0, 1.0)])
+    >>> result = simulate(world, FollowController(), target, (1.0, 1.0, 1.5708), duration=2.0,
+    ...                   dt=0.05)
+    >>> result.outcome, result.modes
+    ('held', ['reactive'])
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> world = World(room, lss=1.0, vt=0.3, vo=1.0)
+    >>> target = make_target("path", world, waypoints=[(0.75, 1.2), (0.75, 2.9)])
+    >>> result = simulate(world, FollowController(), target, (0.75, 1.2, 1.5708), duration=8.0,
+    ...                   dt=0.05)
+    >>> result.outcome, round(result.lost_at, 2)  # seconds
+    ('lost', 2.65)
+    >>> result.reason
+    'rate needed beyond vo: ... (wall E2 met with the rod too steep to slide)'
     """
     if not (dt > 0 and duration >= 0 and math.isfinite(dt) and math.isfinite(duration)):
         raise InvalidParameterError(f"need dt > 0 and duration >= 0 (dt={dt}, duration={duration})")
