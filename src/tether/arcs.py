@@ -87,6 +87,7 @@ class Arc:
         return (a - self.start + tol) % TWO_PI <= self.length + 2 * tol
 
     def to_dict(self) -> dict:
+        """The arc as JSON-ready values (angles in radians)."""
         return {
             "start": self.start,
             "end": self.end,
@@ -128,6 +129,7 @@ class FreeArcs:
         return self.full or any(arc.contains(a) for arc in self.arcs)
 
     def to_dict(self) -> dict:
+        """The free arcs as JSON-ready values (the ``tether arcs --json`` fields)."""
         return {
             "point": list(self.point),
             "lss": self.lss,

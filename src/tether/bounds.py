@@ -220,6 +220,7 @@ class Rotation:
     worst_case_distance: float  # vt * worst_case_time, map units
 
     def to_dict(self) -> dict:
+        """The rotation as JSON-ready values (angles in radians, time in seconds)."""
         return {
             "sense": self.sense,
             "theta0": self.theta0,

@@ -1,5 +1,5 @@
-"""Start assessment: is the start ``(x, y, a)`` safe against target speed ``vt`` and observer
-speed ``vo`` (``docs/strategy.md``)?
+"""Start assessment: whether the start ``(x, y, a)`` is safe against target speed ``vt`` and
+observer speed ``vo`` (``docs/strategy.md``).
 
 ``safe`` iff the rod is free, its cell survives the elimination, every concerning escape point
 (:mod:`tether.analysis.escape_points`) has a non-negative margin ``|p − q| − L_g``
@@ -50,6 +50,7 @@ class EscapePoint:
     goal: tuple[tuple[float, float], ...] = ()  # CCW arcs (start, end), rad; (0, 0) = all
 
     def to_dict(self) -> dict:
+        """The escape point as JSON-ready values (map units, radians)."""
         return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
                 "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
                 "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin,
@@ -87,6 +88,7 @@ class Assessment:
     reasons: tuple[str, ...]
 
     def to_dict(self) -> dict:
+        """The assessment as JSON-ready values (the ``tether assess --json`` fields)."""
         return {"start": list(self.start), "lss": self.lss, "vt": self.vt, "vo": self.vo,
                 "safe": self.safe, "cell": self.cell, "survives": self.survives,
                 "rod_free": self.rod_free, "strategy_exists": self.strategy_exists,

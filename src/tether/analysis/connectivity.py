@@ -62,6 +62,7 @@ class ConnectivityGraph:
 
     @property
     def n_edges(self) -> int:
+        """Number of edges of G."""
         return len(self.edge_a)
 
     @cached_property

@@ -49,6 +49,7 @@ class Elimination:
     because: str | None
 
     def to_dict(self) -> dict:
+        """The elimination as JSON-ready values."""
         return {"cell": self.cell, "escapes_to": self.escapes_to, "piece": self.piece,
                 "round": self.round, "because": self.because}
 
@@ -94,6 +95,7 @@ class Verdict:
 
     @property
     def rounds(self) -> int:
+        """Number of elimination rounds (0 when nothing was eliminated)."""
         el = self.eliminated
         if isinstance(el, Eliminations):
             return int(el.round.max()) if len(el) else 0
@@ -108,11 +110,13 @@ class Verdict:
         return escape_story(self)
 
     def counts(self) -> dict:
+        """Counts of regions, cells, pieces, edges of G and surviving cells."""
         return {"regions": len(self.dec.regions), "cells": len(self.dec.cells),
                 "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
                 "surviving_cells": len(self.surviving)}
 
     def to_dict(self) -> dict:
+        """The verdict as JSON-ready values (the ``tether analyze --json`` fields)."""
         return {
             "map": self.dec.env.name,
             "lss": self.dec.lss,

@@ -120,6 +120,7 @@ class EscapeTable:
 
     @property
     def pieces(self) -> list[str]:
+        """Names ``P<k>`` of the pieces holding escape samples, in piece order."""
         return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
                       key=lambda s: int(s[1:]))
 
@@ -139,6 +140,7 @@ class EscapeTable:
         return sweeps(ks, ke, self.g_start, self.g_end, a)
 
     def to_dict(self) -> dict:
+        """The table as JSON-ready values, one entry per row (map units, radians)."""
         rows = []
         for i in range(len(self.q)):
             goal = [[float(s), float(e)] for s, e in zip(self.g_start[i], self.g_end[i],

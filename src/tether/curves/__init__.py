@@ -66,7 +66,8 @@ __all__ = ["KINDS", "KIND_NAMES", "MAX_CURVE_VERTICES", "Curve", "Family", "Reso
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
 #: this: the peak memory is about 1.2 kB per estimated vertex on floor plans (noded parts,
 #: faces, region polygons, cells and G; measured 1.25 M -> 1.53 GB at 1,000 map vertices,
-#: decompose + analyze), so the default bounds a decomposition near 2 GB. Raise it on a machine with more memory.
+#: decompose + analyze), so the default bounds a decomposition near 2 GB. Raise it on a
+#: machine with more memory.
 MAX_CURVE_VERTICES = 1_500_000
 
 

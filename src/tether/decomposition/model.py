@@ -55,6 +55,7 @@ class Region:
 
     @property
     def name(self) -> str:
+        """The region's name, ``R<id>``."""
         return f"R{self.id}"
 
     @property
@@ -84,6 +85,7 @@ class Region:
         return g[self.id] if isinstance(g, Shapes) else g
 
     def to_dict(self) -> dict:
+        """The region as JSON-ready values (area in square map units)."""
         return {"id": self.name, "area": self.area, "point": list(self.point),
                 "cells": list(self.cells)}
 
@@ -127,6 +129,7 @@ class Decomposition:
 
     @property
     def counts(self) -> dict:
+        """Counts of curves, regions, cells and pieces."""
         return {"curves": len(self.curves), "regions": len(self.regions),
                 "cells": len(self.cells), "pieces": len(self.pieces)}
 

@@ -54,10 +54,12 @@ class CheckReport:
 
     @property
     def ok(self) -> bool:
+        """Whether no disagreement was found."""
         return not (self.point_disagreements or self.piece_disagreements
                     or self.line_disagreements)
 
     def to_dict(self) -> dict:
+        """The report as JSON-ready values."""
         return {"ok": self.ok, "samples": self.samples,
                 "point_disagreements": list(self.point_disagreements),
                 "piece_disagreements": list(self.piece_disagreements),
@@ -158,7 +160,7 @@ SELF_CHECK_REGIONS = 200
 
 def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0,
                lines: int | None = None) -> CheckReport:
-    """The cheap check :func:`tether.escape.analyze` runs by default: one random point in
+    """The cheap check :func:`tether.analysis.analyze` runs by default: one random point in
     each of up to ``regions`` random regions against its region's structure, every piece's
     crossing as verified when the decomposition was built (no recomputation), and a scan of
     ``lines`` random lines (default :data:`tether.tolerances.SELF_CHECK_LINES`; see

@@ -9,8 +9,7 @@
   state deepest inside the kernel;
 * :mod:`tether.game.evader` — :class:`KernelEvader`, the target move that leaves the kernel.
 
-May import the pipeline stages above it (environment, arcs, bounds, rates, sim.protocols);
-never imports matplotlib (figures are in :mod:`tether.plot_kernel`).
+Never imports matplotlib (figures are in :mod:`tether.plot.kernel`).
 """
 
 from tether.game.grid import StateGrid, build_grid

@@ -86,9 +86,11 @@ class StateGrid:
 
     @property
     def n_points(self) -> int:
+        """Number of lattice points kept (strictly inside the free space)."""
         return len(self.points)
 
     def to_dict(self) -> dict:
+        """The grid's parameters as JSON-ready values (``h`` and origin in map units)."""
         return {"h": self.h, "orientations": self.n_a, "shape": list(self.shape),
                 "origin": list(self.origin)}
 

@@ -100,15 +100,18 @@ class Kernel:
     # ----- counts -------------------------------------------------------------------------
     @property
     def states(self) -> int:
+        """Number of states of the full lattice box (points × orientation bins)."""
         ny, nx, n_a = self.grid.shape
         return nx * ny * n_a
 
     @property
     def free_states(self) -> int:
+        """Number of free states (rod free at the grid point and bin centre)."""
         return int(self.grid.free.sum())
 
     @property
     def kernel_states(self) -> int:
+        """Number of states in the kernel."""
         return int(self.kernel.sum())
 
     @property
@@ -117,6 +120,7 @@ class Kernel:
         return self.grid.h / self.vt * self.vo / self.lss / self.grid.delta
 
     def to_dict(self) -> dict:
+        """The parameters and counts as JSON-ready values (the ``tether kernel`` fields)."""
         return {
             "map": self.grid.env.name,
             "lss": self.lss, "vt": self.vt, "vo": self.vo,

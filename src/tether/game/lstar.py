@@ -57,6 +57,7 @@ class LStarCase:
         return self.l_star is not None and self.l_star <= self.L_g + self.tol
 
     def to_dict(self) -> dict:
+        """The row as JSON-ready values (map units, radians)."""
         return {"row": self.row, "piece": self.piece, "q": list(self.q), "a": self.a,
                 "psi": self.psi, "sweep": self.sweep, "sense": self.sense, "L": self.L,
                 "L_g": self.L_g, "l_star": self.l_star, "length": self.length, "tol": self.tol}

@@ -72,9 +72,11 @@ class LossCause:
 
     @property
     def text(self) -> str:
+        """The cause in words."""
         return CAUSES[self.cause][1]
 
     def to_dict(self) -> dict:
+        """The diagnosis as JSON-ready values (times in seconds)."""
         return {"cause": self.cause, "kind": self.kind, "t_safe": self.t_safe,
                 "lost_at": self.lost_at, "escape": self.escape, "margin": self.margin,
                 "previous": self.previous, "committed": self.committed}

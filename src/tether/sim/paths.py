@@ -53,6 +53,7 @@ class PathPlanner:
         return bool(self._check.covers(LineString([p, q])))
 
     def contains(self, p: Any) -> bool:
+        """Whether point ``p`` lies in the shrunk free space."""
         return bool(self._check.covers(Point(float(p[0]), float(p[1]))))
 
     def path(self, p: Any, q: Any) -> np.ndarray:

@@ -45,6 +45,7 @@ class Event:
     detail: str
 
     def to_dict(self) -> dict:
+        """The event as JSON-ready values (time in seconds)."""
         return {"t": self.t, "kind": self.kind, "detail": self.detail}
 
 
@@ -63,6 +64,7 @@ class MonitorStats:
     max_distance_error: float
 
     def to_dict(self) -> dict:
+        """The statistics as JSON-ready values."""
         return {"max_speed_ratio": self.max_speed_ratio, "min_clearance": self.min_clearance,
                 "max_distance_error": self.max_distance_error}
 
@@ -84,6 +86,7 @@ class Trace:
         return len(self.t)
 
     def to_dict(self) -> dict:
+        """The trace as JSON-ready lists (times in seconds, positions in map units)."""
         return {"t": self.t.tolist(), "target": self.p.tolist(), "a": self.a.tolist(),
                 "observer": self.observer.tolist(), "mode": list(self.mode),
                 "rate": self.rate.tolist(), "speed_ratio": self.speed_ratio.tolist()}
@@ -125,6 +128,7 @@ class SimResult:
 
     @property
     def held(self) -> bool:
+        """Whether the target stayed in sight for the whole duration."""
         return self.outcome == "held"
 
     @property
@@ -137,6 +141,7 @@ class SimResult:
         return seq
 
     def to_dict(self, trace: bool = False) -> dict:
+        """The result as JSON-ready values; with ``trace`` the whole trace too."""
         d = {"outcome": self.outcome, "lost_at": self.lost_at, "reason": self.reason,
              "duration": self.duration, "dt": self.dt, "seed": self.seed,
              "start": list(self.start), "controller": self.controller, "target": self.target,
@@ -168,6 +173,7 @@ class Monitor:
         self.max_derr = 0.0
 
     def observer(self, p: np.ndarray, a: float) -> np.ndarray:
+        """The observer's position for target ``p`` and rod orientation ``a``, map units."""
         return p + self.lss * _u(a)
 
     def ok(self, p: np.ndarray, a: float) -> bool:
@@ -202,6 +208,7 @@ class Monitor:
         return ratio
 
     def stats(self) -> MonitorStats:
+        """The worst values seen so far."""
         return MonitorStats(self.max_ratio, self.min_clear if math.isfinite(self.min_clear)
                             else 0.0, self.max_derr)
 
