@@ -1,4 +1,5 @@
-"""Exact free orientation arcs of the rod at target points (``math.md`` §6), and the rod test.
+"""Exact free orientation arcs of the rod at target points (``docs/formulas.md``,
+"Free orientations at a point"), and the rod test.
 
 For a target ``p`` and rod length ``lss``, the rod at orientation ``a`` is the segment from ``p``
 to ``p + lss (cos a, sin a)``. Each edge ``Ei`` seen from its free side blocks the closed interval
@@ -86,6 +87,7 @@ class Arc:
         return (a - self.start + tol) % TWO_PI <= self.length + 2 * tol
 
     def to_dict(self) -> dict:
+        """The arc as JSON-ready values (angles in radians)."""
         return {
             "start": self.start,
             "end": self.end,
@@ -127,6 +129,7 @@ class FreeArcs:
         return self.full or any(arc.contains(a) for arc in self.arcs)
 
     def to_dict(self) -> dict:
+        """The free arcs as JSON-ready values (the ``tether arcs --json`` fields)."""
         return {
             "point": list(self.point),
             "lss": self.lss,
@@ -427,6 +430,19 @@ def free_arcs_many(env: Environment, points: Any, lss: float, check: bool = True
         If ``lss`` is not a finite positive number or points are malformed.
     OutsideFreeSpaceError
         If a point is outside the free space or on its boundary.
+
+    Examples
+    --------
+    A 1.5 × 3 room and a rod of length 1: at the centre two arcs (up and down), near a corner
+    one:
+
+    >>> from tether import Environment, free_arcs_many
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> table = free_arcs_many(room, [(0.75, 1.5), (0.2, 0.2)], 1.0)
+    >>> table.point.tolist()  # the point each arc belongs to
+    [0, 0, 1]
+    >>> [round(float(s), 4) for s in table.start]
+    [0.7227, 3.8643, 6.0818]
     """
     lss = check_lss(lss)
     pts = _as_points(points)
@@ -475,6 +491,17 @@ def free_arcs(env: Environment, point: Any, lss: float) -> FreeArcs:
     -------
     FreeArcs
         The arcs sorted by start angle, each end labelled ``E<i>`` or ``V<j>``.
+
+    Examples
+    --------
+    >>> from tether import Environment, free_arcs
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> fa = free_arcs(room, (0.75, 1.5), 1.0)
+    >>> [(round(arc.start, 4), round(arc.end, 4), arc.start_feature, arc.end_feature)
+    ...  for arc in fa.arcs]
+    [(0.7227, 2.4189, 'E1', 'E3'), (3.8643, 5.5605, 'E3', 'E1')]
+    >>> fa.contains(1.5708), fa.contains(0.0)  # pointing up, pointing right (radians)
+    (True, False)
     """
     table = free_arcs_many(env, point, lss)
     return table_entry(env, table, 0, tuple(map(float, _as_points(point)[0])), check_lss(lss))
@@ -514,6 +541,13 @@ def rod_is_free_many(env: Environment, points: Any, angles: Any, lss: float) -> 
     Returns
     -------
     ndarray of bool, shape (m,)
+
+    Examples
+    --------
+    >>> from tether import Environment, rod_is_free_many
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> rod_is_free_many(room, [(0.75, 1.5), (0.75, 1.5)], [0.0, 1.5708], 1.0).tolist()
+    [False, True]
     """
     lss = check_lss(lss)
     pts = _as_points(points)
@@ -758,5 +792,15 @@ def _cone_columns(env: Environment) -> tuple[np.ndarray, ...]:
 
 def rod_is_free(env: Environment, point: Any, angle: float, lss: float) -> bool:
     """Whether the rod from ``point`` at orientation ``angle`` (radians), of length ``lss``
-    (map units), lies in the closed free space. See :func:`rod_is_free_many`."""
+    (map units), lies in the closed free space. See :func:`rod_is_free_many`.
+
+    Examples
+    --------
+    >>> from tether import Environment, rod_is_free
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> rod_is_free(room, (0.75, 1.5), 1.5708, 1.0)  # up: the far wall is 1.5 away
+    True
+    >>> rod_is_free(room, (1.0, 1.5), 0.0, 1.0)  # right: the wall is 0.5 away
+    False
+    """
     return bool(rod_is_free_many(env, point, [angle], lss)[0])

@@ -1,6 +1,7 @@
 """Rotation time, the paper's distance bound ``L`` and the worst-case (steering target) bound.
 
-Conventions (``math.md`` §2-§3): the paper's angle ``θ = a - ψ + π/2`` is the angle from the
+Conventions (``docs/conventions.md``, "Frames and angles"; ``docs/formulas.md``, "Turning as
+fast as possible"): the paper's angle ``θ = a - ψ + π/2`` is the angle from the
 target velocity (heading ``ψ``) to the CCW tangent ``u⊥(a)`` of the rod orientation ``a``.
 Angles are *lifted* (not reduced mod 2π): the sense of a rotation from ``theta0`` to
 ``thetaf`` is the sign of ``thetaf - theta0`` and several turns are allowed. Times in seconds,
@@ -117,7 +118,7 @@ def ellipe_inc(phi: np.ndarray, m: float) -> np.ndarray:
 
 def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) -> Any:
     """Time of the saturated rotation from ``theta0`` to ``thetaf`` (lifted radians) while the
-    target runs straight at speed ``vt`` (closed form R3 of ``math.md`` §2).
+    target runs straight at speed ``vt`` (``docs/formulas.md``, "Turning as fast as possible").
 
     ``T = lss/(vo²-vt²) [vo |E(θf|m) - E(θ0|m)| + vt (sin θf - sin θ0)]`` with ``m = (vt/vo)²``.
     Vectorized over ``theta0`` and ``thetaf``.
@@ -131,6 +132,17 @@ def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) ->
     ------
     InvalidParameterError
         On non-finite angles or invalid speeds (see :func:`check_speeds`).
+
+    Examples
+    --------
+    A quarter turn at ``vt = 1``, ``vo = 2``, ``lss = 1`` (seconds):
+
+    >>> import math
+    >>> from tether.bounds import rotation_time
+    >>> round(float(rotation_time(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)), 5)
+    1.31164
+    >>> round(float(rotation_time(0.0, math.pi / 2, vt=0.0, vo=2.0, lss=1.0)), 5)  # lss·Δ/vo
+    0.7854
     """
     vt, vo, lss = check_speeds(vt, vo, lss)
     t0 = _finite("theta0", theta0)
@@ -144,12 +156,21 @@ def rotation_time(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) ->
 
 def distance_bound(theta0: Any, thetaf: Any, vt: float, vo: float, lss: float) -> Any:
     """The paper's ``L(x, y, θ) = vt * rotation_time(...)``: how far the target runs (straight)
-    during the rotation, map units. Vectorized like :func:`rotation_time`."""
+    during the rotation, map units. Vectorized like :func:`rotation_time`.
+
+    Examples
+    --------
+    >>> import math
+    >>> from tether.bounds import distance_bound
+    >>> round(float(distance_bound(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)), 5)  # map units
+    1.31164
+    """
     return vt * rotation_time(theta0, thetaf, vt, vo, lss)
 
 
 def worst_case_time(sweep: Any, vt: float, vo: float, lss: float) -> Any:
-    """Guaranteed time to sweep ``|sweep|`` radians whatever the target does (``math.md`` §3):
+    """Guaranteed time to sweep ``|sweep|`` radians whatever the target does
+    (``docs/formulas.md``, "Distance bounds"):
     ``T_g = lss |Δ| / (vo - vt)``, tight against a target running tangentially. Seconds."""
     vt, vo, lss = check_speeds(vt, vo, lss)
     d = np.abs(_finite("sweep", sweep))
@@ -165,7 +186,7 @@ def worst_case_distance(sweep: Any, vt: float, vo: float, lss: float) -> Any:
 
 def worst_straight_time(sweep: Any, vt: float, vo: float, lss: float) -> Any:
     """Rotation time against the worst *straight* heading for a sweep ``|Δ| <= 2π``: the sweep
-    centred on ``θ = 0`` (``math.md`` §3). Seconds."""
+    centred on ``θ = 0`` (``docs/formulas.md``, "Turning as fast as possible"). Seconds."""
     d = np.abs(_finite("sweep", sweep))
     return rotation_time(-d / 2, d / 2, vt, vo, lss)
 
@@ -199,6 +220,7 @@ class Rotation:
     worst_case_distance: float  # vt * worst_case_time, map units
 
     def to_dict(self) -> dict:
+        """The rotation as JSON-ready values (angles in radians, time in seconds)."""
         return {
             "sense": self.sense,
             "theta0": self.theta0,
@@ -226,7 +248,17 @@ def best_rotation(a0: float, af: float, psi: float, vt: float, vo: float, lss: f
 
 def bound_report(theta0: float, thetaf: float, vt: float, vo: float, lss: float) -> dict:
     """The ``tether bound`` result: rotation time and distance bound for the given lifted
-    angles, and the worst-case (steering target) time and distance for the same sweep."""
+    angles, and the worst-case (steering target) time and distance for the same sweep.
+
+    Examples
+    --------
+    >>> import math
+    >>> from tether.bounds import bound_report
+    >>> report = bound_report(0.0, math.pi / 2, vt=1.0, vo=2.0, lss=1.0)
+    >>> {key: round(float(value), 5) for key, value in report.items()
+    ...  if key in ("distance_bound", "worst_case_distance")}
+    {'distance_bound': 1.31164, 'worst_case_distance': 1.5708}
+    """
     t = rotation_time(theta0, thetaf, vt, vo, lss)
     tg = worst_case_time(thetaf - theta0, vt, vo, lss)
     return {

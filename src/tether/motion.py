@@ -1,4 +1,5 @@
-"""The three observer motions of the paper as velocity laws (``math.md`` §2-§5).
+"""The three observer motions of the paper as velocity laws (``docs/formulas.md``, "The
+observer's motions" and "Turning as fast as possible").
 
 Every law takes the target position ``T``, the observer position ``O`` (so the rod is
 ``[T, O]``, its orientation ``a`` points from ``T`` to ``O``) and the target velocity ``Vt``,
@@ -55,13 +56,30 @@ def _result(vx: float, vy: float, rate: float, vo: float) -> Velocity:
 
 # ---------------------------------------------------------------------- reactive
 def translate(T: Vec, O: Vec, Vt: Vec, vo: float = math.inf) -> Velocity:
-    """Reactive translation: the observer copies the target velocity (``ȧ = 0``)."""
+    """Reactive translation: the observer copies the target velocity (``ȧ = 0``).
+
+    Examples
+    --------
+    >>> from tether.motion import translate
+    >>> translate((0, 0), (1, 0), (0.3, 0.4), vo=1.0)
+    Velocity(vx=0.3, vy=0.4, rate=0.0, speed=0.5, feasible=True)
+    """
     return _result(Vt[0], Vt[1], 0.0, vo)
 
 
 def follow(T: Vec, O: Vec, Vt: Vec, vo: float = math.inf) -> Velocity:
     """Reactive "hound" motion: the minimum-norm admissible velocity, ``Vo = (Vt·u) u``,
-    ``ȧ = -(Vt·u⊥)/|O-T|``. Against a straight target the observer traces the tractrix."""
+    ``ȧ = -(Vt·u⊥)/|O-T|``. Against a straight target the observer traces the tractrix.
+
+    Examples
+    --------
+    The target runs up across a rod pointing along +x: the observer stays put and the rod turns
+    clockwise at 1 rad/s.
+
+    >>> from tether.motion import follow
+    >>> follow((0, 0), (1, 0), (0.0, 1.0), vo=2.0)
+    Velocity(vx=0.0, vy=0.0, rate=-1.0, speed=0.0, feasible=True)
+    """
     ux, uy, length = _rod(T, O)
     radial = Vt[0] * ux + Vt[1] * uy
     tangential = -Vt[0] * uy + Vt[1] * ux
@@ -74,8 +92,16 @@ def rotate(T: Vec, O: Vec, Vt: Vec, vo: float, sense: int) -> Velocity:
 
     The observer copies the radial part ``v_r = Vt·u`` and spends the rest of ``vo`` on the
     tangent: ``ȧ = σ (sqrt(vo² - v_r²) - σ Vt·u⊥) / |O-T|``, so ``|Vo| = vo`` exactly
-    (``math.md`` §3). For a straight target this is the paper's ``w₊``/``w₋``. Feasible whenever
+    (``docs/formulas.md``, "Distance bounds"). For a straight target this is the paper's
+    ``w₊``/``w₋``. Feasible whenever
     ``|Vt| < vo``.
+
+    Examples
+    --------
+    >>> from tether.motion import rotate
+    >>> v = rotate((0, 0), (1, 0), (0.0, 1.0), vo=2.0, sense=1)
+    >>> round(v.rate, 6), round(v.speed, 6), v.feasible
+    (1.0, 2.0, True)
     """
     ux, uy, length = _rod(T, O)
     radial = Vt[0] * ux + Vt[1] * uy
@@ -90,12 +116,24 @@ def rotate(T: Vec, O: Vec, Vt: Vec, vo: float, sense: int) -> Velocity:
 # ---------------------------------------------------------------------- compliant
 def slide_on_wall(T: Vec, O: Vec, Vt: Vec, wall_dir: Vec, vo: float) -> Velocity:
     """Observer end sliding along a wall line with unit direction ``e = wall_dir``, whose free
-    side is on the left of ``e`` (``math.md`` §5a).
+    side is on the left of ``e`` (``docs/formulas.md``, "The observer's motions").
 
     With ``α = a - γ`` the rod orientation relative to the wall and ``Vtx = Vt·e``,
     ``Vty = Vt·n``: ``ṡ = Vtx + Vty tan α``, ``ȧ = -Vty / (|O-T| cos α)``, ``Vo = ṡ e``.
     Infeasible when ``|ṡ| > vo`` (the rod is too close to perpendicular to the wall) or the rod
     is exactly perpendicular with ``Vty != 0``.
+
+    Examples
+    --------
+    The target 0.5 above a wall along +x, the observer's end on the wall: a target running along
+    the wall is matched without turning.
+
+    >>> import math
+    >>> from tether.motion import slide_on_wall
+    >>> T, O = (0.0, 0.5), (math.sqrt(0.75), 0.0)
+    >>> v = slide_on_wall(T, O, (0.5, 0.0), wall_dir=(1.0, 0.0), vo=1.0)
+    >>> round(v.vx, 6), round(v.vy, 6), v.rate == 0, v.feasible
+    (0.5, 0.0, True, True)
     """
     ux, uy, length = _rod(T, O)
     ex, ey = wall_dir
@@ -113,11 +151,20 @@ def slide_on_wall(T: Vec, O: Vec, Vt: Vec, wall_dir: Vec, vo: float) -> Velocity
 
 
 def contact_vertex(T: Vec, O: Vec, Vt: Vec, vertex: Vec, vo: float) -> Velocity:
-    """Rod kept in contact with a (reflex) vertex ``V`` lying on the rod (``math.md`` §5b).
+    """Rod kept in contact with a (reflex) vertex ``V`` lying on the rod (``docs/formulas.md``,
+    "The observer's motions").
 
     With ``l_t = |T - V|``, ``l_o = |O-T| - l_t`` and ``u`` the rod direction:
     ``Vo = (Vt·u) u - (l_o/l_t)(Vt·u⊥) u⊥``, ``ȧ = -(Vt·u⊥)/l_t``; the speed is
     ``vt sqrt(1 + (l_o²/l_t² - 1) sin²θ_v)``, infeasible above ``vo``.
+
+    Examples
+    --------
+    The rod pivots about a vertex at its middle: the observer mirrors the target's motion.
+
+    >>> from tether.motion import contact_vertex
+    >>> contact_vertex((0, 0), (1, 0), (0.0, 1.0), vertex=(0.5, 0.0), vo=2.0)
+    Velocity(vx=0.0, vy=-1.0, rate=-2.0, speed=1.0, feasible=True)
     """
     ux, uy, length = _rod(T, O)
     lt = math.hypot(vertex[0] - T[0], vertex[1] - T[1])
@@ -137,7 +184,16 @@ def wall_contact_needed(Vt: Vec, wall_dir: Vec) -> bool:
 # ---------------------------------------------------------------------- closed forms
 def tractrix(s: Any, lss: float, side: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """The follow motion's path against a target on the +x axis at ``(lss·s, 0)``
-    (``math.md`` §4): ``x_o = lss (s - tanh s)``, ``y_o = side · lss · sech s``."""
+    (``docs/formulas.md``, "The observer's motions"): ``x_o = lss (s - tanh s)``,
+    ``y_o = side · lss · sech s``.
+
+    Examples
+    --------
+    >>> from tether.motion import tractrix
+    >>> x, y = tractrix([0.0, 2.0], lss=1.0)
+    >>> x.round(4).tolist(), y.round(4).tolist()
+    ([0.0, 1.036], [1.0, 0.2658])
+    """
     s = np.asarray(s, dtype=float)
     return lss * (s - np.tanh(s)), side * lss / np.cosh(s)
 

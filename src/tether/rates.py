@@ -1,4 +1,5 @@
-"""The observer's admissible rod rates and the rates of the free-arc ends (``math.md`` §10).
+"""The observer's admissible rod rates and the rates of the free-arc ends (``docs/formulas.md``,
+"The observer's choice at each instant").
 
 The state is ``(p, a)``: target position and rod orientation (observer at ``p + lss·u(a)``).
 For a target velocity ``v`` the observer's only freedom is the rod rate ``ȧ``; its speed stays
@@ -34,6 +35,15 @@ def rate_interval(v: Any, a: Any, lss: float, vo: float) -> tuple[np.ndarray, np
     -------
     lo, hi : ndarray
         ``(∓sqrt(vo² − v_r²) − v_s) / lss`` with ``v_r = v·u(a)``, ``v_s = v·u⊥(a)``.
+
+    Examples
+    --------
+    A target running at 0.5 across a rod of length 1 pointing along +x (radians per second):
+
+    >>> from tether.rates import rate_interval
+    >>> lo, hi = rate_interval([0.0, 0.5], 0.0, lss=1.0, vo=1.0)
+    >>> round(float(lo), 3), round(float(hi), 3)
+    (-1.5, 0.5)
     """
     v = np.asarray(v, dtype=float)
     a = np.asarray(a, dtype=float)

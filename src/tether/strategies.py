@@ -63,7 +63,20 @@ TARGETS: dict[str, TargetFactory] = {
 
 
 def make_target(kind: str, world: World, **options: Any) -> Any:
-    """The target of kind ``kind`` (see :data:`TARGETS`)."""
+    """The target of kind ``kind`` (see :data:`TARGETS`).
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.sim.protocols import World
+    >>> from tether.strategies import TARGETS, make_target
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> world = World(ell, lss=0.5, vt=0.3, vo=1.0)
+    >>> make_target("wall", world).name
+    'wall'
+    >>> sorted(TARGETS)
+    ['dash', 'escape', 'kernel-evader', 'path', 'random', 'search', 'tangential', 'wall']
+    """
     try:
         factory = TARGETS[kind]
     except KeyError:

@@ -59,6 +59,7 @@ class SweepRow:
     verified: bool | None = None
 
     def to_dict(self) -> dict:
+        """The row as JSON-ready values (``lss`` in map units, ``seconds`` rounded)."""
         return {"lss": self.lss, "strategy_exists": self.strategy_exists,
                 "verified": self.verified, "counts": self.counts,
                 "safe_fraction": self.safe_fraction, "error": self.error,
@@ -80,6 +81,7 @@ class Interval:
     above: float | None
 
     def to_dict(self) -> dict:
+        """The interval as JSON-ready values (map units)."""
         return {"lo": self.lo, "hi": self.hi, "below": self.below, "above": self.above}
 
 
@@ -101,6 +103,7 @@ class SweepResult:
 
     @property
     def errors(self) -> list[SweepRow]:
+        """The rows whose evaluation failed."""
         return [r for r in self.rows if r.error is not None]
 
     @property
@@ -109,6 +112,7 @@ class SweepResult:
         return [r for r in self.rows if r.verified is False]
 
     def to_dict(self) -> dict:
+        """The result as JSON-ready values (the ``tether sweep --json`` fields)."""
         return {"map": self.map_name, "tol": self.tol, "vt": self.vt, "vo": self.vo,
                 "longest_lss_with_strategy": self.longest,
                 "intervals": [iv.to_dict() for iv in self.intervals],
@@ -129,7 +133,7 @@ class SweepResult:
         return buf.getvalue()
 
     def plot(self, ax: Any = None) -> Any:
-        """The sweep figure (see :func:`tether.plot_sweep.plot_sweep`)."""
+        """The sweep figure (see :func:`tether.plot.plot_sweep`)."""
         from tether.plot.sweep import plot_sweep
 
         return plot_sweep(self, ax)
@@ -285,6 +289,19 @@ def sweep(env: Environment, lss_values: Iterable[float], executor: Executor | No
     ------
     InvalidParameterError
         If a length is not positive, the speeds are inconsistent or ``tol`` is negative.
+
+    Examples
+    --------
+    The 1.5 × 3 room has no strategy at ``lss`` 1 but has one for short rods:
+
+    >>> from tether import Environment
+    >>> from tether.sweep import sweep
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> result = sweep(room, [0.25, 1.0])
+    >>> [(row.lss, row.strategy_exists) for row in result.rows if not row.refined]
+    [(0.25, True), (1.0, False)]
+    >>> result.longest is not None and 0.25 <= result.longest < 1.0
+    True
     """
     vals = _check_values(lss_values)
     _check_speeds(vt, vo)

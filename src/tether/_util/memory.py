@@ -20,7 +20,7 @@ def release_memory() -> None:
 
 
 def _malloc_trim() -> Any:
-    """glibc's ``malloc_trim`` (None where there is none), looked up once."""
+    """The C library's ``malloc_trim`` (glibc; None where there is none), looked up once."""
     got = globals().get("_TRIM", False)
     if got is False:
         got = None

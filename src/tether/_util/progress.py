@@ -19,6 +19,7 @@ class Progress:
         self.start = time.perf_counter()
 
     def __call__(self, stage: str, fraction: float) -> None:
+        """Draw the bar for ``stage`` at ``fraction`` done (0 to 1); nothing off a terminal."""
         if not self.enabled:
             return
         n = int(round(self.width * min(max(fraction, 0.0), 1.0)))

@@ -1,5 +1,5 @@
-"""Start assessment: is the start ``(x, y, a)`` safe against target speed ``vt`` and observer
-speed ``vo`` (``docs/strategy.md``)?
+"""Start assessment: whether the start ``(x, y, a)`` is safe against target speed ``vt`` and
+observer speed ``vo`` (``docs/strategy.md``).
 
 ``safe`` iff the rod is free, its cell survives the elimination, every concerning escape point
 (:mod:`tether.analysis.escape_points`) has a non-negative margin ``|p − q| − L_g``
@@ -50,6 +50,7 @@ class EscapePoint:
     goal: tuple[tuple[float, float], ...] = ()  # CCW arcs (start, end), rad; (0, 0) = all
 
     def to_dict(self) -> dict:
+        """The escape point as JSON-ready values (map units, radians)."""
         return {"kind": self.kind, "point": list(self.point), "cell": self.cell,
                 "piece": self.piece, "distance": self.distance, "sweep": self.sweep,
                 "sense": self.sense, "L": self.L, "L_g": self.L_g, "margin": self.margin,
@@ -58,7 +59,20 @@ class EscapePoint:
 
 @dataclass(frozen=True)
 class Assessment:
-    """The analysis of a start ``(x, y, a)`` (see the module docstring)."""
+    """The analysis of a start ``(x, y, a)`` (see the module docstring).
+
+    Examples
+    --------
+    Each escape point in reach lies farther (map units) than its safe bound ``L_g``:
+
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze, assess
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> start = assess(analyze(decompose(ell, 0.5)), vt=0.3, vo=1.0, x=1.0, y=1.0, a=0.0)
+    >>> [(e.kind, round(e.distance, 3), round(e.L_g, 3)) for e in start.escape_points]
+    [('vertex', 1.414, 0.303), ('wall', 1.118, 0.065)]
+    """
 
     start: tuple[float, float, float]
     lss: float
@@ -74,6 +88,7 @@ class Assessment:
     reasons: tuple[str, ...]
 
     def to_dict(self) -> dict:
+        """The assessment as JSON-ready values (the ``tether assess --json`` fields)."""
         return {"start": list(self.start), "lss": self.lss, "vt": self.vt, "vo": self.vo,
                 "safe": self.safe, "cell": self.cell, "survives": self.survives,
                 "rod_free": self.rod_free, "strategy_exists": self.strategy_exists,
@@ -94,6 +109,17 @@ def assess(verdict: Verdict, vt: float, vo: float, x: float, y: float, a: float)
     ------
     InvalidParameterError
         ``vo <= vt`` or non-positive speeds.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze, assess
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> verdict = analyze(decompose(ell, 0.5))
+    >>> start = assess(verdict, vt=0.3, vo=1.0, x=1.0, y=1.0, a=0.0)
+    >>> start.safe, start.cell
+    (True, '(R5,*,*)')
     """
     dec = verdict.dec
     vt, vo, lss = check_speeds(vt, vo, dec.lss)

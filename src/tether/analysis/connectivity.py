@@ -62,6 +62,7 @@ class ConnectivityGraph:
 
     @property
     def n_edges(self) -> int:
+        """Number of edges of G."""
         return len(self.edge_a)
 
     @cached_property
@@ -383,6 +384,15 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     Returns
     -------
     ConnectivityGraph
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.analysis import build_graph
+    >>> from tether.decomposition import decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> build_graph(decompose(room, 1.0))
+    ConnectivityGraph(cells=32, edges=54)
     """
     ea, eb, ep = _edges(dec)
     nreg, ncell = len(dec.regions), len(dec.cells)

@@ -68,6 +68,7 @@ class DistanceEvent:
         return f"{self.a}–{self.b} at distance {times}"
 
     def to_dict(self) -> dict:
+        """The event as JSON-ready values (``value`` and ``distance`` in map units)."""
         return {"value": self.value, "features": [self.a, self.b], "distance": self.distance,
                 "multiple": self.multiple}
 
@@ -185,6 +186,7 @@ class CriticalLss:
         return self.below["strategy_exists"] == self.above["strategy_exists"]
 
     def to_dict(self) -> dict:
+        """The critical length as JSON-ready values (lengths in map units)."""
         return {"lss": self.lss, "value": self.value, "side": self.side, "delta": self.delta,
                 "events": [ev.to_dict() for ev in self.events],
                 "below": self.below, "above": self.above}

@@ -49,13 +49,25 @@ class Elimination:
     because: str | None
 
     def to_dict(self) -> dict:
+        """The elimination as JSON-ready values."""
         return {"cell": self.cell, "escapes_to": self.escapes_to, "piece": self.piece,
                 "round": self.round, "because": self.because}
 
 
 @dataclass(frozen=True, eq=False)
 class Verdict:
-    """The result of :func:`analyze`: surviving cells, eliminations, verdict and witness."""
+    """The result of :func:`analyze`: surviving cells, eliminations, verdict and witness.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> verdict = analyze(decompose(ell, 0.5))
+    >>> verdict.strategy_exists, verdict.verified, len(verdict.surviving)
+    (True, True, 20)
+    """
 
     dec: Decomposition = field(repr=False)
     graph: ConnectivityGraph = field(repr=False)
@@ -83,6 +95,7 @@ class Verdict:
 
     @property
     def rounds(self) -> int:
+        """Number of elimination rounds (0 when nothing was eliminated)."""
         el = self.eliminated
         if isinstance(el, Eliminations):
             return int(el.round.max()) if len(el) else 0
@@ -97,11 +110,13 @@ class Verdict:
         return escape_story(self)
 
     def counts(self) -> dict:
+        """Counts of regions, cells, pieces, edges of G and surviving cells."""
         return {"regions": len(self.dec.regions), "cells": len(self.dec.cells),
                 "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
                 "surviving_cells": len(self.surviving)}
 
     def to_dict(self) -> dict:
+        """The verdict as JSON-ready values (the ``tether analyze --json`` fields)."""
         return {
             "map": self.dec.env.name,
             "lss": self.dec.lss,
@@ -368,6 +383,21 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
     a critical length of the map (:func:`tether.analysis.critical.near_critical`), the map is also
     decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
+
+    Examples
+    --------
+    In a 1.5 × 3 room a rod of length 1 cannot be kept free (Prop. 1 fails; the target wins from
+    the witness region); in an L-shaped room 4 across a rod of length 0.5 can:
+
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze
+    >>> from tether.decomposition import decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> analyze(decompose(room, 1.0))
+    Verdict(strategy_exists=False, surviving=0/32, witness=9)
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> analyze(decompose(ell, 0.5))
+    Verdict(strategy_exists=True, surviving=20/25, witness=None)
     """
     report = None
     if self_check:

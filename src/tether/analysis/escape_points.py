@@ -120,6 +120,7 @@ class EscapeTable:
 
     @property
     def pieces(self) -> list[str]:
+        """Names ``P<k>`` of the pieces holding escape samples, in piece order."""
         return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
                       key=lambda s: int(s[1:]))
 
@@ -139,6 +140,7 @@ class EscapeTable:
         return sweeps(ks, ke, self.g_start, self.g_end, a)
 
     def to_dict(self) -> dict:
+        """The table as JSON-ready values, one entry per row (map units, radians)."""
         rows = []
         for i in range(len(self.q)):
             goal = [[float(s), float(e)] for s, e in zip(self.g_start[i], self.g_end[i],
@@ -291,7 +293,18 @@ def _widened(table: Any, i: int, s: float, e: float) -> tuple[float, float]:
 
 def escape_table(verdict: Verdict, samples: int = SAMPLES_PER_PIECE) -> EscapeTable:
     """The escape samples of every surviving cell and the reflex vertices (see the module
-    docstring)."""
+    docstring).
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze, escape_table
+    >>> from tether.decomposition import decompose
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> table = escape_table(analyze(decompose(ell, 0.5)), samples=4)
+    >>> len(table.q), table.reflex.tolist()  # escape samples, and the reflex vertex V3
+    (41, [3])
+    """
     dec, graph, surv = verdict.dec, verdict.graph, verdict.surviving
     env = dec.env
     rows_q, rows_cell, rows_piece, rows_k, rows_g = [], [], [], [], []

@@ -86,6 +86,7 @@ exit status: 0 ok, 1 check failed, 2 user error (one line), 3 internal error."""
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``tether`` argument parser, every subcommand registered."""
     p = _Parser(
         prog="tether",
         description="Keep a moving target in sight at a fixed distance inside a polygonal map.",

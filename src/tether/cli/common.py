@@ -47,11 +47,12 @@ def _non_finite_path(obj: object, path: str) -> str | None:
 
 
 def deg(a: float) -> str:
+    """An angle in radians shown in degrees, 7 characters wide."""
     return f"{math.degrees(a):7.2f}°"
 
 
 def float_arg(text: str) -> float:
-    """argparse type: a float (the library rejects non-finite values with a named message)."""
+    """Argparse type: a float (the library rejects non-finite values with a named message)."""
     try:
         return float(text)
     except ValueError:
@@ -59,7 +60,7 @@ def float_arg(text: str) -> float:
 
 
 def finite_arg(text: str) -> float:
-    """argparse type: a finite float (``nan``, ``inf`` and overflowing literals rejected)."""
+    """Argparse type: a finite float (``nan``, ``inf`` and overflowing literals rejected)."""
     val = float_arg(text)
     if not math.isfinite(val):
         raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
@@ -68,7 +69,7 @@ def finite_arg(text: str) -> float:
 
 def float_range(lo: float | None = None, hi: float | None = None, *,
                 lo_open: bool = False) -> Callable[[str], float]:
-    """argparse type: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+    """Argparse type: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
 
     def parse(text: str) -> float:
         val = finite_arg(text)
@@ -85,7 +86,7 @@ def float_range(lo: float | None = None, hi: float | None = None, *,
 
 
 def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
-    """argparse type: an integer in ``[lo, hi]`` (at most 20 digits)."""
+    """Argparse type: an integer in ``[lo, hi]`` (at most 20 digits)."""
 
     def parse(text: str) -> int:
         t = text.strip()
@@ -112,6 +113,7 @@ LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diam
 
 
 def add_map_lss(sp: argparse.ArgumentParser) -> None:
+    """Add the MAP argument and ``--lss`` (map units) to a command."""
     sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
 
@@ -127,6 +129,7 @@ def load_map_lss(args: argparse.Namespace):
 
 
 def add_speeds(sp: argparse.ArgumentParser, required: bool) -> None:
+    """Add ``--vt`` and ``--vo`` (map units per second) to a command."""
     kw = {"required": True} if required else {}
     sp.add_argument("--vt", type=float_arg, help="target speed bound", **kw,
                     **({} if required else {"default": 1.0}))

@@ -18,6 +18,7 @@ from tether.cli.common import (
 
 
 def cmd_kernel(args: argparse.Namespace) -> int:
+    """``tether kernel``: compute or load the surveillance kernel and report it; exit status."""
     from tether.bounds import check_speeds
     from tether.game import surveillance_kernel
 

@@ -32,6 +32,7 @@ def vertex_rows(env) -> list[dict]:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """``tether info``: the map's vertices, edges, reflex vertices and size; exit status."""
     from tether.io import load_map
 
     env = load_map(args.map)
@@ -76,6 +77,7 @@ def format_arcs(fa) -> str:
 
 
 def cmd_arcs(args: argparse.Namespace) -> int:
+    """``tether arcs``: the free arcs at one target point; exit status."""
     from tether.arcs import free_arcs
 
     env = load_map_lss(args)
@@ -88,6 +90,7 @@ def cmd_arcs(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    """``tether demo``: every stage on one map, figures written to a folder; exit status."""
     from tether._util.files import make_output_dir
     from tether.analysis import analyze
     from tether.arcs import free_arcs
@@ -132,6 +135,7 @@ def _decompose(args: argparse.Namespace):
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
+    """``tether decompose``: regions, cells and pieces (and a figure); exit status."""
     check_plot_arg(args)
     dec = _decompose(args)
     if args.plot:
@@ -157,6 +161,7 @@ def cmd_decompose(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
+    """``tether analyze``: the verdict, surviving cells and witness (and a figure); exit status."""
     from tether.analysis import analyze
 
     check_plot_arg(args)
@@ -198,6 +203,7 @@ def format_verdict(verdict) -> str:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """``tether check``: verify a decomposition by sampling; exit status."""
     from tether.decomposition import check
 
     dec = _decompose(args)

@@ -11,6 +11,7 @@ from tether.tolerances import ANGLE_MAX
 
 
 def cmd_bound(args: argparse.Namespace) -> int:
+    """``tether bound``: rotation time and distance bounds for a sweep; exit status."""
     from tether.bounds import bound_report
 
     check_plot_arg(args)
@@ -44,6 +45,7 @@ def check_angles(args: argparse.Namespace) -> None:
 
 
 def cmd_plot_motion(args: argparse.Namespace) -> int:
+    """``tether plot-motion``: a figure of one observer motion; exit status."""
     from tether import plot
     from tether._util.files import IMAGE_KINDS, check_output_path
     from tether.bounds import check_speeds

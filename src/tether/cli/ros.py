@@ -62,6 +62,7 @@ def _add_ros_options(sp: argparse.ArgumentParser) -> None:
 
 # ---------------------------------------------------------------------- convert
 def cmd_convert(args: argparse.Namespace) -> int:
+    """``tether convert``: write the map in another format; exit status."""
     out = _check_output(args.out, _MAP_KINDS)
     suffix = out.suffix.lower()
     if suffix == ".yaml" and args.resolution is None:
@@ -151,6 +152,7 @@ def format_sweep(res) -> str:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    """``tether sweep``: the verdict over a range of rod lengths; exit status."""
     from tether._util.progress import Progress
     from tether.sweep import parse_lss_range, sweep
 

@@ -61,6 +61,7 @@ def _save_fig(fig, path: str) -> None:
 
 # ---------------------------------------------------------------------- assess
 def cmd_assess(args: argparse.Namespace) -> int:
+    """``tether assess``: is a start ``(x, y, a)`` safe, and why; exit status."""
     from tether.analysis import assess
 
     _check_outputs(args)
@@ -92,6 +93,7 @@ def cmd_assess(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------- simulate
 def cmd_simulate(args: argparse.Namespace) -> int:
+    """``tether simulate``: run a controller against a target; exit status."""
     from tether._util.progress import Progress
     from tether.sim.simulate import save_trace, simulate
     from tether.strategies import CONTROLLERS, TARGETS, make_target
@@ -190,6 +192,7 @@ def _load_kernel(args: argparse.Namespace):
 
 
 def register(add) -> None:
+    """Add the strategy subcommands (assess, simulate) with ``add``."""
     sp = add("assess", cmd_assess, "analyse a start (x, y, a): cell, escape points, L, L_g, "
              "margins, safe or unsafe with reasons")
     add_map_lss(sp)

@@ -66,8 +66,8 @@ __all__ = ["KINDS", "KIND_NAMES", "MAX_CURVE_VERTICES", "Curve", "Family", "Reso
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
 #: this: the peak memory is about 1.2 kB per estimated vertex on floor plans (noded parts,
 #: faces, region polygons, cells and G; measured 1.25 M -> 1.53 GB at 1,000 map vertices,
-#: decompose + analyze; it was 2.5 kB before the freed C heap was returned between stages),
-#: so the default bounds a decomposition near 2 GB. Raise it on a machine with more memory.
+#: decompose + analyze), so the default bounds a decomposition near 2 GB. Raise it on a
+#: machine with more memory.
 MAX_CURVE_VERTICES = 1_500_000
 
 
@@ -97,6 +97,17 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     -------
     list of Curve
         In the order A, B, C, D, E, then by feature; curves with no critical part are dropped.
+
+    Examples
+    --------
+    In a rectangle only walls and corners matter: one offset (A) per wall and one circle (B) per
+    corner.
+
+    >>> from tether import Environment
+    >>> from tether.curves import critical_curves
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> [curve.kind for curve in critical_curves(room, 1.0)]
+    ['A', 'A', 'A', 'A', 'B', 'B', 'B', 'B']
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()

@@ -184,7 +184,7 @@ class Curve:
         return t / self._param_scale(), self.frame.to_user(p), n
 
     def to_user(self, frame: Any, names: dict[str, str]) -> Curve:
-        """This internal curve reported in user coordinates, its features renamed."""
+        """The curve reported in user coordinates (from the internal frame), features renamed."""
         k = frame.scale if self.kind in "CD" else 1.0
         return Curve(self.id, self.kind, tuple(names.get(f, f) for f in self.features),
                      (self.domain[0] / k, self.domain[1] / k),
@@ -249,6 +249,7 @@ class Curve:
         return (self._point(b) - self._point(a)) / (b - a)
 
     def to_dict(self) -> dict:
+        """The curve as JSON-ready values (domain and intervals in map units)."""
         return {
             "id": self.id,
             "type": self.kind,
@@ -394,8 +395,8 @@ def _family_e(env: Environment, L: float) -> Family:
 def _poles(env: Environment) -> np.ndarray:
     """The reflex vertices that D lines and E conchoids start from: one per point. Where
     rings touch, the coincident vertices give the very same curves; only the first one's are
-    made. (If the first one is not reflex for its ring, no free wedge at the point is reflex,
-    no rod grazes it there, and its curves would have no critical part.)"""
+    made: if the first one is not reflex for its ring, no free wedge at the point is reflex,
+    no rod grazes it there, and its curves would have no critical part."""
     R = np.asarray(env.reflex_indices, dtype=np.int64)
     return R[env.coincident[R] == R]
 

@@ -31,6 +31,9 @@ __all__ = ["Arrangement", "Chains", "SOURCE_BATCH", "arrangement"]
 
 @dataclass
 class Arrangement:
+    """The noded curves and rings: their parts, the faces on both sides of each, the curves
+    each part comes from, and the faces' polygons."""
+
     parts: np.ndarray  # noded linestrings
     part_faces: np.ndarray  # (nparts, 2) face ids, -1 for none
     #: curve ids (-1 = wall) of each part, CSR: part ``k``'s are
@@ -173,6 +176,7 @@ def _with_wall_stubs(env: Environment, xy: np.ndarray, idx: np.ndarray, source: 
 
 
 def arrangement(env: Environment, curves: list[Curve], tol: float) -> Arrangement:
+    """Node the critical curves and the map's rings into parts and trace the faces they bound."""
     lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
     # the sources' segment grid built while GEOS nodes (it releases the GIL); for the reach
     # of floating-point noding (snap rounding's wider reach builds its own blocks)

@@ -55,6 +55,7 @@ class Region:
 
     @property
     def name(self) -> str:
+        """The region's name, ``R<id>``."""
         return f"R{self.id}"
 
     @property
@@ -84,13 +85,26 @@ class Region:
         return g[self.id] if isinstance(g, Shapes) else g
 
     def to_dict(self) -> dict:
+        """The region as JSON-ready values (area in square map units)."""
         return {"id": self.name, "area": self.area, "point": list(self.point),
                 "cells": list(self.cells)}
 
 
 @dataclass(frozen=True, eq=False)
 class Decomposition:
-    """The result of :func:`decompose`: curves, regions, cells, pieces and point location."""
+    """The result of :func:`decompose`: curves, regions, cells, pieces and point location.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> dec = decompose(room, 1.0)
+    >>> dec.counts
+    {'curves': 8, 'regions': 19, 'cells': 32, 'pieces': 28}
+    >>> dec.cell_at([(0.75, 1.5)], [1.5708])  # the cell of the rod pointing up from the centre
+    ['(R9,E1,E3)']
+    """
 
     env: Environment = field(repr=False)
     lss: float
@@ -115,6 +129,7 @@ class Decomposition:
 
     @property
     def counts(self) -> dict:
+        """Counts of curves, regions, cells and pieces."""
         return {"curves": len(self.curves), "regions": len(self.regions),
                 "cells": len(self.cells), "pieces": len(self.pieces)}
 

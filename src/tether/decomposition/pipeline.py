@@ -53,6 +53,17 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         :func:`tether.arcs.check_lss` relative to the map's diameter.
     ArrangementError
         If the geometry engine fails even with snap rounding (one line, no traceback).
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> dec = decompose(room, 1.0)
+    >>> dec
+    Decomposition(map='', lss=1, curves=8, regions=19, cells=32, pieces=28)
+    >>> dec.region_at([(0.75, 1.5)]).tolist()  # the region holding the centre
+    [9]
     """
     lss = check_lss(lss, env)
     out, inner_lss = None, lss

@@ -54,10 +54,12 @@ class CheckReport:
 
     @property
     def ok(self) -> bool:
+        """Whether no disagreement was found."""
         return not (self.point_disagreements or self.piece_disagreements
                     or self.line_disagreements)
 
     def to_dict(self) -> dict:
+        """The report as JSON-ready values."""
         return {"ok": self.ok, "samples": self.samples,
                 "point_disagreements": list(self.point_disagreements),
                 "piece_disagreements": list(self.piece_disagreements),
@@ -70,7 +72,18 @@ def sample_in_regions(dec: Decomposition, per_region: int, seed: int = 0,
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Random points inside each region (or each of the region indices ``regions``), farther
     than ``margin`` (default ``10 * curve_tol``) from its boundary. Returns (points, region
-    index of each)."""
+    index of each).
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose, sample_in_regions
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> dec = decompose(room, 1.0)
+    >>> points, owner = sample_in_regions(dec, 3)
+    >>> points.shape, bool((dec.region_at(points) == owner).all())
+    ((57, 2), True)
+    """
     rng = np.random.default_rng(seed)
     margin = 10 * dec.curve_tol if margin is None else margin
     pts, owner = [], []
@@ -111,7 +124,17 @@ def check(dec: Decomposition, per_region: int = 20, seed: int = 0, lines: int = 
     """Verify a decomposition by sampling: every sampled point's exact structure must equal its
     region's, across every piece the two sides must show the two regions' structures, and
     along ``lines`` random lines (:func:`tether.decomposition.scan.scan`) every change of the exact
-    structure must be a region boundary and nothing else."""
+    structure must be a region boundary and nothing else.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import check, decompose
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> report = check(decompose(room, 1.0), per_region=2, lines=2)
+    >>> report.ok, report.samples
+    (True, 38)
+    """
     pts, owner = sample_in_regions(dec, per_region, seed)
     npts, bad_lines = scan(dec, lines, seed)
     return CheckReport(len(pts), _point_disagreements(dec, pts, owner),
@@ -137,11 +160,20 @@ SELF_CHECK_REGIONS = 200
 
 def self_check(dec: Decomposition, regions: int = SELF_CHECK_REGIONS, seed: int = 0,
                lines: int | None = None) -> CheckReport:
-    """The cheap check :func:`tether.escape.analyze` runs by default: one random point in
+    """The cheap check :func:`tether.analysis.analyze` runs by default: one random point in
     each of up to ``regions`` random regions against its region's structure, every piece's
     crossing as verified when the decomposition was built (no recomputation), and a scan of
     ``lines`` random lines (default :data:`tether.tolerances.SELF_CHECK_LINES`; see
-    :func:`tether.decomposition.scan.scan`)."""
+    :func:`tether.decomposition.scan.scan`).
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose, self_check
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> self_check(decompose(room, 1.0)).ok
+    True
+    """
     lines = SELF_CHECK_LINES if lines is None else lines
     rng = np.random.default_rng(seed)
     chosen = np.arange(len(dec.regions))

@@ -30,6 +30,7 @@ class Cell:
     end_feature: str
 
     def to_dict(self) -> dict:
+        """The cell as JSON-ready values."""
         return {"id": self.id, "region": f"R{self.region}",
                 "start_feature": self.start_feature, "end_feature": self.end_feature}
 
@@ -120,6 +121,7 @@ class RegionShapes(Shapes):
         return self._unions is None and self._frame is None
 
     def all(self) -> np.ndarray:
+        """Every region polygon, in the map's frame."""
         if self._unions is not None:
             geoms = self._geoms.copy()  # never the caller's array
             for i, faces in self._unions.items():
@@ -158,6 +160,7 @@ class RegionShapes(Shapes):
         return valid_polygons(self._frame.geometry_to_user(geoms))
 
     def some(self, ids: Any) -> np.ndarray:
+        """The polygons of regions ``ids``, in the map's frame."""
         if self._unions is None:
             return super().some(ids)
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
@@ -211,6 +214,7 @@ class CellTable:
         return len(self.region)
 
     def cell(self, i: int) -> Cell:
+        """The :class:`Cell` of row ``i``."""
         r, s, e = int(self.region[i]), self.names[self.start[i] + 1], self.names[self.end[i] + 1]
         return Cell(f"(R{r},{s},{e})", r, s, e)
 
@@ -398,6 +402,7 @@ class Piece:
 
     @property
     def name(self) -> str:
+        """The piece's name, ``P<id>``."""
         return f"P{self.id}"
 
     @property
@@ -408,9 +413,11 @@ class Piece:
 
     @property
     def length(self) -> float:
+        """Length of the piece, map units."""
         return float(self.geometry.length)
 
     def to_dict(self) -> dict:
+        """The piece as JSON-ready values (length and point in map units)."""
         return {"id": self.name, "regions": [f"R{r}" for r in self.regions],
                 "type": self.kind, "features": list(self.features), "length": self.length,
                 "point": list(self.sample)}
@@ -437,6 +444,7 @@ class PieceTable:
         return len(self.pair)
 
     def piece(self, i: int) -> Piece:
+        """The :class:`Piece` of row ``i``."""
         a, b = self.pair[i].tolist()
         qx, qy = self.q[i].tolist()
         nx, ny = self.n[i].tolist()

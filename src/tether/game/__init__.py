@@ -1,4 +1,5 @@
-"""The surveillance kernel: the bounded-speed game solved on a grid (``math.md`` §11).
+"""The surveillance kernel: the bounded-speed game solved on a grid (``docs/formulas.md``,
+"The surveillance kernel"; ``docs/kernel.md``).
 
 * :mod:`tether.game.grid` — the grid over ``(x, y, a)`` and its free-state mask from the exact
   free arcs (:mod:`tether.arcs`), with the free run of orientations each state lies in;
@@ -8,8 +9,7 @@
   state deepest inside the kernel;
 * :mod:`tether.game.evader` — :class:`KernelEvader`, the target move that leaves the kernel.
 
-May import the pipeline stages above it (environment, arcs, bounds, rates, sim.protocols);
-never imports matplotlib (figures are in :mod:`tether.plot_kernel`).
+Never imports matplotlib (figures are in :mod:`tether.plot.kernel`).
 """
 
 from tether.game.grid import StateGrid, build_grid

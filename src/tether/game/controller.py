@@ -58,11 +58,13 @@ class KernelController:
         self.world: World | None = None
 
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
+        """Start a run: take the kernel of ``world`` (computed if none was given)."""
         self.world = world
         if self.kernel is None:
             self.kernel = kernel_of(world)
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
+        """The rod rate keeping the next state deepest in the kernel, for target velocity ``v``."""
         k = self.kernel
         world = self.world
         lss, vo = world.lss, world.vo

@@ -48,11 +48,13 @@ class KernelEvader:
         self._units = np.column_stack([np.cos(psi), np.sin(psi)])
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run: take the kernel of ``world`` (computed if none was given)."""
         self.world = world
         if self.kernel is None:
             self.kernel = kernel_of(world)
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The target velocity (map units/s) after which no observer answer stays in the kernel."""
         k = self.kernel
         w = self.world
         p = np.asarray(p, dtype=float)

@@ -1,4 +1,5 @@
-"""The state grid of the surveillance game: target points × rod orientations (``math.md`` §11).
+"""The state grid of the surveillance game: target points × rod orientations
+(``docs/formulas.md``, "The surveillance kernel").
 
 Target points are the centres of a square lattice of spacing ``h`` over the map's bounding box,
 kept where they lie strictly inside the free space. Orientations are ``n_a`` bin centres
@@ -85,9 +86,11 @@ class StateGrid:
 
     @property
     def n_points(self) -> int:
+        """Number of lattice points kept (strictly inside the free space)."""
         return len(self.points)
 
     def to_dict(self) -> dict:
+        """The grid's parameters as JSON-ready values (``h`` and origin in map units)."""
         return {"h": self.h, "orientations": self.n_a, "shape": list(self.shape),
                 "origin": list(self.origin)}
 

@@ -1,4 +1,5 @@
-"""The discriminating kernel of the surveillance game on a grid (``math.md`` §11).
+"""The discriminating kernel of the surveillance game on a grid (``docs/formulas.md``,
+"The surveillance kernel").
 
 ``K_0`` is the set of free states of the :class:`~tether.game.grid.StateGrid`; a state ``(p, a)``
 stays in ``K_{n+1}`` iff for every target move ``d`` (a lattice step to a neighbour ``p'``) some
@@ -72,6 +73,15 @@ class Kernel:
     a state of level ``n`` the target has a move after which every observer answer has a
     level below ``n``: the discrete game's winning strategy, which :class:`KernelEvader`
     follows.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.game import surveillance_kernel
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> kern = surveillance_kernel(ell, 0.5, vt=0.3, vo=1.0, h=0.25, orientations=36)
+    >>> kern.states, kern.free_states, kern.kernel_states
+    (9216, 5436, 5416)
     """
 
     grid: StateGrid = field(repr=False)
@@ -90,15 +100,18 @@ class Kernel:
     # ----- counts -------------------------------------------------------------------------
     @property
     def states(self) -> int:
+        """Number of states of the full lattice box (points × orientation bins)."""
         ny, nx, n_a = self.grid.shape
         return nx * ny * n_a
 
     @property
     def free_states(self) -> int:
+        """Number of free states (rod free at the grid point and bin centre)."""
         return int(self.grid.free.sum())
 
     @property
     def kernel_states(self) -> int:
+        """Number of states in the kernel."""
         return int(self.kernel.sum())
 
     @property
@@ -107,6 +120,7 @@ class Kernel:
         return self.grid.h / self.vt * self.vo / self.lss / self.grid.delta
 
     def to_dict(self) -> dict:
+        """The parameters and counts as JSON-ready values (the ``tether kernel`` fields)."""
         return {
             "map": self.grid.env.name,
             "lss": self.lss, "vt": self.vt, "vo": self.vo,
@@ -277,7 +291,21 @@ class Kernel:
 
 
 def load_kernel(path: str | Path) -> Kernel:
-    """Read a kernel written by :meth:`Kernel.save` (the grid is rebuilt from the map)."""
+    """Read a kernel written by :meth:`Kernel.save` (the grid is rebuilt from the map).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tether import Environment
+    >>> from tether.game import load_kernel, surveillance_kernel
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> kern = surveillance_kernel(ell, 0.5, vt=0.3, vo=1.0, h=0.25, orientations=36)
+    >>> path = os.path.join(tempfile.mkdtemp(), "ell.npz")
+    >>> kern.save(path)
+    >>> again = load_kernel(path)
+    >>> again.kernel_states == kern.kernel_states, bool((again.kernel == kern.kernel).all())
+    (True, True)
+    """
     import json
 
     from tether.io import from_dict
@@ -369,6 +397,23 @@ def surveillance_kernel(env: Environment, lss: float, vt: float, vo: float, h: f
     ------
     InvalidParameterError
         On invalid speeds (``vo <= vt``), lengths, grid sizes or an unknown scheme.
+
+    Examples
+    --------
+    A coarse grid (spacing 0.25 map units, 10° bins) of an L-shaped room: with ``vt/vo = 0.3``
+    nearly every free state is in the kernel; in a 1.5 × 3 room none is.
+
+    >>> from tether import Environment
+    >>> from tether.game import surveillance_kernel
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> kern = surveillance_kernel(ell, 0.5, vt=0.3, vo=1.0, h=0.25, orientations=36)
+    >>> kern.converged, round(kern.kernel_states / kern.free_states, 3)
+    (True, 0.996)
+    >>> kern.contains([(1.0, 1.0)], [0.0]).tolist()  # the state (x, y, a)
+    [True]
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> surveillance_kernel(room, 1.0, vt=0.3, vo=1.0, h=0.1, orientations=36).kernel_states
+    0
     """
     t0 = time.perf_counter()
     vt, vo, lss = check_speeds(vt, vo, lss)

@@ -1,5 +1,5 @@
 """``L*`` on real escape points: the kernel's critical distance against the paper's ``L`` and
-the safe ``L_g`` (issue #11, ``math.md`` §3).
+the safe ``L_g`` (issue #11, ``docs/formulas.md``, "Distance bounds"; ``docs/kernel.md``).
 
 For an escape sample ``q`` of :func:`tether.analysis.escape_table` (a point just inside a
 surviving cell, next to a piece the rod must not cross outside its goal), a rod orientation
@@ -57,6 +57,7 @@ class LStarCase:
         return self.l_star is not None and self.l_star <= self.L_g + self.tol
 
     def to_dict(self) -> dict:
+        """The row as JSON-ready values (map units, radians)."""
         return {"row": self.row, "piece": self.piece, "q": list(self.q), "a": self.a,
                 "psi": self.psi, "sweep": self.sweep, "sense": self.sense, "L": self.L,
                 "L_g": self.L_g, "l_star": self.l_star, "length": self.length, "tol": self.tol}

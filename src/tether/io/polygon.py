@@ -62,7 +62,7 @@ def _show(value: Any) -> str:
 
 
 def _check_text(text: str, path: str) -> None:
-    """Reject strings that cannot be printed (lone surrogates from ``\\ud800`` escapes)."""
+    r"""Reject strings that cannot be printed (lone surrogates from ``\ud800`` escapes)."""
     try:
         text.encode("utf-8")
     except UnicodeEncodeError as exc:

@@ -118,10 +118,12 @@ class OccupancyGrid:
 
     @property
     def where(self) -> str:
+        """The grid's name in messages: its file, its name, or "occupancy grid"."""
         return self.source or self.name or "occupancy grid"
 
     @property
     def shape(self) -> tuple[int, int]:
+        """``(rows, columns)`` of cells."""
         return self.cells.shape  # type: ignore[return-value]
 
     @property
@@ -234,6 +236,7 @@ class Conversion:
                 f"{self.simplify:.4g} m")
 
     def to_dict(self) -> dict:
+        """What ``tether convert`` reports: the grid, the cells kept and the polygon's size."""
         return {"map": self.env.name, "shape": list(self.shape), "free_cells": self.free_cells,
                 "kept_cells": self.kept_cells, "dropped_holes": self.dropped_holes,
                 "min_hole_area": self.min_hole_area, "simplify": self.simplify,

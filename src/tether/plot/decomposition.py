@@ -18,7 +18,19 @@ CURVE_COLOURS = {"A": "tab:red", "B": "tab:purple", "C": "tab:green", "D": "tab:
 def plot_decomposition(dec: Any, ax: Any = None, by_type: bool = False, labels: bool = True,
                        marked_regions: Any = (), tint: bool = True) -> list:
     """Paper Figs. 6-8: the map, critical curves (red, or coloured by type), regions tinted
-    and labelled ``R<k>``; ``marked_regions`` get a red rectangle around their label."""
+    and labelled ``R<k>``; ``marked_regions`` get a red rectangle around their label.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose
+    >>> from tether.plot import plot_decomposition
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> artists = plot_decomposition(decompose(room, 1.0))
+    >>> sum(a.get_text().startswith("R") for a in artists if hasattr(a, "get_text"))  # regions
+    19
+    """
     import matplotlib as mpl
 
     ax = ensure_axes(ax)

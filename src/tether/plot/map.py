@@ -13,7 +13,18 @@ __all__ = ["plot_map"]
 
 def plot_map(env: Any, ax: Any = None, labels: bool = True) -> list:
     """The free space: obstacles grey, edges black, features labelled ``V<j>``/``E<i>`` as in
-    the paper's figures (reflex vertices marked)."""
+    the paper's figures (reflex vertices marked).
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> from tether import Environment
+    >>> from tether.plot import plot_map
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> artists = plot_map(room)
+    >>> sorted(a.get_text() for a in artists if hasattr(a, "get_text"))  # the feature names
+    ['E0', 'E1', 'E2', 'E3', 'V0', 'V1', 'V2', 'V3']
+    """
     ax = ensure_axes(ax)
     x0, y0, x1, y1 = env.bounds
     pad = 0.04 * env.diameter

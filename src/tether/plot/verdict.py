@@ -51,7 +51,20 @@ def plot_graph(verdict: Any, ax: Any = None, only_surviving: bool = True) -> lis
 
 def plot_verdict(verdict: Any, fig: Any = None) -> Figure:
     """Paper Figs. 6-8: left, the decomposition with regions holding eliminated cells marked
-    by red rectangles; right, the graph G after elimination."""
+    by red rectangles; right, the graph G after elimination.
+
+    Examples
+    --------
+    >>> import matplotlib; matplotlib.use("Agg")
+    >>> from tether import Environment
+    >>> from tether.analysis import analyze
+    >>> from tether.decomposition import decompose
+    >>> from tether.plot import plot_verdict
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> fig = plot_verdict(analyze(decompose(room, 1.0)))
+    >>> len(fig.axes), fig.axes[0].texts[-1].get_text()  # the witness region, boxed in red
+    (2, 'R9')
+    """
     if fig is None:
         fig, (ax1, ax2) = new_axes(2, size=(6.4, 6.4))
     else:

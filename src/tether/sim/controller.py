@@ -1,4 +1,5 @@
-"""Observer controllers: the rod rate each step (``math.md`` §10).
+"""Observer controllers: the rod rate each step (``docs/formulas.md``, "The observer's choice at
+each instant").
 
 Every controller here picks a *preferred* rate (follow law, translation, or a saturated rotation
 when the paper's trigger fires) and then makes it admissible in two stages:
@@ -139,9 +140,11 @@ class FollowController(_Compliant):
     name = "follow"
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
+        """The follow law's rate (rad/s) and the mode ``reactive``."""
         return (-(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive")
 
     def mode_at(self, p: np.ndarray, v: np.ndarray, a: float) -> str:
+        """The mode the controller would be in: always ``reactive``."""
         return "reactive"
 
 
@@ -151,12 +154,14 @@ class TranslateController(_Compliant):
     name = "translate"
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
+        """Rate 0 (translation) and the mode ``reactive``."""
         return 0.0, "reactive"
 
 
 class PaperController(_Compliant):
-    """The paper's strategy (§§IV–VI, ``math.md`` §10): reactive far from escape points,
-    saturated rotation toward the goal once the trigger fires, compliant at arc ends.
+    """The paper's strategy (§§IV–VI; ``docs/formulas.md``, "Escape points and the trigger"):
+    reactive far from escape points, saturated rotation toward the goal once the trigger fires,
+    compliant at arc ends.
 
     The trigger: for the rod orientation ``a``, every escape sample ``q`` that concerns it
     (:meth:`tether.analysis.EscapeTable.sweeps`) needs a sweep ``Δ``; the rotation starts when
@@ -216,6 +221,7 @@ class PaperController(_Compliant):
         self.commitments: list[int | None] = []  # per step, with ``record``
 
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
+        """Start a run from ``(p, a)`` in ``world``, no rotation committed."""
         super().reset(world, p, a)
         self._reset_state()
 
@@ -286,6 +292,8 @@ class PaperController(_Compliant):
         return concern, sense
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
+        """The saturated rate toward the goal once the trigger fires, else the reactive rate
+        (rad/s), and the mode."""
         row, sense = self._trigger(p, a, dt)
         if row is not None:
             lo, hi = step_interval(float(v[0]), float(v[1]), a, self.lss,
@@ -300,6 +308,7 @@ class PaperController(_Compliant):
         return self.trigger_steps * self.vt * dt
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
+        """The admissible command, counting the steps an arc end holds back the rotation."""
         cmd = super().step(p, v, a, dt)
         # a committed rotation held back by an arc end (compliant, turning less than half as
         # fast as asked, or the wrong way)

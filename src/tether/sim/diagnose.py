@@ -4,10 +4,10 @@
 call safe (as :func:`tether.analysis.assessment` applies them: every concerning escape point farther
 than its ``L_g``, no Prop. 3 conflict) and names what changed at the next step. Each cause is
 either a *gap* of the paper's conditions (the controller did what the paper prescribes and the
-target still won: ``math.md`` §10, last paragraph) or a *bug* (the controller or the escape
-table did not do what the paper prescribes). The trace itself is the evidence: the state at
-``t_safe`` is safe by the paper's conditions, the one a step later is not, and the loss follows
-without the state becoming safe again.
+target still won: ``docs/formulas.md``, "Escape points and the trigger") or a *bug* (the
+controller or the escape table did not do what the paper prescribes). The trace itself is the
+evidence: the state at ``t_safe`` is safe by the paper's conditions, the one a step later is
+not, and the loss follows without the state becoming safe again.
 """
 
 from __future__ import annotations
@@ -72,9 +72,11 @@ class LossCause:
 
     @property
     def text(self) -> str:
+        """The cause in words."""
         return CAUSES[self.cause][1]
 
     def to_dict(self) -> dict:
+        """The diagnosis as JSON-ready values (times in seconds)."""
         return {"cause": self.cause, "kind": self.kind, "t_safe": self.t_safe,
                 "lost_at": self.lost_at, "escape": self.escape, "margin": self.margin,
                 "previous": self.previous, "committed": self.committed}

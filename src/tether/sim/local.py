@@ -1,4 +1,5 @@
-"""The free arc around the current rod, fast enough for a control loop (``math.md`` §6).
+"""The free arc around the current rod, fast enough for a control loop (``docs/formulas.md``,
+"Free orientations at a point").
 
 :func:`tether.arcs.free_arcs` computes every arc at a point with numpy (about 250 µs); a
 controller needs only the two ends of the arc that holds the rod, at one point, every step.

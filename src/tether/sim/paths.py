@@ -1,7 +1,8 @@
 """Shortest paths for targets: a visibility graph of the free space shrunk by a clearance.
 
 Targets walk polylines that keep ``clearance`` map units off the walls (a target on a wall is
-outside the model, ``math.md`` §6). The graph's nodes are the vertices of the shrunk free space;
+outside the model, ``docs/conventions.md``). The graph's nodes are the vertices of the shrunk
+free space;
 two nodes are joined when the segment between them stays inside it. Lengths in map units.
 """
 
@@ -52,6 +53,7 @@ class PathPlanner:
         return bool(self._check.covers(LineString([p, q])))
 
     def contains(self, p: Any) -> bool:
+        """Whether point ``p`` lies in the shrunk free space."""
         return bool(self._check.covers(Point(float(p[0]), float(p[1]))))
 
     def path(self, p: Any, q: Any) -> np.ndarray:

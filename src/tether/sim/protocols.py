@@ -2,7 +2,8 @@
 
 State: target position ``p`` (shape (2,)), rod orientation ``a`` (radians); the observer is at
 ``p + lss·u(a)``. Each step the target picks ``v`` (``|v| <= vt``), the controller sees ``v``
-and picks the rod rate; the observer velocity is ``v + lss·ȧ·u⊥(a)`` (math.md §10).
+and picks the rod rate; the observer velocity is ``v + lss·ȧ·u⊥(a)``
+(``docs/formulas.md``, "Keeping the distance").
 """
 
 from __future__ import annotations

@@ -45,6 +45,7 @@ class Event:
     detail: str
 
     def to_dict(self) -> dict:
+        """The event as JSON-ready values (time in seconds)."""
         return {"t": self.t, "kind": self.kind, "detail": self.detail}
 
 
@@ -63,6 +64,7 @@ class MonitorStats:
     max_distance_error: float
 
     def to_dict(self) -> dict:
+        """The statistics as JSON-ready values."""
         return {"max_speed_ratio": self.max_speed_ratio, "min_clearance": self.min_clearance,
                 "max_distance_error": self.max_distance_error}
 
@@ -84,6 +86,7 @@ class Trace:
         return len(self.t)
 
     def to_dict(self) -> dict:
+        """The trace as JSON-ready lists (times in seconds, positions in map units)."""
         return {"t": self.t.tolist(), "target": self.p.tolist(), "a": self.a.tolist(),
                 "observer": self.observer.tolist(), "mode": list(self.mode),
                 "rate": self.rate.tolist(), "speed_ratio": self.speed_ratio.tolist()}
@@ -92,7 +95,22 @@ class Trace:
 @dataclass(frozen=True, eq=False)
 class SimResult:
     """Outcome of :func:`simulate`: ``held`` for the whole duration or ``lost`` at ``lost_at``
-    (s) with ``reason``; time per mode (s), monitor statistics, events and the trace."""
+    (s) with ``reason``; time per mode (s), monitor statistics, events and the trace.
+
+    Examples
+    --------
+    >>> from tether import Environment
+    >>> from tether.sim.controller import FollowController
+    >>> from tether.sim.protocols import World
+    >>> from tether.sim.simulate import simulate
+    >>> from tether.strategies import make_target
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> world = World(ell, lss=0.5, vt=0.3, vo=1.0)
+    >>> result = simulate(world, FollowController(), make_target("random", world),
+    ...                   (1.0, 1.0, 1.5708), duration=1.0, dt=0.05)
+    >>> result.held, len(result.trace), result.monitor.max_speed_ratio <= 1
+    (True, 21, True)
+    """
 
     outcome: str
     lost_at: float | None
@@ -110,6 +128,7 @@ class SimResult:
 
     @property
     def held(self) -> bool:
+        """Whether the target stayed in sight for the whole duration."""
         return self.outcome == "held"
 
     @property
@@ -122,6 +141,7 @@ class SimResult:
         return seq
 
     def to_dict(self, trace: bool = False) -> dict:
+        """The result as JSON-ready values; with ``trace`` the whole trace too."""
         d = {"outcome": self.outcome, "lost_at": self.lost_at, "reason": self.reason,
              "duration": self.duration, "dt": self.dt, "seed": self.seed,
              "start": list(self.start), "controller": self.controller, "target": self.target,
@@ -153,6 +173,7 @@ class Monitor:
         self.max_derr = 0.0
 
     def observer(self, p: np.ndarray, a: float) -> np.ndarray:
+        """The observer's position for target ``p`` and rod orientation ``a``, map units."""
         return p + self.lss * _u(a)
 
     def ok(self, p: np.ndarray, a: float) -> bool:
@@ -187,6 +208,7 @@ class Monitor:
         return ratio
 
     def stats(self) -> MonitorStats:
+        """The worst values seen so far."""
         return MonitorStats(self.max_ratio, self.min_clear if math.isfinite(self.min_clear)
                             else 0.0, self.max_derr)
 
@@ -281,6 +303,33 @@ def simulate(world: World, controller: Controller, target: Target,
     ------
     InvalidParameterError, OutsideFreeSpaceError
         Bad speeds or step, or a start that is not a free rod in the free space.
+
+    Examples
+    --------
+    The follow law against a target walking 2 map units along an L-shaped room, rod 0.5 long
+    (``vt/vo = 0.3``), and the same walk toward the far wall of a 1.5 × 3 room with a rod of 1:
+
+    >>> from tether import Environment
+    >>> from tether.sim.controller import FollowController
+    >>> from tether.sim.protocols import World
+    >>> from tether.sim.simulate import simulate
+    >>> from tether.strategies import make_target
+    >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
+    >>> world = World(ell, lss=0.5, vt=0.3, vo=1.0)
+    >>> target = make_target("path", world, waypoints=[(1.0, 1.0), (3.0, 1.0)])
+    >>> result = simulate(world, FollowController(), target, (1.0, 1.0, 1.5708), duration=2.0,
+    ...                   dt=0.05)
+    >>> result.outcome, result.modes
+    ('held', ['reactive'])
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> world = World(room, lss=1.0, vt=0.3, vo=1.0)
+    >>> target = make_target("path", world, waypoints=[(0.75, 1.2), (0.75, 2.9)])
+    >>> result = simulate(world, FollowController(), target, (0.75, 1.2, 1.5708), duration=8.0,
+    ...                   dt=0.05)
+    >>> result.outcome, round(result.lost_at, 2)  # seconds
+    ('lost', 2.65)
+    >>> result.reason
+    'rate needed beyond vo: ... (wall E2 met with the rod too steep to slide)'
     """
     if not (dt > 0 and duration >= 0 and math.isfinite(dt) and math.isfinite(duration)):
         raise InvalidParameterError(f"need dt > 0 and duration >= 0 (dt={dt}, duration={duration})")

@@ -94,11 +94,13 @@ class PathTarget:
         self.walker = _Walker()
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p``: walk to the waypoints."""
         self.walker = _Walker()
         self.walker.vt = world.vt
         self.walker.set_path(np.vstack([p, self.waypoints]))
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity along the path at time ``t`` (s), map units/s."""
         self.walker.tick(t)
         if self.walker.done and self.loop:
             self.walker.set_path(np.vstack([p, self.waypoints]))
@@ -140,6 +142,7 @@ class RandomTarget:
         self.walker = _Walker()
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p`` with the generator ``rng``: pick the first goal."""
         self.planner = _planner(world)
         self.rng = rng
         self.walker = _Walker()
@@ -155,6 +158,7 @@ class RandomTarget:
         self.walker.set_path(np.array([p]))
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity toward the current goal at time ``t`` (s), map units/s."""
         self.walker.tick(t)
         v = self.walker.velocity(p)
         if self.walker.done:
@@ -189,6 +193,7 @@ class WallTarget:
         self.walker = _Walker()
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p``: walk around the nearest obstacle boundary, in a random sense."""
         planner = _planner(world)
         rings = [np.asarray(r.coords)[:-1] for r in (planner.space.exterior,
                                                      *planner.space.interiors)]
@@ -206,6 +211,7 @@ class WallTarget:
         self.walker.set_path(np.vstack([route, loop[1:]]))
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity along the boundary at time ``t`` (s), map units/s."""
         self.walker.tick(t)
         return self.walker.velocity(p)
 
@@ -220,6 +226,7 @@ class TangentialTarget:
         pass
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p`` with rod orientation ``a`` (radians)."""
         self.planner = _planner(world)
         self.vt = world.vt
         self.lss = world.lss
@@ -227,6 +234,7 @@ class TangentialTarget:
         self.sense = 1.0 if rng.random() < 0.5 else -1.0
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity across the rod (see the class) at time ``t`` (s), map units/s."""
         da = a - self.a_prev
         if abs(da) > 1e-12:
             self.sense = math.copysign(1.0, da)
@@ -247,6 +255,7 @@ class DashTarget:
         self.replan = float(replan)
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p``: read the escape table of the world's verdict."""
         from tether.analysis.escape_points import escape_table_of
 
         self.planner = _planner(world)
@@ -272,6 +281,7 @@ class DashTarget:
         self.walker.set_path(self.planner.path(p, goal))
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity toward the planned escape point at time ``t`` (s), map units/s; replans."""
         self.walker.tick(t)
         if t - self.t_plan >= self.replan or self.walker.done:
             self._plan(p, a)
@@ -298,6 +308,7 @@ class EscapeTarget:
         self.dash = DashTarget(world)
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p`` with rod orientation ``a`` (radians)."""
         self.world = world
         self.planner = _planner(world)
         self.walker = _Walker()
@@ -324,6 +335,7 @@ class EscapeTarget:
         self.walker.set_path(np.vstack([route, beyond[None], (beyond + side * 0.05 * n)[None]]))
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The velocity at time ``t`` (s), map units/s."""
         if self.use_dash:
             return self.dash.velocity(t, p, a)
         self.walker.tick(t)
@@ -354,6 +366,7 @@ class SearchTarget:
         self.horizon, self.period, self.headings = float(horizon), float(period), int(headings)
 
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
+        """Start a run from ``p`` with rod orientation ``a`` (radians)."""
         from tether.sim.local import LocalArcs
 
         self.world = world
@@ -390,6 +403,7 @@ class SearchTarget:
         return worst
 
     def velocity(self, t: float, p: np.ndarray, a: float) -> np.ndarray:
+        """The searched velocity at time ``t`` (s), map units/s."""
         if self.plan and t > self.t_plan:
             self.dt = max(min(t - self.last_t, 0.1), 1e-4) if hasattr(self, "last_t") else 0.02
         self.last_t = t
@@ -417,6 +431,7 @@ TargetFactory = Callable[..., Any]
 
 
 def unit(x: float, y: float) -> np.ndarray:
+    """The unit vector along ``(x, y)``, or zero for the zero vector."""
     n = math.hypot(x, y)
     return np.array([x / n, y / n]) if n > 0 else np.zeros(2)
 
