@@ -75,7 +75,7 @@ def register(add) -> None:
     sp = add("bound", cmd_bound, "rotation time and distance bound L of a saturated rotation")
     add_speeds(sp, required=True)
     sp.add_argument("--from", dest="theta0", type=float_arg, required=True, metavar="TH0",
-                    help="start angle: the paper's θ (math.md §2), radians, lifted")
+                    help="start angle: the paper's θ (docs/formulas.md), radians, lifted")
     sp.add_argument("--to", dest="thetaf", type=float_arg, required=True, metavar="THF",
                     help="goal angle, radians, lifted: the sense is the sign of THF - TH0")
     sp.add_argument("--json", action="store_true", help="print JSON")
