@@ -21,7 +21,12 @@ from scipy.special import ellipe, ellipeinc
 from tether.errors import InvalidParameterError
 from tether.tolerances import SPEED_GAP_REL, VALUE_MAX
 
-TWO_PI = 2.0 * math.pi
+__all__ = [
+    "Rotation", "TABLE_MAX_M", "TABLE_MIN_SIZE", "best_rotation", "bound_report",
+    "check_speeds", "distance_bound", "ellipe_inc", "rotation_time", "thetas",
+    "worst_case_distance", "worst_case_time", "worst_straight_time"
+]
+
 
 
 def check_speeds(vt: Any, vo: Any, lss: Any) -> tuple[float, float, float]:
@@ -200,7 +205,7 @@ def thetas(a0: Any, af: Any, psi: Any, sense: int) -> tuple[Any, Any]:
     af = _finite("af", af)
     psi = _finite("psi", psi)
     th0 = a0 - psi + math.pi / 2
-    delta = np.mod(sense * (af - a0), TWO_PI)
+    delta = np.mod(sense * (af - a0), math.tau)
     thf = th0 + sense * delta
     if th0.ndim == 0 and thf.ndim == 0:
         return float(th0), float(thf)

@@ -5,6 +5,11 @@ is raised as a subclass of :class:`TetherError`; the CLI prints its message on o
 exits with status 2.
 """
 
+__all__ = [
+    "ArrangementError", "InvalidMapError", "InvalidParameterError", "NonFiniteResultError",
+    "OutputPathError", "OutsideFreeSpaceError", "ResourceLimitError", "TetherError"
+]
+
 
 class TetherError(Exception):
     """Base class of every error tether raises on purpose."""

@@ -20,6 +20,11 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+__all__ = [
+    "Law", "SPEED_SLACK", "Vec", "Velocity", "contact_vertex", "follow", "rotate", "slide_on_wall",
+    "trace", "tractrix", "translate", "wall_contact_needed"
+]
+
 Vec = Sequence[float]
 
 #: Relative slack when comparing a required speed with ``vo`` (rounding only).

@@ -18,6 +18,10 @@ from typing import Any
 
 import numpy as np
 
+__all__ = [
+    "edge_end_rate", "observer_velocity", "rate_interval", "step_rate_interval", "vertex_end_rate"
+]
+
 
 def rate_interval(v: Any, a: Any, lss: float, vo: float) -> tuple[np.ndarray, np.ndarray]:
     """The interval ``Ω(v, a) = [lo, hi]`` of rod rates that keep ``|Vo| <= vo``.

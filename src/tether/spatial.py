@@ -19,6 +19,12 @@ import shapely
 
 from tether._util.arrays import ragged_arange
 
+__all__ = [
+    "EdgeIndex", "MAX_BLOCKS_PER_SEGMENT", "MAX_CELLS", "SegmentGrid", "pair_distances",
+    "point_segment_distance", "point_segment_distance_xy", "segment_pairs", "segment_tree",
+    "segments_near", "z_order"
+]
+
 #: Upper bound on the number of grid cells (memory guard for tiny reaches on large maps).
 MAX_CELLS = 4_000_000
 

@@ -12,6 +12,13 @@ distance between two of the map's vertices, which rotation does not change (see
 these tolerances, never exactly.
 """
 
+__all__ = [
+    "ANGLE_MAX", "ANGLE_TOL", "CHECK_LINES", "COORD_MAX", "LINES_RANGE", "LSS_MAX_REL",
+    "LSS_MIN_REL", "MAX_MAP_BYTES", "MAX_VERTICES", "MIN_DIAMETER", "MIN_DIAMETER_REL",
+    "REL_CURVE_TOL", "REL_FEATURE_TOL", "REL_LENGTH_TOL", "REL_STRAIGHT_TOL", "SAMPLES_RANGE",
+    "SCAN_POINTS_PER_DIAMETER", "SELF_CHECK_LINES", "SPEED_GAP_REL", "VALUE_MAX"
+]
+
 #: Relative length tolerance: two points closer than this times the map diameter are equal.
 REL_LENGTH_TOL = 1e-9
 

@@ -6,6 +6,8 @@ import sys
 import time
 from typing import TextIO
 
+__all__ = ["Progress"]
+
 
 class Progress:
     """Callable ``progress(stage, fraction)`` that redraws a bar like

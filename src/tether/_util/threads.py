@@ -16,6 +16,11 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+__all__ = [
+    "MIN_CHUNKED", "THREADS_ENV", "in_background", "map_batches", "map_chunks", "single_threaded",
+    "thread_count"
+]
+
 T = TypeVar("T")
 
 #: The environment variable giving the number of threads (a positive integer).

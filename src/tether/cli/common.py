@@ -11,6 +11,11 @@ from collections.abc import Callable
 from tether.errors import NonFiniteResultError
 from tether.examples import path as example_path  # noqa: F401 (tether.cli.example_path)
 
+__all__ = [
+    "LSS_HELP", "MAP_HELP", "add_map_lss", "add_speeds", "check_plot_arg", "deg", "finite_arg",
+    "float_arg", "float_range", "int_range", "load_map_lss", "print_json"
+]
+
 
 def print_json(obj: object) -> None:
     """Print ``obj`` as strict JSON (no NaN or Infinity), whole or not at all.

@@ -16,6 +16,8 @@ from tether.cli.common import (
     print_json,
 )
 
+__all__ = ["cmd_kernel", "register"]
+
 
 def cmd_kernel(args: argparse.Namespace) -> int:
     """``tether kernel``: compute or load the surveillance kernel and report it; exit status."""

@@ -20,6 +20,12 @@ from tether.cli.common import (
 )
 from tether.tolerances import CHECK_LINES, LINES_RANGE, SAMPLES_RANGE
 
+__all__ = [
+    "INFO_MAX_ROWS", "LINE_ROWS", "cmd_analyze", "cmd_arcs", "cmd_check", "cmd_decompose",
+    "cmd_demo", "cmd_info", "describe_line_disagreement", "format_arcs", "format_verdict",
+    "register", "vertex_rows"
+]
+
 #: ``tether info`` lists at most this many vertices unless ``--all``.
 INFO_MAX_ROWS = 40
 

@@ -9,6 +9,8 @@ from tether.cli.common import add_speeds, check_plot_arg, float_arg, print_json
 from tether.errors import InvalidParameterError
 from tether.tolerances import ANGLE_MAX
 
+__all__ = ["check_angles", "cmd_bound", "cmd_plot_motion", "register"]
+
 
 def cmd_bound(args: argparse.Namespace) -> int:
     """``tether bound``: rotation time and distance bounds for a sweep; exit status."""

@@ -12,6 +12,8 @@ from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_
 from tether.errors import InvalidParameterError, TetherError
 from tether.io.polygon import text_of as map_text
 
+__all__ = ["cmd_convert", "cmd_sweep", "format_sweep", "register"]
+
 _MAP_KINDS = (".json", ".geojson", ".wkt", ".yaml")
 
 

@@ -9,6 +9,8 @@ import math
 from tether.cli.common import add_map_lss, float_arg, load_map_lss, print_json
 from tether.errors import InvalidParameterError
 
+__all__ = ["cmd_assess", "cmd_simulate", "register"]
+
 
 def _speeds(args: argparse.Namespace) -> None:
     for name in ("vt", "vo"):

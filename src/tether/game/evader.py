@@ -23,6 +23,8 @@ from tether.game.controller import kernel_of
 from tether.rates import rate_interval
 from tether.sim.protocols import World
 
+__all__ = ["KernelEvader"]
+
 
 class KernelEvader:
     """Target that drives the state out of (or deeper outside) the kernel.

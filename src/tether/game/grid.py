@@ -27,7 +27,8 @@ from tether.environment import Environment
 from tether.errors import InvalidParameterError
 from tether.tolerances import ANGLE_TOL
 
-TWO_PI = 2.0 * math.pi
+__all__ = ["MOVES", "StateGrid", "build_grid", "lattice"]
+
 
 #: Lattice displacements of the target moves, by number of directions.
 MOVES = {
@@ -77,7 +78,7 @@ class StateGrid:
     @property
     def delta(self) -> float:
         """Orientation bin width, radians."""
-        return TWO_PI / self.n_a
+        return math.tau / self.n_a
 
     @property
     def angles(self) -> np.ndarray:
@@ -254,11 +255,11 @@ def _runs(env: Environment, pts: np.ndarray, lss: float, n_a: int
     if P == 0:
         return free, run_lo, run_hi
     table = free_arcs_many(env, pts, lss, check=False)
-    delta = TWO_PI / n_a
-    length = np.mod(table.end - table.start, TWO_PI)
+    delta = math.tau / n_a
+    length = np.mod(table.end - table.start, math.tau)
     # arcs shorter than the angle tolerance are never emitted: one whose ends coincide is the
     # whole circle but for a grazing contact (a point exactly ``lss`` from a vertex)
-    length = np.where(length <= ANGLE_TOL, TWO_PI, length)
+    length = np.where(length <= ANGLE_TOL, math.tau, length)
     k0 = np.ceil(table.start / delta - 1e-12).astype(np.int64)
     k1 = np.floor((table.start + length) / delta + 1e-12).astype(np.int64)
     count = np.clip(k1 - k0 + 1, 0, n_a)

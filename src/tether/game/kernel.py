@@ -57,7 +57,8 @@ from tether.errors import InvalidParameterError
 from tether.game.grid import StateGrid, build_grid
 from tether.rates import rate_interval
 
-TWO_PI = 2.0 * math.pi
+__all__ = ["IN_KERNEL", "Kernel", "SCHEMES", "load_kernel", "surveillance_kernel"]
+
 SCHEMES = ("inner", "outer")
 #: ``Kernel.level`` of the states that are never removed.
 IN_KERNEL = np.iinfo(np.int32).max
@@ -172,7 +173,7 @@ class Kernel:
         rows = np.zeros((len(pts), self.grid.n_a), dtype=bool)
         ok = i >= 0
         rows[ok] = self.kernel[i[ok]]
-        d = np.abs(np.mod(self.grid.angles[None, :] - ang[:, None] + math.pi, TWO_PI) - math.pi)
+        d = np.abs(np.mod(self.grid.angles[None, :] - ang[:, None] + math.pi, math.tau) - math.pi)
         inside = self.contains(pts, ang)
         far = np.where(rows, np.inf, d).min(axis=1)  # nearest bin outside
         near = np.where(rows, d, np.inf).min(axis=1)  # nearest bin inside

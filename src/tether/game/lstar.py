@@ -26,7 +26,11 @@ from tether.analysis.escape_points import EscapeTable, l_safe
 from tether.arcs import rod_is_free_many
 from tether.bounds import distance_bound, thetas
 
-TWO_PI = 2.0 * math.pi
+__all__ = [
+    "LStarCase", "concerning_orientations", "lstar_cases", "paper_bounds", "resolution",
+    "summary"
+]
+
 
 
 @dataclass(frozen=True)
@@ -82,16 +86,16 @@ def _sense_sweeps(table: EscapeTable, i: int, a: float) -> tuple[float, float, b
     gs, ge = table.g_start[i], table.g_end[i]
     valid = np.isfinite(gs)
     gs, ge = gs[valid], ge[valid]
-    klen = math.fmod(ke - ks + 2 * TWO_PI, TWO_PI) or TWO_PI
-    in_k = (a - ks) % TWO_PI <= klen
-    glen = np.mod(ge - gs, TWO_PI)
-    glen = np.where(glen == 0.0, TWO_PI, glen)
-    in_g = bool(np.any(np.mod(a - gs, TWO_PI) <= glen))
-    ccw = np.mod(gs - a, TWO_PI)
-    cw = np.mod(a - ge, TWO_PI)
-    full = klen >= TWO_PI
-    ccw = ccw[full | (ccw <= (ke - a) % TWO_PI)]
-    cw = cw[full | (cw <= (a - ks) % TWO_PI)]
+    klen = math.fmod(ke - ks + 2 * math.tau, math.tau) or math.tau
+    in_k = (a - ks) % math.tau <= klen
+    glen = np.mod(ge - gs, math.tau)
+    glen = np.where(glen == 0.0, math.tau, glen)
+    in_g = bool(np.any(np.mod(a - gs, math.tau) <= glen))
+    ccw = np.mod(gs - a, math.tau)
+    cw = np.mod(a - ge, math.tau)
+    full = klen >= math.tau
+    ccw = ccw[full | (ccw <= (ke - a) % math.tau)]
+    cw = cw[full | (cw <= (a - ks) % math.tau)]
     return (float(ccw.min()) if len(ccw) else math.inf,
             float(cw.min()) if len(cw) else math.inf, bool(in_k and not in_g))
 
@@ -125,8 +129,8 @@ def concerning_orientations(table: EscapeTable, i: int,
     the full circle when the cell's arc is the only one at ``q``; the rods inside the gaps are
     left out here: a case starts with the rod free at ``q``."""
     ks, ke = float(table.k_start[i]), float(table.k_end[i])
-    klen = (ke - ks) % TWO_PI or TWO_PI
-    cand = (ks + klen * (np.arange(1, samples) / samples)) % TWO_PI
+    klen = (ke - ks) % math.tau or math.tau
+    cand = (ks + klen * (np.arange(1, samples) / samples)) % math.tau
     dec = table.verdict.dec
     q = np.asarray(table.q[i], float)
     free = rod_is_free_many(dec.env, np.repeat(q[None, :], len(cand), axis=0), cand, dec.lss)
@@ -154,7 +158,7 @@ def lstar_cases(kernel: Any, table: EscapeTable, rows: Any = None,
     tol = resolution(kernel)
     if rows is None:
         rows = np.flatnonzero(table.piece >= 0)
-    psis = np.arange(headings) * (TWO_PI / headings)
+    psis = np.arange(headings) * (math.tau / headings)
     out = []
     for i in rows:
         i = int(i)

@@ -22,6 +22,8 @@ from tether.analysis.escape_points import escape_table_of, row_name
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import World
 
+__all__ = ["CAUSES", "LossCause", "explain_loss"]
+
 #: Causes: name → (``"gap"`` or ``"bug"``, what happened).
 CAUSES: dict[str, tuple[str, str]] = {
     "prop3": ("gap", "a Prop. 3 conflict arose: two escape points in reach came to need "

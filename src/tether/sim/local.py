@@ -21,7 +21,8 @@ import numpy as np
 from tether.environment import Environment
 from tether.spatial import EdgeIndex
 
-TWO_PI = 2.0 * math.pi
+__all__ = ["ArcEnds", "Blocked", "LocalArcs", "ends_of", "free_many"]
+
 
 
 @dataclass(frozen=True)
@@ -109,8 +110,8 @@ class LocalArcs:
             t1, t2 = max(0.0, r1), min(1.0, r2)
             if t1 >= t2:
                 continue
-            lo = math.atan2(wy + t1 * ey, wx + t1 * ex) % TWO_PI
-            hi = math.atan2(wy + t2 * ey, wx + t2 * ex) % TWO_PI
+            lo = math.atan2(wy + t1 * ey, wx + t1 * ex) % math.tau
+            hi = math.atan2(wy + t2 * ey, wx + t2 * ex) % math.tau
             out.append(Blocked(lo, hi, self._va[i] if r1 <= 0.0 else self._edge[i],
                                self._vb[i] if r2 >= 1.0 else self._edge[i]))
         return out
@@ -125,7 +126,7 @@ class LocalArcs:
         e = self.ends(x, y, a)
         if not math.isfinite(e.ccw_gap):
             return None
-        return (a - e.cw_gap) % TWO_PI, (a + e.ccw_gap) % TWO_PI
+        return (a - e.cw_gap) % math.tau, (a + e.ccw_gap) % math.tau
 
 
 def ends_of(blocked: list[Blocked], a: float) -> ArcEnds:
@@ -134,14 +135,14 @@ def ends_of(blocked: list[Blocked], a: float) -> ArcEnds:
     fccw = fcw = None
     inside = False
     for b in blocked:
-        width = (b.hi - b.lo) % TWO_PI
-        off = (a - b.lo) % TWO_PI
+        width = (b.hi - b.lo) % math.tau
+        off = (a - b.lo) % math.tau
         if 0.0 < off < width:
             inside = True
-        d = (b.lo - a) % TWO_PI
+        d = (b.lo - a) % math.tau
         if d < ccw:
             ccw, fccw = d, b.lo_feature
-        d = (a - b.hi) % TWO_PI
+        d = (a - b.hi) % math.tau
         if d < cw:
             cw, fcw = d, b.hi_feature
     if inside:
@@ -153,7 +154,7 @@ def ends_of(blocked: list[Blocked], a: float) -> ArcEnds:
 def _wrap0(off: float) -> float:
     """An angle offset in [0, 2π) that is 2π less rounding is 0: interval ends computed from
     the same vertex by two edges may differ in the last bit."""
-    return 0.0 if off > TWO_PI - 1e-12 else off
+    return 0.0 if off > math.tau - 1e-12 else off
 
 
 def _exits(blocked: list[Blocked], a: float) -> tuple[float, str | None, float, str | None]:
@@ -164,26 +165,26 @@ def _exits(blocked: list[Blocked], a: float) -> tuple[float, str | None, float, 
     while moved:
         moved = False
         for b in blocked:
-            width = (b.hi - b.lo) % TWO_PI
-            off = _wrap0((a + up - b.lo) % TWO_PI)
+            width = (b.hi - b.lo) % math.tau
+            off = _wrap0((a + up - b.lo) % math.tau)
             if off < width + 1e-12 and (width - off) > 1e-15:
                 up += width - off
                 fup = b.hi_feature
                 moved = True
-        if up >= TWO_PI:
+        if up >= math.tau:
             return math.inf, None, math.inf, None
     down, fdown = 0.0, None
     moved = True
     while moved:
         moved = False
         for b in blocked:
-            width = (b.hi - b.lo) % TWO_PI
-            off = _wrap0((a - down - b.lo) % TWO_PI)
+            width = (b.hi - b.lo) % math.tau
+            off = _wrap0((a - down - b.lo) % math.tau)
             if off > 1e-15 and off <= width + 1e-12:
                 down += off
                 fdown = b.lo_feature
                 moved = True
-        if down >= TWO_PI:
+        if down >= math.tau:
             return math.inf, None, math.inf, None
     return up, fup, down, fdown
 

@@ -18,6 +18,8 @@ from shapely.geometry import LineString, Point, Polygon
 
 from tether.environment import Environment
 
+__all__ = ["PathPlanner"]
+
 
 class PathPlanner:
     """Shortest collision-free paths in ``env`` at ``clearance`` from its walls."""

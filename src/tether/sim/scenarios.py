@@ -28,6 +28,8 @@ from tether.sim.protocols import World
 from tether.sim.simulate import SimResult, simulate
 from tether.sim.targets import PathTarget
 
+__all__ = ["fig7", "fig8"]
+
 #: The controllers of the simulation by name.
 _CONTROLLERS: dict[str, Callable[[World], Any]] = {
     "paper": PaperController, "follow": FollowController, "translate": TranslateController}
