@@ -86,8 +86,17 @@ def test_cell_lookup_by_id():
     for cid in bad:
         with pytest.raises(KeyError):
             dec.cell(cid)
+        with pytest.raises(KeyError):
+            dec.cell_named(cid)
+        with pytest.raises(KeyError):
+            dec.cell_index(cid)
     with pytest.raises(KeyError):
-        dec.cell(5)
+        dec.cell_named(5)
+    for i in (0, 5, len(dec.cells) - 1):  # identity is the index; the name is for output
+        assert dec.cell(i) == dec.cells[i] == dec.cell_named(dec.cells[i].id)
+        assert dec.cell_index(dec.cells[i].id) == i
+    with pytest.raises(IndexError):
+        dec.cell(len(dec.cells))
 
 
 def test_cell_at_names_existing_cells():

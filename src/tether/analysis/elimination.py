@@ -31,6 +31,7 @@ from tether.analysis.connectivity import (
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
 from tether.decomposition import Decomposition, decompose, feature_name_rank
+from tether.decomposition.views import parse_cell_name
 from tether.tolerances import REL_LENGTH_TOL
 
 __all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
@@ -352,10 +353,8 @@ def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]]
 
 def _cell_key(cid: str) -> tuple:
     """Sort key of a cell id ``(R3,E1,V2)``; other ids sort as plain strings after them."""
-    parts = cid.strip("()").split(",")
-    if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
-        return (0, int(parts[0][1:]), parts[1], parts[2])
-    return (1, cid, "", "")
+    parsed = parse_cell_name(cid)
+    return (1, cid, "", "") if parsed is None else (0, *parsed)
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,

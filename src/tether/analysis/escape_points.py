@@ -120,8 +120,7 @@ class EscapeTable:
 
     @property
     def pieces(self) -> list[str]:
-        return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
-                      key=lambda s: int(s[1:]))
+        return [f"P{k}" for k in sorted({k for k in self.piece.tolist() if k >= 0})]
 
     def sweeps(self, a: float, arc: tuple[float, float] | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

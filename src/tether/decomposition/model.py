@@ -3,8 +3,10 @@ point location) and its :class:`Region` records (see ``docs/formulas.md``, "The 
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -118,9 +120,28 @@ class Decomposition:
         return {"curves": len(self.curves), "regions": len(self.regions),
                 "cells": len(self.cells), "pieces": len(self.pieces)}
 
-    def cell(self, cell_id: str) -> Cell:
-        """The cell named ``cell_id`` (e.g. ``"(R1,E1,E2)"``)."""
-        return self._cell_by_id[cell_id]
+    def cell(self, i: int | str) -> Cell:
+        """The cell of index ``i`` into :attr:`cells` (a cell's identity; IndexError when out
+        of range); a name such as ``"(R1,E1,E2)"`` is still accepted (see
+        :meth:`cell_named`)."""
+        if isinstance(i, str):
+            return self.cell_named(i)
+        return self.cells[operator.index(i)]
+
+    def cell_named(self, name: str) -> Cell:
+        """The cell named ``name`` (e.g. ``"(R1,E1,E2)"``, as printed; for user input),
+        KeyError if there is none."""
+        return self._cell_by_id[name]
+
+    def cell_index(self, name: str) -> int:
+        """The index into :attr:`cells` of the cell named ``name``, KeyError if there is
+        none."""
+        if type(self.cells) is Cells:
+            i = self.cells._table.index(name)
+            if i < 0:
+                raise KeyError(name)
+            return i
+        return self._cell_positions[name]
 
     def cell_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The cells' ``(region, start code, end code)`` as three int arrays in the order of
@@ -139,6 +160,11 @@ class Decomposition:
                    np.fromiter((code[c.end_feature] for c in self.cells), np.int64, n))
             self.__dict__["_cell_codes"] = got
         return got
+
+    @cached_property
+    def _cell_positions(self) -> dict[str, int]:
+        """Each cell's index by name (cells given as a tuple)."""
+        return {c.id: i for i, c in enumerate(self.cells)}
 
     @property
     def _cell_by_id(self) -> Mapping[str, Cell]:

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from tether.analysis.escape_points import escape_table_of, sweep_row
+from tether.arcs import Feature
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, World
 
@@ -122,13 +123,17 @@ class _Compliant:
         text = (f"rate needed beyond vo: the arc end {feat} moves at {need:.4g} rad/s, the "
                 f"observer can turn at most {have:.4g} rad/s")
         env = self.world.env
-        if feat and feat.startswith("V"):
-            vtx = env.vertices[int(feat[1:])]
+        try:
+            kind, index = Feature.parse(feat) if feat else (None, -1)
+        except ValueError:  # not a feature name
+            kind, index = None, -1
+        if kind == "V":
+            vtx = env.vertices[index]
             lt = float(np.hypot(*(vtx - p)))
             bound = self.lss * self.vt / (self.vo + self.vt)
             text += (f" (pivot about {feat} with l_t = {lt:.4g} "
                      f"{'<' if lt < bound else '>='} Lss·vt/(vo+vt) = {bound:.4g})")
-        elif feat and feat.startswith("E"):
+        elif kind == "E":
             text += f" (wall {feat} met with the rod too steep to slide)"
         return text
 
