@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,7 @@ from tether.bounds import distance_bound
 from tether.decomposition import FREE, cell_name
 
 __all__ = [
+    "EscapeRows",
     "SAMPLES_PER_PIECE", "VERTEX_GOAL_MARGIN", "WALL_CODE", "EscapeTable", "escape_table",
     "escape_table_of", "l_paper", "l_safe", "sweep_row", "sweeps", "wall_contact_points",
     "wall_rows",
@@ -38,6 +40,16 @@ __all__ = [
 
 #: Samples per escape piece (at most; short pieces get fewer).
 SAMPLES_PER_PIECE = 24
+
+
+class EscapeRows(StrEnum):
+    """Which rows of an :class:`EscapeTable` a controller weighs (:meth:`EscapeTable.subset`):
+    the pieces' escape samples only, those and the reflex vertices, or every row (the steep
+    wall contacts too). The plain strings are accepted as well."""
+
+    PIECES = "pieces"
+    PIECES_VERTICES = "pieces+vertices"
+    ALL = "all"
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,12 +87,13 @@ class EscapeTable:
         """Rows that stand for a steep wall contact (``piece`` holds ``WALL_CODE − i``)."""
         return self.piece <= WALL_CODE
 
-    def subset(self, kinds: str) -> EscapeTable:
-        """The rows of some kinds only: ``"pieces"``, ``"pieces+vertices"`` or ``"all"``."""
+    def subset(self, kinds: EscapeRows | str) -> EscapeTable:
+        """The rows of some kinds only (an :class:`EscapeRows` or its value)."""
+        kinds = EscapeRows(kinds)
         keep = self.piece >= 0
-        if "vert" in kinds:
+        if kinds == EscapeRows.PIECES_VERTICES:
             keep = keep | self.is_vertex
-        if kinds == "all":
+        if kinds == EscapeRows.ALL:
             keep = np.ones(len(self), dtype=bool)
         return EscapeTable(self.verdict, self.q[keep], tuple(np.array(self.cell, dtype=object)
                                                               [keep].tolist()),

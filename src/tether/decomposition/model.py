@@ -60,7 +60,7 @@ class Region:
         return f"R{self.id}"
 
     @property
-    def structure(self) -> Structure:
+    def structure(self) -> Structure | frozenset:
         """``"FULL"``, ``"EMPTY"`` or the frozenset of the cells' ``(start_code, end_code)``
         pairs (the file's feature codes)."""
         s = self._structure
@@ -249,7 +249,7 @@ class Decomposition:
                 continue
             region = self.regions[reg[i]]
             if table.full[i]:
-                out[i] = region.cells[0] if region.structure == "FULL" else None
+                out[i] = region.cells[0] if region.structure == Structure.FULL else None
                 continue
             rows = table.rows_of(i)
             for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],

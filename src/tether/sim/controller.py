@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from tether.analysis.escape_points import escape_table_of, sweep_row
+from tether.analysis.escape_points import EscapeRows, escape_table_of, sweep_row
 from tether.arcs import Feature
 from tether.sim.local import LocalArcs
-from tether.sim.protocols import Command, World
+from tether.sim.protocols import Command, Mode, World
 
 TWO_PI = 2.0 * math.pi
 #: Rates are chosen within ``vo·(1 − VO_MARGIN)`` so that rounding never exceeds ``vo``.
@@ -106,11 +106,11 @@ class _Compliant:
         chi = (hhi - m) / dt if math.isfinite(hhi) else math.inf
         rlo, rhi = max(lo, clo), min(hi, chi)
         if rlo > rhi:
-            return Command(math.nan, np.full(2, math.nan), "lost", False,
+            return Command(math.nan, np.full(2, math.nan), Mode.LOST, False,
                            self._why(p, v, a, dt, lo, hi, clo, chi, flo, fhi))
         rate = min(max(want, rlo), rhi)
         if (rate == clo and clo > lo) or (rate == chi and chi < hi) or not ends.free:
-            mode = "compliant"
+            mode = Mode.COMPLIANT
         return Command(rate, _vel(v, a, rate, self.lss), mode)
 
     def _why(self, p: np.ndarray, v: np.ndarray, a: float, dt: float, lo: float, hi: float,
@@ -144,10 +144,10 @@ class FollowController(_Compliant):
     name = "follow"
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
-        return (-(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive")
+        return (-(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, Mode.REACTIVE)
 
     def mode_at(self, p: np.ndarray, v: np.ndarray, a: float) -> str:
-        return "reactive"
+        return Mode.REACTIVE
 
 
 class TranslateController(_Compliant):
@@ -156,7 +156,7 @@ class TranslateController(_Compliant):
     name = "translate"
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
-        return 0.0, "reactive"
+        return 0.0, Mode.REACTIVE
 
 
 class PaperController(_Compliant):
@@ -186,10 +186,10 @@ class PaperController(_Compliant):
 
     def __init__(self, world: World | None = None, reactive: str = "follow",
                  trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2,
-                 escape_rows: str = "all", record: bool = False) -> None:
+                 escape_rows: EscapeRows | str = EscapeRows.ALL, record: bool = False) -> None:
         self.reactive = reactive
         self.record = bool(record)
-        self.escape_rows = escape_rows
+        self.escape_rows = EscapeRows(escape_rows)
         self.overshoot = float(overshoot)
         self.trigger_steps = float(trigger_steps)
         self.refresh = int(refresh)
@@ -200,7 +200,7 @@ class PaperController(_Compliant):
         self.table = None
         if world.verdict is not None:
             self.table = escape_table_of(world.verdict, self.vt / self.vo)
-            if self.escape_rows != "all":
+            if self.escape_rows != EscapeRows.ALL:
                 self.table = self.table.subset(self.escape_rows)
             # per-row Python values for the committed row's check, made once
             t = self.table
@@ -295,10 +295,10 @@ class PaperController(_Compliant):
         if row is not None:
             lo, hi = step_interval(float(v[0]), float(v[1]), a, self.lss,
                                    self.vo * (1.0 - VO_MARGIN), dt)
-            return (hi if sense > 0 else lo), "rotational"
+            return (hi if sense > 0 else lo), Mode.ROTATIONAL
         if self.reactive == "translate":
-            return 0.0, "reactive"
-        return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive"
+            return 0.0, Mode.REACTIVE
+        return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, Mode.REACTIVE
 
     def pad(self, dt: float) -> float:
         """The trigger's pad (map units) at control period ``dt`` (s)."""
@@ -308,7 +308,7 @@ class PaperController(_Compliant):
         cmd = super().step(p, v, a, dt)
         # a committed rotation held back by an arc end (compliant, turning less than half as
         # fast as asked, or the wrong way)
-        if self.goal_row is not None and cmd.feasible and cmd.mode == "compliant" and \
+        if self.goal_row is not None and cmd.feasible and cmd.mode == Mode.COMPLIANT and \
                 self.sense * cmd.rate < 0.5 * self.vo / self.lss:
             self._pinned += 1
         else:
