@@ -139,11 +139,11 @@ def assert_same_as_reference(dec):
     region_of = {c.id: c.region for c in dec.cells}
     alive, removed = ref_fixed_point(region_of, pieces_of, partners)
     assert v.surviving == alive
-    got = [(e.cell, int(e.piece[1:]), e.round, e.because) for e in v.eliminated]
+    got = [(e.cell_name, e.piece, e.round, e.because_name) for e in v.eliminated]
     assert got == removed
     for e in v.eliminated:
-        a, b = dec.pieces[int(e.piece[1:])].regions
-        assert e.escapes_to == f"R{b if a == dec.cell(e.cell).region else a}"
+        a, b = dec.pieces[e.piece].regions
+        assert e.escapes_to == (b if a == dec.cell(e.cell).region else a)
     assert v.rounds == max((r for _, _, r, _ in removed), default=0)
     assert v.witness_region == ref_witness(dec, removed, alive)
     assert v.eliminated[0] == list(v.eliminated)[0] if removed else len(v.eliminated) == 0

@@ -57,7 +57,7 @@ def plot_verdict(verdict: Any, fig: Any = None) -> Figure:
         fig, (ax1, ax2) = new_axes(2, size=(6.4, 6.4))
     else:
         ax1, ax2 = fig.subplots(1, 2)
-    marked = {verdict.dec.cell(e.cell).region for e in verdict.eliminated}
+    marked = {verdict.dec.cells[e.cell].region for e in verdict.eliminated}
     plot_decomposition(verdict.dec, ax1, marked_regions=marked)
     if verdict.witness_region is not None:
         w = verdict.dec.regions[verdict.witness_region]
