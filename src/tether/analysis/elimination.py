@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -162,13 +163,10 @@ class Eliminations(Sequence):
         return Elimination(c, int(other), k, int(self.round[i]), None if b < 0 else b,
                            ids[0], None if b < 0 else ids[1])
 
-    @property
+    @cached_property
     def _all(self) -> tuple[Elimination, ...]:
-        got = self.__dict__.get("_tuple")
-        if got is None:
-            with gc_paused():
-                got = self.__dict__["_tuple"] = self._make_all()
-        return got
+        with gc_paused():
+            return self._make_all()
 
     def _make_all(self) -> tuple[Elimination, ...]:
         """Every :class:`Elimination`, in order (ids made in one pass)."""
@@ -186,7 +184,7 @@ class Eliminations(Sequence):
     def __getitem__(self, i: Any) -> Any:
         if isinstance(i, slice):
             return self._all[i]
-        if "_tuple" in self.__dict__:
+        if "_all" in self.__dict__:  # made already
             return self._all[i]
         n = len(self)
         j = int(i) + n if int(i) < 0 else int(i)
