@@ -20,7 +20,7 @@ def main() -> None:
         save(plot_verdict(v), OUT / f"{name}.png")
         if name != "rectangle":  # the paper draws only the neighbourhood of the corner
             fig, ax = new_axes(size=(6, 6))
-            marked = {v.dec.cell(e.cell).region for e in v.eliminated}
+            marked = {v.dec.cells[e.cell].region for e in v.eliminated}
             plot_decomposition(v.dec, ax, marked_regions=marked)
             lo = -2.5 if name == "convex_corner" else -0.5
             ax.set_xlim(lo, lo + 5)

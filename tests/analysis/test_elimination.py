@@ -124,7 +124,7 @@ def test_dead_end_corridor_narrower_than_lss():
     assert len(deep.cells) == 1 and deep.cells[0] in v.surviving
     middle = v.dec.regions[v.dec.region_at([[12.0, 5.0]])[0]]
     assert len(middle.cells) == 2
-    fell = [e for e in v.eliminated if e.cell in middle.cells]
+    fell = [e for e in v.eliminated if e.cell_name in middle.cells]
     assert len(fell) == 1 and fell[0].round >= 2
     assert v.is_safe([[12.0, 5.0]], [np.pi]) == [True]  # pointing back out along -x
     assert v.is_safe([[12.0, 5.0]], [0.0]) == [False]  # pointing toward the dead end
@@ -135,7 +135,7 @@ def test_paper_rectangle_needs_the_elimination():
     elimination empties the middle region and then everything: no strategy."""
     v = analyze(DECS[3])
     assert not v.strategy_exists and v.rounds > 1
-    first = {e.cell for e in v.eliminated if e.round == 1}
+    first = {e.cell_name for e in v.eliminated if e.round == 1}
     assert all(set(r.cells) - first for r in v.dec.regions)  # no region emptied in round 1
     w = v.dec.regions[v.witness_region]
     assert w.polygon.contains(shapely.Point(0.75, 1.5))  # the middle region

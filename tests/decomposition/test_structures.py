@@ -25,7 +25,8 @@ def _plain(table: ArcTable, npts: int) -> list:
     for p, a, b in zip(table.point.tolist(), table.start_code.tolist(), table.end_code.tolist(),
                        strict=True):
         sets[p].add((a, b))
-    return [frozenset(s) if s else "FULL" if full[i] else "EMPTY" for i, s in enumerate(sets)]
+    return [frozenset(s) if s else D.Structure.FULL if full[i] else D.Structure.EMPTY
+            for i, s in enumerate(sets)]
 
 
 def _table(env, lss, n, seed) -> ArcTable:

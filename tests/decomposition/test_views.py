@@ -86,8 +86,17 @@ def test_cell_lookup_by_id():
     for cid in bad:
         with pytest.raises(KeyError):
             dec.cell(cid)
+        with pytest.raises(KeyError):
+            dec.cell_named(cid)
+        with pytest.raises(KeyError):
+            dec.cell_index(cid)
     with pytest.raises(KeyError):
-        dec.cell(5)
+        dec.cell_named(5)
+    for i in (0, 5, len(dec.cells) - 1):  # identity is the index; the name is for output
+        assert dec.cell(i) == dec.cells[i] == dec.cell_named(dec.cells[i].id)
+        assert dec.cell_index(dec.cells[i].id) == i
+    with pytest.raises(IndexError):
+        dec.cell(len(dec.cells))
 
 
 def test_cell_at_names_existing_cells():
@@ -184,11 +193,15 @@ def test_eliminations_and_survivors_by_id(case):
     for i, e in enumerate(el):
         c = int(el.cell[i])
         assert e == el._one(i) == el[i]
-        assert e.cell == ids[c] and e.piece == f"P{el.piece[i]}"
-        assert (e.because is None) == (el.because[i] < 0)
-        assert e.because is None or e.because == ids[el.because[i]]
+        assert e.cell == c and e.cell_name == ids[c] and e.piece == el.piece[i]
+        assert (e.because is None) == (e.because_name is None) == (el.because[i] < 0)
+        assert e.because is None or (e.because, e.because_name) == (
+            el.because[i], ids[el.because[i]])
         a, b = v.dec.pieces[int(el.piece[i])].regions
-        assert e.escapes_to == f"R{b if a == regions[c] else a}"
+        assert e.escapes_to == (b if a == regions[c] else a)
+        assert e.to_dict() == {"cell": ids[c], "escapes_to": f"R{e.escapes_to}",
+                               "piece": f"P{e.piece}", "round": e.round,
+                               "because": e.because_name}
     fell = set(el.cell.tolist())
     assert v.surviving == frozenset(ids[i] for i in range(len(ids)) if i not in fell)
 

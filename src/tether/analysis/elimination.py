@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,7 @@ from tether.analysis.connectivity import (
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
 from tether.decomposition import Decomposition, decompose, feature_name_rank
+from tether.decomposition.views import parse_cell_name
 from tether.tolerances import REL_LENGTH_TOL
 
 __all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
@@ -38,20 +40,26 @@ __all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "es
 
 @dataclass(frozen=True)
 class Elimination:
-    """Why a cell fell: crossing ``piece`` into ``escapes_to`` loses it, in ``round``;
-    ``because`` is the last partner across that piece whose removal made it escapable (None in
-    round 1, or when the other side never had a partner)."""
+    """Why a cell fell: crossing piece ``piece`` into region ``escapes_to`` loses it, in
+    ``round``; ``because`` is the last partner across that piece whose removal made it
+    escapable (None in round 1, or when the other side never had a partner).
 
-    cell: str
-    escapes_to: str
-    piece: str
+    Identities are integers: ``cell`` and ``because`` index ``dec.cells``, ``escapes_to`` is a
+    region id and ``piece`` a piece id; ``cell_name`` and ``because_name`` are the cells'
+    names (``"(R3,E1,V2)"``), and :meth:`to_dict` prints names (``"R4"``, ``"P7"``)."""
+
+    cell: int
+    escapes_to: int
+    piece: int
     round: int
-    because: str | None
+    because: int | None
+    cell_name: str = field(repr=False, compare=False)
+    because_name: str | None = field(repr=False, compare=False)
 
     def to_dict(self) -> dict:
         """The elimination as JSON-ready values."""
-        return {"cell": self.cell, "escapes_to": self.escapes_to, "piece": self.piece,
-                "round": self.round, "because": self.because}
+        return {"cell": self.cell_name, "escapes_to": f"R{self.escapes_to}",
+                "piece": f"P{self.piece}", "round": self.round, "because": self.because_name}
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,16 +175,13 @@ class Eliminations(Sequence):
         ra, rb = piece_regions(dec)[k].tolist()
         other = rb if ra == cell_regions(dec)[c] else ra
         ids = cell_ids_of(dec, [c] if b < 0 else [c, b])
-        return Elimination(ids[0], f"R{other}", f"P{k}", int(self.round[i]),
-                           None if b < 0 else ids[1])
+        return Elimination(c, int(other), k, int(self.round[i]), None if b < 0 else b,
+                           ids[0], None if b < 0 else ids[1])
 
-    @property
+    @cached_property
     def _all(self) -> tuple[Elimination, ...]:
-        got = self.__dict__.get("_tuple")
-        if got is None:
-            with gc_paused():
-                got = self.__dict__["_tuple"] = self._make_all()
-        return got
+        with gc_paused():
+            return self._make_all()
 
     def _make_all(self) -> tuple[Elimination, ...]:
         """Every :class:`Elimination`, in order (ids made in one pass)."""
@@ -185,15 +190,16 @@ class Eliminations(Sequence):
         ids = cell_ids_of(dec, np.concatenate((self.cell, np.maximum(self.because, 0))))
         ends = piece_regions(dec)[self.piece]
         other = np.where(ends[:, 0] == cell_regions(dec)[self.cell], ends[:, 1], ends[:, 0])
-        return tuple(Elimination(c, f"R{o}", f"P{k}", r, None if b < 0 else ib)
-                     for c, o, k, r, b, ib in zip(
-                         ids[:n], other.tolist(), self.piece.tolist(), self.round.tolist(),
-                         self.because.tolist(), ids[n:], strict=True))
+        return tuple(Elimination(c, o, k, r, None if b < 0 else b, ic, None if b < 0 else ib)
+                     for c, o, k, r, b, ic, ib in zip(
+                         self.cell.tolist(), other.tolist(), self.piece.tolist(),
+                         self.round.tolist(), self.because.tolist(), ids[:n], ids[n:],
+                         strict=True))
 
     def __getitem__(self, i: Any) -> Any:
         if isinstance(i, slice):
             return self._all[i]
-        if "_tuple" in self.__dict__:
+        if "_all" in self.__dict__:  # made already
             return self._all[i]
         n = len(self)
         j = int(i) + n if int(i) < 0 else int(i)
@@ -367,10 +373,8 @@ def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]]
 
 def _cell_key(cid: str) -> tuple:
     """Sort key of a cell id ``(R3,E1,V2)``; other ids sort as plain strings after them."""
-    parts = cid.strip("()").split(",")
-    if len(parts) == 3 and parts[0][:1] == "R" and parts[0][1:].isdigit():
-        return (0, int(parts[0][1:]), parts[1], parts[2])
-    return (1, cid, "", "")
+    parsed = parse_cell_name(cid)
+    return (1, cid, "", "") if parsed is None else (0, *parsed)
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
@@ -454,8 +458,8 @@ def escape_story(v: Verdict) -> list[str]:
                  "strategy can exist if the rod starts in a surviving cell."]
         if v.eliminated:
             e = v.eliminated[0]
-            lines.append(f"For example, from {e.cell} the target escapes by crossing "
-                         f"{_piece_text(dec, e.piece)} into {e.escapes_to}.")
+            lines.append(f"For example, from {e.cell_name} the target escapes by crossing "
+                         f"{_piece_text(dec, e.piece)} into R{e.escapes_to}.")
         return lines
     w = v.witness_region
     if w is not None and not dec.regions[w].cells:
@@ -465,13 +469,13 @@ def escape_story(v: Verdict) -> list[str]:
     lines = []
     for e in reversed(chain):
         if e.because is None:
-            lines.append(f"Round {e.round}: cell {e.cell} is escapable. The target crosses "
-                         f"{_piece_text(dec, e.piece)} into {e.escapes_to}, where no free arc "
-                         "continues the rod's arc.")
+            lines.append(f"Round {e.round}: cell {e.cell_name} is escapable. The target "
+                         f"crosses {_piece_text(dec, e.piece)} into R{e.escapes_to}, where no "
+                         "free arc continues the rod's arc.")
         else:
-            lines.append(f"Round {e.round}: {e.cell} falls. Across {_piece_text(dec, e.piece)} "
-                         f"into {e.escapes_to} its last continuation, {e.because}, was "
-                         "eliminated.")
+            lines.append(f"Round {e.round}: {e.cell_name} falls. Across "
+                         f"{_piece_text(dec, e.piece)} into R{e.escapes_to} its last "
+                         f"continuation, {e.because_name}, was eliminated.")
     lines.append(f"Every cell over R{w} is eliminated: wherever the observer is, a target in "
                  f"R{w} can escape. No surveillance strategy exists (Proposition 1).")
     return lines
@@ -483,7 +487,7 @@ def _witness_chain(v: Verdict, w: int) -> list[Elimination]:
     el = v.eliminated
     if not isinstance(el, Eliminations):
         by_cell = {e.cell: e for e in el}
-        chain = [[e for e in el if e.cell in v.dec.regions[w].cells][-1]]
+        chain = [[e for e in el if v.dec.cell(e.cell).region == w][-1]]
         while chain[-1].because is not None:
             chain.append(by_cell[chain[-1].because])
         return chain
@@ -496,9 +500,9 @@ def _witness_chain(v: Verdict, w: int) -> list[Elimination]:
     return [el[j] for j in chain]
 
 
-def _piece_text(dec: Decomposition, piece: str) -> str:
+def _piece_text(dec: Decomposition, piece: int) -> str:
     from tether.curves import KIND_NAMES
 
-    p = dec.pieces[int(piece[1:])]
+    p = dec.pieces[piece]
     kinds = "/".join(KIND_NAMES.get(k, k) for k in p.kind)
-    return f"{piece} ({kinds} of {', '.join(p.features)})"
+    return f"{p.name} ({kinds} of {', '.join(p.features)})"

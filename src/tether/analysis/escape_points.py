@@ -25,12 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from tether._util.vocabulary import Vocabulary
 from tether.analysis.elimination import Verdict
 from tether.arcs import feature_name, free_arcs_many, wedge_columns
 from tether.bounds import distance_bound
 from tether.decomposition import FREE, cell_name
 
 __all__ = [
+    "EscapeRows",
     "SAMPLES_PER_PIECE", "VERTEX_GOAL_MARGIN", "WALL_CODE", "EscapeTable", "escape_table",
     "escape_table_of", "l_paper", "l_safe", "sweep_row", "sweeps", "wall_contact_points",
     "wall_rows",
@@ -38,6 +40,16 @@ __all__ = [
 
 #: Samples per escape piece (at most; short pieces get fewer).
 SAMPLES_PER_PIECE = 24
+
+
+class EscapeRows(Vocabulary):
+    """Which rows of an :class:`EscapeTable` a controller weighs (:meth:`EscapeTable.subset`):
+    the pieces' escape samples only, those and the reflex vertices, or every row (the steep
+    wall contacts too). The plain strings are accepted as well."""
+
+    PIECES = "pieces"
+    PIECES_VERTICES = "pieces+vertices"
+    ALL = "all"
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,12 +87,13 @@ class EscapeTable:
         """Rows that stand for a steep wall contact (``piece`` holds ``WALL_CODE − i``)."""
         return self.piece <= WALL_CODE
 
-    def subset(self, kinds: str) -> EscapeTable:
-        """The rows of some kinds only: ``"pieces"``, ``"pieces+vertices"`` or ``"all"``."""
+    def subset(self, kinds: EscapeRows | str) -> EscapeTable:
+        """The rows of some kinds only (an :class:`EscapeRows` or its value)."""
+        kinds = EscapeRows(kinds)
         keep = self.piece >= 0
-        if "vert" in kinds:
+        if kinds == EscapeRows.PIECES_VERTICES:
             keep = keep | self.is_vertex
-        if kinds == "all":
+        if kinds == EscapeRows.ALL:
             keep = np.ones(len(self), dtype=bool)
         return EscapeTable(self.verdict, self.q[keep], tuple(np.array(self.cell, dtype=object)
                                                               [keep].tolist()),
@@ -121,8 +134,7 @@ class EscapeTable:
     @property
     def pieces(self) -> list[str]:
         """Names ``P<k>`` of the pieces holding escape samples, in piece order."""
-        return sorted({f"P{k}" for k in self.piece.tolist() if k >= 0},
-                      key=lambda s: int(s[1:]))
+        return [f"P{k}" for k in sorted({k for k in self.piece.tolist() if k >= 0})]
 
     def sweeps(self, a: float, arc: tuple[float, float] | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

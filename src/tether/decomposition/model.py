@@ -3,8 +3,10 @@ point location) and its :class:`Region` records (see ``docs/formulas.md``, "The 
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -59,7 +61,7 @@ class Region:
         return f"R{self.id}"
 
     @property
-    def structure(self) -> Structure:
+    def structure(self) -> Structure | frozenset:
         """``"FULL"``, ``"EMPTY"`` or the frozenset of the cells' ``(start_code, end_code)``
         pairs (the file's feature codes)."""
         s = self._structure
@@ -121,6 +123,12 @@ class Decomposition:
     #: the longest of those stretches: ``{"length", "regions", "point"}`` (map units), or None;
     #: the self-check fails when it is longer than the resolution (``UNRESOLVED_MAX_ROOT``)
     unresolved_longest: dict | None = None
+    #: values known when :func:`decompose` built it (else computed on the first read): the
+    #: exact free arcs at the pieces' crossings (:meth:`crossing_arcs`) and the cells' codes
+    #: (:meth:`cell_codes`)
+    _crossing_arcs: ArcTable | None = field(default=None, repr=False, compare=False)
+    _cell_codes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(
+        default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:
         return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
@@ -133,44 +141,61 @@ class Decomposition:
         return {"curves": len(self.curves), "regions": len(self.regions),
                 "cells": len(self.cells), "pieces": len(self.pieces)}
 
-    def cell(self, cell_id: str) -> Cell:
-        """The cell named ``cell_id`` (e.g. ``"(R1,E1,E2)"``)."""
-        return self._cell_by_id[cell_id]
+    def cell(self, i: int | str) -> Cell:
+        """The cell of index ``i`` into :attr:`cells` (a cell's identity; IndexError when out
+        of range); a name such as ``"(R1,E1,E2)"`` is still accepted (see
+        :meth:`cell_named`)."""
+        if isinstance(i, str):
+            return self.cell_named(i)
+        return self.cells[operator.index(i)]
+
+    def cell_named(self, name: str) -> Cell:
+        """The cell named ``name`` (e.g. ``"(R1,E1,E2)"``, as printed; for user input),
+        KeyError if there is none."""
+        return self._cell_by_id[name]
+
+    def cell_index(self, name: str) -> int:
+        """The index into :attr:`cells` of the cell named ``name``, KeyError if there is
+        none."""
+        if type(self.cells) is Cells:
+            i = self.cells._table.index(name)
+            if i < 0:
+                raise KeyError(name)
+            return i
+        return self._cell_positions[name]
 
     def cell_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The cells' ``(region, start code, end code)`` as three int arrays in the order of
         :attr:`cells` (feature codes in :attr:`env`'s numbering, -1 for both ends of a FULL
         region's cell), cached: recorded by :func:`decompose`, else read from the cells."""
-        got = self.__dict__.get("_cell_codes")
-        if got is None and type(self.cells) is Cells:
+        return self._cell_codes if self._cell_codes is not None else self._read_cell_codes
+
+    @cached_property
+    def _read_cell_codes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`cell_codes` when :func:`decompose` did not record them."""
+        if type(self.cells) is Cells:
             t = self.cells._table
-            got = self.__dict__["_cell_codes"] = (t.region, t.start, t.end)
-        if got is None:
-            code = {feature_name(self.env, c): c for c in range(2 * self.env.n)}
-            code[FREE] = -1
-            n = len(self.cells)
-            got = (np.fromiter((c.region for c in self.cells), np.int64, n),
-                   np.fromiter((code[c.start_feature] for c in self.cells), np.int64, n),
-                   np.fromiter((code[c.end_feature] for c in self.cells), np.int64, n))
-            self.__dict__["_cell_codes"] = got
-        return got
+            return t.region, t.start, t.end
+        code = {feature_name(self.env, c): c for c in range(2 * self.env.n)}
+        code[FREE] = -1
+        n = len(self.cells)
+        return (np.fromiter((c.region for c in self.cells), np.int64, n),
+                np.fromiter((code[c.start_feature] for c in self.cells), np.int64, n),
+                np.fromiter((code[c.end_feature] for c in self.cells), np.int64, n))
 
-    @property
+    @cached_property
+    def _cell_positions(self) -> dict[str, int]:
+        """Each cell's index by name (cells given as a tuple)."""
+        return {c.id: i for i, c in enumerate(self.cells)}
+
+    @cached_property
     def _cell_by_id(self) -> Mapping[str, Cell]:
-        d = self.__dict__.get("_cells_by_id")
-        if d is None:
-            d = (CellsById(self.cells._table) if type(self.cells) is Cells else
-                 {c.id: c for c in self.cells})
-            self.__dict__["_cells_by_id"] = d
-        return d
+        return (CellsById(self.cells._table) if type(self.cells) is Cells else
+                {c.id: c for c in self.cells})
 
-    @property
+    @cached_property
     def _tree(self) -> shapely.STRtree:
-        t = self.__dict__.get("_region_tree")
-        if t is None:
-            t = shapely.STRtree([r.polygon for r in self.regions])
-            self.__dict__["_region_tree"] = t
-        return t
+        return shapely.STRtree([r.polygon for r in self.regions])
 
     def piece_crossings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every piece's crossing sample: points (k, 2), unit normals into ``regions[0]``
@@ -187,12 +212,13 @@ class Decomposition:
         :func:`crossing_points` of :meth:`piece_crossings`: point ``k`` is ``sample + eps
         normal`` of piece ``k``, point ``m + k`` the other side), as found while the
         crossings were chosen (computed now if the decomposition was built otherwise)."""
-        got = self.__dict__.get("_crossing_arcs")
-        if got is None:
-            got = free_arcs_many(self.env, crossing_points(*self.piece_crossings()), self.lss,
-                                 check=False)
-            self.__dict__["_crossing_arcs"] = got
-        return got
+        return self._crossing_arcs if self._crossing_arcs is not None else self._found_arcs
+
+    @cached_property
+    def _found_arcs(self) -> ArcTable:
+        """:meth:`crossing_arcs` when :func:`decompose` did not record them."""
+        return free_arcs_many(self.env, crossing_points(*self.piece_crossings()), self.lss,
+                              check=False)
 
     def regions_crossing(self, geoms: Any) -> tuple[np.ndarray, np.ndarray]:
         """The pairs ``(i, r)`` (two int arrays, sorted) such that region ``r``'s polygon
@@ -238,7 +264,7 @@ class Decomposition:
                 continue
             region = self.regions[reg[i]]
             if table.full[i]:
-                out[i] = region.cells[0] if region.structure == "FULL" else None
+                out[i] = region.cells[0] if region.structure == Structure.FULL else None
                 continue
             rows = table.rows_of(i)
             for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],

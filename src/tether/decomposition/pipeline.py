@@ -128,7 +128,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     report("done", 1.0)
     if out is None:
         dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, Pieces(pieces),
-                            tol, unresolved_pieces, longest)
+                            tol, unresolved_pieces, longest, _crossing_arcs=arcs,
+                            _cell_codes=codes)
     else:  # the regions' polygons and structures and the pieces to the user's frame
         del arr, chains, cands  # the arrangement, freed first
         out.regions(regions)
@@ -137,10 +138,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
             longest["length"] /= out.scale
             longest["point"] = out.points(longest["point"])[0].tolist()
         dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
-                            Pieces(pieces), tol / out.scale, unresolved_pieces, longest)
-        arcs = out.crossing_arcs(arcs)
-    dec.__dict__["_crossing_arcs"] = arcs  # computed while choosing the crossings
-    dec.__dict__["_cell_codes"] = codes  # known when the cells were made
+                            Pieces(pieces), tol / out.scale, unresolved_pieces, longest,
+                            _crossing_arcs=out.crossing_arcs(arcs), _cell_codes=codes)
     return dec
 
 

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from tether._util.arrays import ragged_arange, row_ids
+from tether._util.vocabulary import Vocabulary
 from tether.arcs import ArcTable, feature_name, free_arcs_many
 from tether.environment import Environment
 
@@ -22,7 +22,14 @@ __all__ = ["FREE", "Structure", "StructureRows", "Structures", "crossing_points"
            "structures_across", "table_rows"]
 
 
-Structure = Any  # frozenset of (start_code, end_code) pairs, or "FULL" / "EMPTY"
+class Structure(Vocabulary):
+    """The two structures that are not sets of cells: every orientation free (one cell, its
+    ends :data:`FREE`) or none. A structure is one of these or a frozenset of the cells'
+    ``(start_code, end_code)`` pairs; the values are the strings the output prints (plain
+    ``"FULL"`` / ``"EMPTY"`` compare equal)."""
+
+    FULL = "FULL"
+    EMPTY = "EMPTY"
 
 
 FREE = "*"  # feature name of both ends of the single cell of a FULL region
@@ -106,7 +113,7 @@ class Structures:
         """The structure of id ``i`` (``"EMPTY"``, ``"FULL"`` or a frozenset, one object
         per id)."""
         if i < 2:
-            return "FULL" if i == 1 else "EMPTY"
+            return Structure.FULL if i == 1 else Structure.EMPTY
         got = self._sets.get(i)
         if got is None:
             a, b = np.divmod(self.pairs[self.ptr[i]:self.ptr[i + 1]], self.base)
@@ -133,9 +140,9 @@ class Structures:
 
 def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
     """The cells' ``(start_feature, end_feature)`` names of a structure, sorted."""
-    if s == "FULL":
+    if s == Structure.FULL:
         return [(FREE, FREE)]
-    if s == "EMPTY":
+    if s == Structure.EMPTY:
         return []
     memo = env.__dict__.setdefault("_structure_names", {})  # many regions share structures
     got = memo.get(s)
@@ -148,9 +155,9 @@ def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
 def structure_codes(env: Environment, s: Structure) -> np.ndarray:
     """The cells' ``(start, end)`` feature codes of a structure as a ``(k, 2)`` int array, in
     the order of :func:`structure_names` (by name); a FULL structure's cell is ``(-1, -1)``."""
-    if s == "FULL":
+    if s == Structure.FULL:
         return np.full((1, 2), -1, dtype=np.int64)
-    if s == "EMPTY":
+    if s == Structure.EMPTY:
         return np.zeros((0, 2), dtype=np.int64)
     memo = env.__dict__.setdefault("_structure_codes", {})
     got = memo.get(s)
@@ -223,7 +230,8 @@ def set_rows(structs: list[Structure], base: int) -> tuple[StructureRows, np.nda
     obj = np.fromiter(map(id, structs), np.int64, len(structs))
     _, first, inv = np.unique(obj, return_index=True, return_inverse=True)
     objs = [structs[i] for i in first.tolist()]
-    kind = np.fromiter((0 if s == "EMPTY" else 1 if s == "FULL" else 2 for s in objs),
+    full, empty = Structure.FULL, Structure.EMPTY
+    kind = np.fromiter((0 if s == empty else 1 if s == full else 2 for s in objs),
                        np.int64, len(objs))
     sets = [s if k == 2 else () for s, k in zip(objs, kind.tolist(), strict=True)]
     size = np.fromiter(map(len, sets), np.int64, len(sets))

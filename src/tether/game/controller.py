@@ -17,7 +17,7 @@ import numpy as np
 
 from tether.arcs import rod_is_free_many
 from tether.rates import observer_velocity, step_rate_interval
-from tether.sim.protocols import Command, World
+from tether.sim.protocols import Command, Mode, World
 
 
 def kernel_of(world: World) -> Any:
@@ -78,11 +78,11 @@ class KernelController:
         free = rod_is_free_many(world.env, np.repeat(nxt[None, :], len(rates), axis=0),
                                 a + rates * dt, lss)
         if not free.any():
-            return Command(float("nan"), np.full(2, np.nan), "kernel", feasible=False,
+            return Command(float("nan"), np.full(2, np.nan), Mode.KERNEL, feasible=False,
                            reason="no admissible rate keeps the rod free")
         rates = rates[free]
         tau = k.grid.h / k.vt
         ahead = np.repeat((p + v * tau)[None, :], len(rates), axis=0)
         score = k.depth_at(ahead, a + rates * tau) - 1e-9 * np.abs(rates - (lo + hi) / 2)
         rate = float(rates[int(np.argmax(score))])
-        return Command(rate, observer_velocity(v, a, rate, lss), "kernel")
+        return Command(rate, observer_velocity(v, a, rate, lss), Mode.KERNEL)

@@ -17,12 +17,13 @@ import numpy as np
 
 from tether.errors import TetherError
 from tether.plot.map import plot_map
+from tether.sim.protocols import Mode, Outcome
 
 __all__ = ["MODE_COLOURS", "draw_scene", "draw_trigger_curves", "plot_run", "animate_run"]
 
 #: Colour of each mode.
-MODE_COLOURS = {"reactive": "tab:green", "rotational": "tab:purple", "compliant": "tab:orange",
-                "kernel": "tab:blue", "lost": "red"}
+MODE_COLOURS = {Mode.REACTIVE: "tab:green", Mode.ROTATIONAL: "tab:purple",
+                Mode.COMPLIANT: "tab:orange", Mode.KERNEL: "tab:blue", Mode.LOST: "red"}
 
 
 def _colour(mode: str) -> str:
@@ -76,7 +77,7 @@ def plot_run(result: Any, world: Any, ax: Any = None, rods: int = 12) -> Any:
     draw_scene(ax, world)
     tr = result.trace
     ax.plot(tr.p[:, 0], tr.p[:, 1], "-", color="black", lw=1.2, label="target", zorder=4)
-    modes = list(tr.mode) + [tr.mode[-1] if tr.mode else "reactive"]
+    modes = list(tr.mode) + [tr.mode[-1] if tr.mode else Mode.REACTIVE]
     for m in sorted(set(modes)):
         sel = np.array([x == m for x in modes])
         ox = np.where(sel, tr.observer[:, 0], np.nan)
@@ -86,7 +87,7 @@ def plot_run(result: Any, world: Any, ax: Any = None, rods: int = 12) -> Any:
         ax.plot([tr.p[i, 0], tr.observer[i, 0]], [tr.p[i, 1], tr.observer[i, 1]], "-",
                 color=_colour(modes[i]), lw=0.8, alpha=0.7, zorder=4)
     draw_trigger_curves(ax, world, float(tr.a[-1]))
-    if result.outcome == "lost":
+    if result.outcome == Outcome.LOST:
         ax.plot(*tr.p[-1], "x", color="red", ms=10, mew=2, zorder=6)
     ax.set_title(f"{result.target} vs {result.controller}: {result.outcome}"
                  + (f" at t={result.lost_at:.2f}s" if result.lost_at is not None else ""),
@@ -127,12 +128,12 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
     region_patch: list = []
     curves: list = []
     dec = world.decomposition
-    modes = list(tr.mode) + [tr.mode[-1] if tr.mode else "reactive"]
+    modes = list(tr.mode) + [tr.mode[-1] if tr.mode else Mode.REACTIVE]
 
     def draw(k: int) -> list:
         i = frames[k]
         c = _colour(modes[i])
-        if result.outcome == "lost" and i == len(tr) - 1:
+        if result.outcome == Outcome.LOST and i == len(tr) - 1:
             c = "red"
         trail.set_data(tr.p[: i + 1, 0], tr.p[: i + 1, 1])
         otrail.set_data(tr.observer[: i + 1, 0], tr.observer[: i + 1, 1])

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from tether.decomposition.views import parse_cell_name
 from tether.plot.axes import ensure_axes, new_axes
 from tether.plot.decomposition import plot_decomposition
 
@@ -37,7 +38,7 @@ def plot_graph(verdict: Any, ax: Any = None, only_surviving: bool = True) -> lis
     arts = [nx.draw_networkx_edges(sub, pos, ax=ax, edge_color="0.5", width=0.8)]
     arts.append(nx.draw_networkx_nodes(sub, pos, ax=ax, node_size=18, node_color=colours))
     if sub.number_of_nodes() <= 60:
-        labels = {c: c.strip("()").replace(",", " ") for c in sub.nodes}
+        labels = {c: "R{} {} {}".format(*parse_cell_name(c)) for c in sub.nodes}
         arts.append(nx.draw_networkx_labels(sub, pos, labels, ax=ax, font_size=6))
     x0, y0, x1, y1 = dec.env.bounds
     ring = np.vstack((dec.env.boundary, dec.env.boundary[:1]))
@@ -69,7 +70,7 @@ def plot_verdict(verdict: Any, fig: Any = None) -> Figure:
         fig, (ax1, ax2) = new_axes(2, size=(6.4, 6.4))
     else:
         ax1, ax2 = fig.subplots(1, 2)
-    marked = {int(e.cell.strip("()").split(",")[0][1:]) for e in verdict.eliminated}
+    marked = {verdict.dec.cells[e.cell].region for e in verdict.eliminated}
     plot_decomposition(verdict.dec, ax1, marked_regions=marked)
     if verdict.witness_region is not None:
         w = verdict.dec.regions[verdict.witness_region]

@@ -21,9 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from tether.analysis.escape_points import escape_table_of, sweep_row
+from tether.analysis.escape_points import EscapeRows, escape_table_of, sweep_row
+from tether.arcs import Feature
 from tether.sim.local import LocalArcs
-from tether.sim.protocols import Command, World
+from tether.sim.protocols import Command, Mode, World
 
 TWO_PI = 2.0 * math.pi
 #: Rates are chosen within ``vo·(1 − VO_MARGIN)`` so that rounding never exceeds ``vo``.
@@ -106,11 +107,11 @@ class _Compliant:
         chi = (hhi - m) / dt if math.isfinite(hhi) else math.inf
         rlo, rhi = max(lo, clo), min(hi, chi)
         if rlo > rhi:
-            return Command(math.nan, np.full(2, math.nan), "lost", False,
+            return Command(math.nan, np.full(2, math.nan), Mode.LOST, False,
                            self._why(p, v, a, dt, lo, hi, clo, chi, flo, fhi))
         rate = min(max(want, rlo), rhi)
         if (rate == clo and clo > lo) or (rate == chi and chi < hi) or not ends.free:
-            mode = "compliant"
+            mode = Mode.COMPLIANT
         return Command(rate, _vel(v, a, rate, self.lss), mode)
 
     def _why(self, p: np.ndarray, v: np.ndarray, a: float, dt: float, lo: float, hi: float,
@@ -123,13 +124,17 @@ class _Compliant:
         text = (f"rate needed beyond vo: the arc end {feat} moves at {need:.4g} rad/s, the "
                 f"observer can turn at most {have:.4g} rad/s")
         env = self.world.env
-        if feat and feat.startswith("V"):
-            vtx = env.vertices[int(feat[1:])]
+        try:
+            kind, index = Feature.parse(feat) if feat else (None, -1)
+        except ValueError:  # not a feature name
+            kind, index = None, -1
+        if kind == "V":
+            vtx = env.vertices[index]
             lt = float(np.hypot(*(vtx - p)))
             bound = self.lss * self.vt / (self.vo + self.vt)
             text += (f" (pivot about {feat} with l_t = {lt:.4g} "
                      f"{'<' if lt < bound else '>='} Lss·vt/(vo+vt) = {bound:.4g})")
-        elif feat and feat.startswith("E"):
+        elif kind == "E":
             text += f" (wall {feat} met with the rod too steep to slide)"
         return text
 
@@ -141,11 +146,11 @@ class FollowController(_Compliant):
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
         """The follow law's rate (rad/s) and the mode ``reactive``."""
-        return (-(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive")
+        return (-(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, Mode.REACTIVE)
 
     def mode_at(self, p: np.ndarray, v: np.ndarray, a: float) -> str:
         """The mode the controller would be in: always ``reactive``."""
-        return "reactive"
+        return Mode.REACTIVE
 
 
 class TranslateController(_Compliant):
@@ -155,7 +160,7 @@ class TranslateController(_Compliant):
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
         """Rate 0 (translation) and the mode ``reactive``."""
-        return 0.0, "reactive"
+        return 0.0, Mode.REACTIVE
 
 
 class PaperController(_Compliant):
@@ -186,10 +191,10 @@ class PaperController(_Compliant):
 
     def __init__(self, world: World | None = None, reactive: str = "follow",
                  trigger_steps: float = 2.0, refresh: int = 8, overshoot: float = 0.2,
-                 escape_rows: str = "all", record: bool = False) -> None:
+                 escape_rows: EscapeRows | str = EscapeRows.ALL, record: bool = False) -> None:
         self.reactive = reactive
         self.record = bool(record)
-        self.escape_rows = escape_rows
+        self.escape_rows = EscapeRows(escape_rows)
         self.overshoot = float(overshoot)
         self.trigger_steps = float(trigger_steps)
         self.refresh = int(refresh)
@@ -200,7 +205,7 @@ class PaperController(_Compliant):
         self.table = None
         if world.verdict is not None:
             self.table = escape_table_of(world.verdict, self.vt / self.vo)
-            if self.escape_rows != "all":
+            if self.escape_rows != EscapeRows.ALL:
                 self.table = self.table.subset(self.escape_rows)
             # per-row Python values for the committed row's check, made once
             t = self.table
@@ -298,10 +303,10 @@ class PaperController(_Compliant):
         if row is not None:
             lo, hi = step_interval(float(v[0]), float(v[1]), a, self.lss,
                                    self.vo * (1.0 - VO_MARGIN), dt)
-            return (hi if sense > 0 else lo), "rotational"
+            return (hi if sense > 0 else lo), Mode.ROTATIONAL
         if self.reactive == "translate":
-            return 0.0, "reactive"
-        return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, "reactive"
+            return 0.0, Mode.REACTIVE
+        return -(-v[0] * math.sin(a) + v[1] * math.cos(a)) / self.lss, Mode.REACTIVE
 
     def pad(self, dt: float) -> float:
         """The trigger's pad (map units) at control period ``dt`` (s)."""
@@ -312,7 +317,7 @@ class PaperController(_Compliant):
         cmd = super().step(p, v, a, dt)
         # a committed rotation held back by an arc end (compliant, turning less than half as
         # fast as asked, or the wrong way)
-        if self.goal_row is not None and cmd.feasible and cmd.mode == "compliant" and \
+        if self.goal_row is not None and cmd.feasible and cmd.mode == Mode.COMPLIANT and \
                 self.sense * cmd.rate < 0.5 * self.vo / self.lss:
             self._pinned += 1
         else:

@@ -13,7 +13,28 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from tether._util.vocabulary import Vocabulary
 from tether.environment import Environment
+
+__all__ = ["Command", "Controller", "Mode", "Outcome", "Target", "World"]
+
+
+class Mode(Vocabulary):
+    """What a controller did at a step (:attr:`Command.mode`); the values are the words that
+    the JSON output and the traces print."""
+
+    REACTIVE = "reactive"  # the observer keeps the rod's angle to the target's motion
+    ROTATIONAL = "rotational"  # turning toward a goal orientation
+    COMPLIANT = "compliant"  # held at an end of the admissible rate interval
+    KERNEL = "kernel"  # following the surveillance kernel
+    LOST = "lost"  # no admissible rate: the target has won
+
+
+class Outcome(Vocabulary):
+    """How a run ended (:attr:`tether.sim.SimResult.outcome`)."""
+
+    HELD = "held"
+    LOST = "lost"
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,14 +60,14 @@ class Command:
     """One control decision.
 
     ``rate`` is the rod rate ȧ (rad/s), ``velocity`` the observer velocity (map units/s),
-    ``mode`` a short word (``reactive``, ``rotational``, ``compliant``, ``kernel``...).
+    ``mode`` a :class:`Mode` (a plain string is accepted from other controllers).
     When no admissible rate exists, ``feasible`` is false, ``rate`` is NaN and ``reason`` says
     why (the target has won at this instant).
     """
 
     rate: float
     velocity: np.ndarray
-    mode: str
+    mode: Mode | str
     feasible: bool = True
     reason: str | None = None
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from tether.arcs import rod_is_free
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
-from tether.sim.protocols import Command, Controller, Target, World
+from tether.sim.protocols import Command, Controller, Outcome, Target, World
 
 #: The monitor accepts observer chords up to ``vo·dt·(1 + SPEED_TOL)``.
 SPEED_TOL = 1e-6
@@ -112,7 +112,7 @@ class SimResult:
     (True, 21, True)
     """
 
-    outcome: str
+    outcome: Outcome | str
     lost_at: float | None
     reason: str | None
     duration: float
@@ -129,7 +129,7 @@ class SimResult:
     @property
     def held(self) -> bool:
         """Whether the target stayed in sight for the whole duration."""
-        return self.outcome == "held"
+        return self.outcome == Outcome.HELD
 
     @property
     def modes(self) -> list[str]:
@@ -352,7 +352,7 @@ def simulate(world: World, controller: Controller, target: Target,
     ratios: list[float] = []
     events: list[Event] = []
     mode_time: dict[str, float] = {}
-    outcome, lost_at, reason = "held", None, None
+    outcome, lost_at, reason = Outcome.HELD, None, None
     prev_mode = None
     t = 0.0
     for k in range(nsteps):
@@ -363,7 +363,7 @@ def simulate(world: World, controller: Controller, target: Target,
         v = _keep_inside(world, p, v, h)
         cmd: Command = controller.step(p.copy(), v, a, h)
         if not cmd.feasible or not math.isfinite(cmd.rate):
-            outcome, lost_at = "lost", t
+            outcome, lost_at = Outcome.LOST, t
             reason = cmd.reason or "no admissible rod rate (the controller gave up)"
             events.append(Event(t, "loss", reason))
             break
@@ -409,7 +409,7 @@ def simulate(world: World, controller: Controller, target: Target,
         ratios.append(ratio)
         mode_time[mode] = mode_time.get(mode, 0.0) + h
         if lost_now is not None:
-            outcome, lost_at, reason = "lost", lost_now[0], lost_now[1]
+            outcome, lost_at, reason = Outcome.LOST, lost_now[0], lost_now[1]
             events.append(Event(lost_at, "loss", reason))
             p, a, t = p1, a1, t + h
             ts.append(t)

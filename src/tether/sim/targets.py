@@ -314,7 +314,7 @@ class EscapeTarget:
         self.walker = _Walker()
         self.walker.vt = world.vt
         ver = world.verdict
-        self.record = {e.cell: e for e in ver.eliminated} if ver is not None else {}
+        self.record = {e.cell_name: e for e in ver.eliminated} if ver is not None else {}
         self.use_dash = ver is None or ver.strategy_exists
         if self.use_dash:
             self.dash.reset(world, p, a, rng)
@@ -326,9 +326,9 @@ class EscapeTarget:
         rec = self.record.get(cell)
         if rec is None:
             return
-        piece = dec.pieces[int(rec.piece[1:])]
+        piece = dec.pieces[rec.piece]
         q, n, eps = np.array(piece.sample), np.array(piece.normal), piece.eps
-        to = int(rec.escapes_to[1:])
+        to = rec.escapes_to
         side = 1.0 if piece.regions[0] == to else -1.0
         beyond = q + side * max(eps * 4, 1e-6) * n
         route = self.planner.path(p, _nearest_inside(self.planner, q))
