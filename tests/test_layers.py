@@ -221,3 +221,23 @@ def test_the_architecture_page_names_every_module():
         if not named:
             missing.append(rel)
     assert not missing, f"modules the architecture page does not name: {missing}"
+
+
+def test_every_module_declares_its_public_names():
+    """``__all__`` in every module (shims re-export theirs), each name defined there."""
+    import importlib
+    import warnings
+
+    missing, unknown = [], []
+    for mod, path in _modules().items():
+        if mod in SHIMS or path.name == "__main__.py":
+            continue
+        if "__all__" not in path.read_text():
+            missing.append(mod)
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            module = importlib.import_module(mod)
+        unknown += [f"{mod}.{n}" for n in module.__all__ if not hasattr(module, n)]
+    assert not missing, f"modules without __all__: {missing}"
+    assert not unknown, f"names in __all__ that do not exist: {unknown}"

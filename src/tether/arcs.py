@@ -26,7 +26,14 @@ from tether.errors import InvalidParameterError, OutsideFreeSpaceError
 from tether.spatial import EdgeIndex
 from tether.tolerances import ANGLE_TOL, LSS_MAX_REL, LSS_MIN_REL
 
-TWO_PI = 2.0 * math.pi
+__all__ = [
+    "Arc", "ArcTable", "Feature", "FreeArcs", "MOVE_REACH", "POINT_BATCH",
+    "blocked_intervals", "check_inside", "check_lss", "feature_code", "feature_name", "free_arcs",
+    "free_arcs_many", "join_tables", "near_edge_lines", "rod_is_free", "rod_is_free_many",
+    "rod_is_free_rows", "rod_rows", "table_entry", "wedge_columns"
+]
+
+TWO_PI = math.tau  # kept for old imports; the code uses math.tau
 _GROUP = 16.0  # > 3*pi: offsets separating points' angle ranges in the merge
 
 
@@ -111,11 +118,11 @@ class Arc:
     @property
     def length(self) -> float:
         """Angular length in radians, in (0, 2pi)."""
-        return (self.end - self.start) % TWO_PI
+        return (self.end - self.start) % math.tau
 
     def contains(self, a: float, tol: float = ANGLE_TOL) -> bool:
         """Whether orientation ``a`` (radians) lies in the closed arc, up to ``tol``."""
-        return (a - self.start + tol) % TWO_PI <= self.length + 2 * tol
+        return (a - self.start + tol) % math.tau <= self.length + 2 * tol
 
     def to_dict(self) -> dict:
         """The arc as JSON-ready values (angles in radians)."""
@@ -231,7 +238,7 @@ def blocked_intervals(env: Environment, pts: np.ndarray, lss: float) -> dict[str
     wx, wy, ex, ey, t1, t2 = (x[k] for x in (wx, wy, ex, ey, t1, t2))
     p1x, p1y = wx + t1 * ex, wy + t1 * ey
     p2x, p2y = wx + t2 * ex, wy + t2 * ey
-    start = np.mod(np.arctan2(p1y, p1x), TWO_PI)
+    start = np.mod(np.arctan2(p1y, p1x), math.tau)
     length = np.arctan2(p1x * p2y - p1y * p2x, p1x * p2x + p1y * p2y)
     # a tangency (the circle grazes the edge, or the point sits at distance lss of a vertex up
     # to rounding) blocks nothing. It is told by the length of the edge's part inside the disc
@@ -379,9 +386,9 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     # candidate gaps: after every row, to the next row's start (the last row: around the circle)
     nxt = np.arange(1, m + 1)
     nxt[last_of] = first_of
-    g_end = S[nxt] + np.where(last, TWO_PI, 0.0)
+    g_end = S[nxt] + np.where(last, math.tau, 0.0)
     # the largest end may wrap past 2pi and cover the beginning of the circle up to W
-    W = np.repeat(M[last_of] - TWO_PI, size)
+    W = np.repeat(M[last_of] - math.tau, size)
     g_start = np.maximum(M, W)
     k = np.flatnonzero(g_end - g_start > ANGLE_TOL)  # rows inside a component leave no gap
     # the gaps' end features: the CCW end of the interval reaching farthest (or of the one
@@ -390,8 +397,8 @@ def _merge(iv: dict[str, np.ndarray], npts: int) -> ArcTable:
     ends_at = np.where(wraps, np.repeat(arg[last_of], size)[k] if wraps.any() else 0, arg[k])
     s_code = iv["ccw_code"][order[ends_at]]
     e_code = iv["cw_code"][order[nxt[k]]]
-    start = np.mod(g_start[k], TWO_PI)
-    end = np.mod(g_end[k], TWO_PI)
+    start = np.mod(g_start[k], math.tau)
+    end = np.mod(g_end[k], math.tau)
     o = _order_by_point_angle(pt[k], start)
     return ArcTable(pt[k][o], start[o], end[o], s_code[o], e_code[o], full)
 

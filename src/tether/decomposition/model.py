@@ -3,6 +3,7 @@ point location) and its :class:`Region` records (see ``docs/formulas.md``, "The 
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -12,7 +13,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from tether.arcs import TWO_PI, ArcTable, feature_name, free_arcs_many
+from tether.arcs import ArcTable, feature_name, free_arcs_many
 from tether.curves import Curve
 from tether.decomposition.structure import (
     FREE,
@@ -269,7 +270,7 @@ class Decomposition:
             rows = table.rows_of(i)
             for s, e, sc, ec in zip(table.start[rows], table.end[rows], table.start_code[rows],
                                     table.end_code[rows], strict=True):
-                if (ang[i] - s) % TWO_PI <= (e - s) % TWO_PI:
+                if (ang[i] - s) % math.tau <= (e - s) % math.tau:
                     cid = cell_name(region.id, feature_name(self.env, sc),
                                     feature_name(self.env, ec))
                     out[i] = cid if cid in self._cell_by_id else None

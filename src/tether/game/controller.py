@@ -19,6 +19,8 @@ from tether.arcs import rod_is_free_many
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
+__all__ = ["KernelController", "kernel_of"]
+
 
 def kernel_of(world: World) -> Any:
     """``world.extra["kernel"]``, computed and stored there when missing: on a coarse grid

@@ -12,3 +12,5 @@ tangential, dash, escape, search), ``local`` (the free arc around the rod in µs
 (shortest paths for targets), ``scenarios`` (the paper's Figs. 7 and 8, live), ``diagnose``
 (why a run from a safe start was lost: a gap of the paper's conditions or a bug).
 """
+
+__all__: list[str] = []  # the modules are the interface: tether.sim.simulate, .controller, …

@@ -26,7 +26,11 @@ from tether.arcs import Feature
 from tether.sim.local import LocalArcs
 from tether.sim.protocols import Command, Mode, World
 
-TWO_PI = 2.0 * math.pi
+__all__ = [
+    "CONTACT_MARGIN", "CompliantController", "FollowController", "PaperController",
+    "TranslateController", "VO_MARGIN", "step_interval",
+]
+
 #: Rates are chosen within ``vo·(1 − VO_MARGIN)`` so that rounding never exceeds ``vo``.
 VO_MARGIN = 1e-9
 #: Angular margin (rad) kept inside a free arc when the rod is pushed by one of its ends.
@@ -53,8 +57,11 @@ def _vel(v: np.ndarray, a: float, rate: float, lss: float) -> np.ndarray:
     return np.array([v[0] - lss * rate * math.sin(a), v[1] + lss * rate * math.cos(a)])
 
 
-class _Compliant:
-    """Shared machinery: the admissible step rates and compliance with the arc ends."""
+class CompliantController:
+    """The base of the paper's controllers: each step, the rod rate a subclass prefers
+    (:meth:`preferred`, rad/s, with its mode) clipped to the admissible step rates and made
+    compliant with the free arc's ends (the rod slides on a wall or pivots on a vertex rather
+    than cross it). A subclass sets ``name`` and overrides :meth:`preferred`."""
 
     name = "base"
 
@@ -75,15 +82,18 @@ class _Compliant:
             world.extra["_local_arcs"] = self.local
 
     def reset(self, world: World, p: np.ndarray, a: float) -> None:
+        """Get ready for a run in ``world`` from target point ``p`` and rod angle ``a``."""
         if self.world is not world or self.local is None:
             self._prepare(world)
 
     # the preferred motion ----------------------------------------------------------
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:
+        """The rod rate (rad/s) this controller wants for target velocity ``v``, and its mode."""
         raise NotImplementedError
 
     # one step ---------------------------------------------------------------------
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
+        """The command for one step of ``dt`` seconds: the preferred rate made admissible."""
         want, mode = self.preferred(p, v, a, dt)
         return self.admissible(p, v, a, dt, want, mode)
 
@@ -139,7 +149,7 @@ class _Compliant:
         return text
 
 
-class FollowController(_Compliant):
+class FollowController(CompliantController):
     """Reactive motion only: the follow law (``ȧ = −v·u⊥/lss``), compliant at arc ends."""
 
     name = "follow"
@@ -153,7 +163,7 @@ class FollowController(_Compliant):
         return Mode.REACTIVE
 
 
-class TranslateController(_Compliant):
+class TranslateController(CompliantController):
     """Reactive motion by translation (``ȧ = 0``), compliant at arc ends."""
 
     name = "translate"
@@ -163,7 +173,7 @@ class TranslateController(_Compliant):
         return 0.0, Mode.REACTIVE
 
 
-class PaperController(_Compliant):
+class PaperController(CompliantController):
     """The paper's strategy (§§IV–VI; ``docs/formulas.md``, "Escape points and the trigger"):
     reactive far from escape points, saturated rotation toward the goal once the trigger fires,
     compliant at arc ends.
@@ -214,7 +224,7 @@ class PaperController(_Compliant):
             gs, ge = t.g_start.reshape(len(t), -1), t.g_end.reshape(len(t), -1)
             self._goals = [(g[np.isfinite(g)].tolist(), h[np.isfinite(g)].tolist())
                            for g, h in zip(gs, ge, strict=True)]
-            self._hysteresis = [min([self.overshoot] + [0.5 * (((e - s) % TWO_PI) or TWO_PI)
+            self._hysteresis = [min([self.overshoot] + [0.5 * (((e - s) % math.tau) or math.tau)
                                                         for s, e in zip(*g, strict=True)])
                                 for g in self._goals]
         self._reset_state()
@@ -293,7 +303,7 @@ class PaperController(_Compliant):
         ks, ke = self._k_arcs[k]
         if self._anywhere[k]:
             ks, ke = self.local.arc(float(p[0]), float(p[1]), a) or (ks, ke)
-        concern, _, sense = sweep_row(ks, ke, self._goals[k][0], self._goals[k][1], a % TWO_PI)
+        concern, _, sense = sweep_row(ks, ke, self._goals[k][0], self._goals[k][1], a % math.tau)
         return concern, sense
 
     def preferred(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> tuple[float, str]:

@@ -29,6 +29,11 @@ from tether.arcs import rod_is_free
 from tether.errors import InvalidParameterError, OutsideFreeSpaceError
 from tether.sim.protocols import Command, Controller, Outcome, Target, World
 
+__all__ = [
+    "Event", "LOCATE_ITERS", "Monitor", "MonitorStats", "SPEED_TOL", "SimResult", "Trace",
+    "check_start", "save_trace", "simulate"
+]
+
 #: The monitor accepts observer chords up to ``vo·dt·(1 + SPEED_TOL)``.
 SPEED_TOL = 1e-6
 #: Bisection steps used to locate an event inside a step (2^-30 of a step).

@@ -30,6 +30,11 @@ from tether.errors import InvalidParameterError
 from tether.sim.paths import PathPlanner
 from tether.sim.protocols import World
 
+__all__ = [
+    "DashTarget", "EscapeTarget", "PathTarget", "RandomTarget", "SearchTarget", "TangentialTarget",
+    "TargetFactory", "WallTarget", "read_waypoints", "unit"
+]
+
 
 def _planner(world: World) -> PathPlanner:
     """One planner per world (cached in ``world.extra``)."""
