@@ -32,7 +32,10 @@ from pathlib import Path
 CHILD = r"""
 import json, resource, sys, time
 import numpy as np
-from tether.examples.floorplan import floor_plan
+try:
+    from tether.examples.floorplan import floor_plan
+except ImportError:  # a tree before tether.examples (issue 23)
+    from tether.floorplan import floor_plan
 from tether.decomposition import decompose
 
 n = int(sys.argv[1])

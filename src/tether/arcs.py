@@ -303,7 +303,7 @@ def _facing_index(env: Environment, lss: float) -> EdgeIndex:
     The border cells keep all their edges: the query clips the points beyond the grid to them.
     Within a cell the edges keep their order: the rows come out in the very order of the full
     index's rows that pass the side test."""
-    cache = env.__dict__.setdefault("_facing_indexes", {})
+    cache = env.memo.setdefault("facing_indexes", {})
     key = float(lss)
     got = cache.get(key)
     if got is not None:
@@ -347,12 +347,12 @@ def _query(index: EdgeIndex, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 def _edge_columns(env: Environment) -> tuple[np.ndarray, ...]:
     """Per oriented edge, computed once per map: start ``A`` (x, y), direction ``d = B - A``
     (x, y), ``d·d``, ``sqrt(d·d)`` and the vertex indices at ``A`` and ``B``."""
-    got = env.__dict__.get("_edge_columns")
+    got = env.memo.get("edge_columns")
     if got is None:
         A, B, tag_a, tag_b = env.oriented_edges
         d = B - A
         dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
-        got = env.__dict__["_edge_columns"] = (
+        got = env.memo["edge_columns"] = (
             np.ascontiguousarray(A[:, 0]), np.ascontiguousarray(A[:, 1]),
             np.ascontiguousarray(d[:, 0]), np.ascontiguousarray(d[:, 1]), dd, np.sqrt(dd),
             tag_a, tag_b)
@@ -784,7 +784,7 @@ def wedge_columns(env: Environment) -> tuple[np.ndarray, ...]:
     disjoint: a valid map). Returns ``members`` (n, g): the touching vertices at each vertex's
     point (-1 padded, all -1 for other vertices), the wedges' ``d_out`` and ``d_in`` (n, 2)
     and their turn (1 convex, -1 reflex, 0 straight, as :func:`_cone_columns`)."""
-    got = env.__dict__.get("_wedge_columns")
+    got = env.memo.get("wedge_columns")
     if got is not None:
         return got
     d_out, d_in = env.cone
@@ -809,7 +809,7 @@ def wedge_columns(env: Environment) -> tuple[np.ndarray, ...]:
     # a wedge wider than pi with cross ~ 0 is straight only if d_out and d_in are opposite
     kind = np.where(turn > ANGLE_TOL, 1,
                     np.where(turn < -ANGLE_TOL, -1, np.where(dot < 0, 0, 1)))
-    got = env.__dict__["_wedge_columns"] = (members, wo, wi, kind)
+    got = env.memo["wedge_columns"] = (members, wo, wi, kind)
     return got
 
 
@@ -817,12 +817,12 @@ def _cone_columns(env: Environment) -> tuple[np.ndarray, ...]:
     """Per vertex, computed once per map: the free cone's ``d_out`` and ``d_in``
     (:attr:`Environment.cone`; x and y apart) and its turn: 1 convex, -1 reflex, 0 straight
     (``cross(d_out, d_in)`` beyond ``ANGLE_TOL``)."""
-    got = env.__dict__.get("_cone_columns")
+    got = env.memo.get("cone_columns")
     if got is None:
         d_out, d_in = env.cone
         turn = d_out[:, 0] * d_in[:, 1] - d_out[:, 1] * d_in[:, 0]
         kind = np.where(turn > ANGLE_TOL, 1, np.where(turn < -ANGLE_TOL, -1, 0))
-        got = env.__dict__["_cone_columns"] = (
+        got = env.memo["cone_columns"] = (
             np.ascontiguousarray(d_out[:, 0]), np.ascontiguousarray(d_out[:, 1]),
             np.ascontiguousarray(d_in[:, 0]), np.ascontiguousarray(d_in[:, 1]), kind)
     return got

@@ -42,7 +42,7 @@ def test_part_segments_are_the_parts_segments(inputs):
     want = faces.ring_segments(arr.parts)
     assert _same(faces.part_segments(faces.part_ends(arr.parts)), want)
     assert _same(arr.segments()[:3], want)  # kept from the arrangement's own
-    assert "_part_segments" not in arr.__dict__  # handed over once
+    assert "part_segments" not in arr.memo  # handed over once
 
 
 def test_part_segments_with_repeated_points():

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tether._util.arrays import ragged_arange
+from tether._util.memo import Memo, memo_field
 from tether._util.memory import gc_paused, release_memory
 from tether.arcs import ArcTable, free_arcs_many
 from tether.decomposition import Decomposition
@@ -59,6 +60,8 @@ class ConnectivityGraph:
     partner_ptr: np.ndarray = field(repr=False)
     partner_cell: np.ndarray = field(repr=False)
     partner_slot: np.ndarray = field(repr=False)
+    #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
+    memo: Memo = memo_field()
 
     @property
     def n_edges(self) -> int:
@@ -115,14 +118,14 @@ class ConnectivityGraph:
     @property
     def graph(self) -> nx.MultiGraph:
         """G as a networkx MultiGraph; nodes carry their ``region``."""
-        g = self.__dict__.get("_nx")
+        g = self.memo.get("nx")
         if g is None:
             import networkx as nx
 
             g = nx.MultiGraph()
             g.add_nodes_from((c.id, {"region": c.region}) for c in self.dec.cells)
             g.add_edges_from(self.edge_list)
-            self.__dict__["_nx"] = g
+            self.memo["nx"] = g
         return g
 
     @property
@@ -136,11 +139,11 @@ class ConnectivityGraph:
 
 def cell_ids(dec: Decomposition) -> list[str]:
     """The ids of ``dec.cells`` as a list, cached on the decomposition."""
-    got = dec.__dict__.get("_cell_id_list")
+    got = dec.memo.get("cell_id_list")
     if got is None:
         cells = dec.cells
         got = cells._table.ids() if type(cells) is Cells else [c.id for c in cells]
-        dec.__dict__["_cell_id_list"] = got
+        dec.memo["cell_id_list"] = got
     return got
 
 
@@ -149,7 +152,7 @@ def cell_ids_of(dec: Decomposition, which: Any) -> list[str]:
     of every id unless it exists already)."""
     which = np.asarray(which, dtype=np.int64).reshape(-1)
     cells = dec.cells
-    if "_cell_id_list" in dec.__dict__ or type(cells) is not Cells:
+    if "cell_id_list" in dec.memo or type(cells) is not Cells:
         ids = cell_ids(dec)
         return [ids[i] for i in which.tolist()]
     return cells._table.ids(which)
@@ -242,7 +245,7 @@ def _cell_index(dec: Decomposition, region: np.ndarray, start_code: np.ndarray,
 def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     """Sorted integer keys ``(region * B + start + 1) * B + end + 1`` of the cells (codes in
     ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key, cached."""
-    got = dec.__dict__.get("_cell_keys")
+    got = dec.memo.get("cell_keys")
     if got is not None:
         return got
     base = 2 * dec.env.n + 1
@@ -250,7 +253,7 @@ def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     keys = (region * base + start + 1) * base + end + 1
     order = np.argsort(keys, kind="stable")
     got = (keys[order], order)
-    dec.__dict__["_cell_keys"] = got
+    dec.memo["cell_keys"] = got
     return got
 
 
@@ -367,12 +370,12 @@ def piece_regions(dec: Decomposition) -> np.ndarray:
     written), or read from the pieces and cached on the decomposition."""
     if type(dec.pieces) is Pieces:
         return dec.pieces._table.pair
-    got = dec.__dict__.get("_piece_regions")
+    got = dec.memo.get("piece_regions")
     if got is None:
         m = len(dec.pieces)
         flat = np.fromiter(itertools.chain.from_iterable(p.regions for p in dec.pieces),
                            np.int64, 2 * m)
-        got = dec.__dict__["_piece_regions"] = flat.reshape(m, 2)
+        got = dec.memo["piece_regions"] = flat.reshape(m, 2)
     return got
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tether._util.arrays import ragged_arange
+from tether._util.memo import Memo, memo_field
 from tether._util.memory import gc_paused
 from tether.analysis.connectivity import (
     ConnectivityGraph,
@@ -89,6 +90,8 @@ class Verdict:
     #: a :class:`tether.analysis.critical.CriticalLss` when ``lss`` is within tether's
     #: resolution of a critical length of the map (the verdicts just below and above), else None
     critical: Any = None
+    #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
+    memo: Memo = memo_field()
 
     @property
     def verified(self) -> bool | None:

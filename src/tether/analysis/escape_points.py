@@ -476,7 +476,7 @@ def _runs(ok: np.ndarray, dirs: np.ndarray, step: float) -> list[tuple[float, fl
 def escape_table_of(verdict: Verdict, ratio: float | None = None) -> EscapeTable:
     """:func:`escape_table`, cached on the verdict; with ``ratio = vt/vo`` the steep-wall rows
     of :func:`wall_rows` are added (cached per ratio)."""
-    cache = verdict.__dict__.setdefault("_escape_tables", {})
+    cache = verdict.memo.setdefault("escape_tables", {})
     t = cache.get(None)
     if t is None:
         t = escape_table(verdict)

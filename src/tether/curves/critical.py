@@ -273,10 +273,10 @@ def _breakpoint_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, np.nda
         pad = L + tiny
         x0, y0 = fam.p.T - pad
         x1, y1 = fam.p.T + pad
-    tree = env.__dict__.get("_edge_box_tree")
+    tree = env.memo.get("edge_box_tree")
     if tree is None:
         seg = np.stack((V, V[env.next_vertex]), axis=1)
-        tree = env.__dict__["_edge_box_tree"] = shapely.STRtree(shapely.linestrings(seg))
+        tree = env.memo["edge_box_tree"] = shapely.STRtree(shapely.linestrings(seg))
     if m == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     ci, vi = tree.query(shapely.box(x0, y0, x1, y1))
@@ -299,9 +299,9 @@ def _conchoid_vertex_pairs(env: Environment, fam: Family) -> tuple[np.ndarray, n
     x0, y0, x1, y1 = _sector_boxes(fam, 1e-3)
     tiny = 1e-9 * env.diameter
     px, py = fam.p[:, 0], fam.p[:, 1]
-    tree = env.__dict__.get("_vertex_tree")
+    tree = env.memo.get("vertex_tree")
     if tree is None:
-        tree = env.__dict__["_vertex_tree"] = shapely.STRtree(shapely.points(V))
+        tree = env.memo["vertex_tree"] = shapely.STRtree(shapely.points(V))
     # the sector toward the base edge and the opposite one (the event rod's far side)
     ca, va = tree.query(shapely.box(px + x0 - tiny, py + y0 - tiny, px + x1 + tiny,
                                     py + y1 + tiny))

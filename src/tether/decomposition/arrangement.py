@@ -11,6 +11,7 @@ import numpy as np
 import shapely
 
 from tether._util.arrays import first_max_per_group, ragged_arange
+from tether._util.memo import Memo, memo_field
 from tether._util.memory import release_memory
 from tether._util.threads import in_background
 from tether.curves import Curve
@@ -42,6 +43,8 @@ class Arrangement:
     source_ids: np.ndarray
     faces: np.ndarray  # polygons
     grid: float = 0.0  # the snap-rounding grid of the noding (map units), 0: exact
+    #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
+    memo: Memo = memo_field()
 
     @property
     def part_sources(self) -> list[tuple[int, ...]]:
@@ -53,20 +56,20 @@ class Arrangement:
     def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, SegmentGrid]:
         """All segments of the parts (a, b, part index) and their grid (for
         :func:`segments_near`), built once."""
-        got = self.__dict__.get("_segments")
+        got = self.memo.get("segments")
         if got is None:
-            a, b, owner = self.__dict__.pop("_part_segments", None) or ring_segments(self.parts)
+            a, b, owner = self.memo.pop("part_segments", None) or ring_segments(self.parts)
             got = (a, b, owner, SegmentGrid(a, b))
-            self.__dict__["_segments"] = got
+            self.memo["segments"] = got
         return got
 
     def end_ids(self) -> tuple[np.ndarray, np.ndarray]:
         """An id per end point of every part (first, last), equal for equal coordinates,
         built once."""
-        got = self.__dict__.get("_end_ids")
+        got = self.memo.get("end_ids")
         if got is None:
             ids = part_ends(self.parts)[4]
-            got = self.__dict__["_end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
+            got = self.memo["end_ids"] = (ids[: len(self.parts)], ids[len(self.parts):])
         return got
 
     def sources(self) -> tuple[np.ndarray, np.ndarray]:
@@ -212,8 +215,8 @@ def arrangement(env: Environment, curves: list[Curve], tol: float) -> Arrangemen
     part_of, src = np.divmod(key, base)
     ptr = np.searchsorted(part_of, np.arange(len(parts) + 1))
     arr = Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
-    arr.__dict__["_end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
-    arr.__dict__["_part_segments"] = (pa, pb, powner)  # for segments(): not made again
+    arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
+    arr.memo["part_segments"] = (pa, pb, powner)  # for segments(): not made again
     return arr
 
 

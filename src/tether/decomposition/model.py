@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import shapely
 
+from tether._util.memo import Memo, memo_field
 from tether.arcs import ArcTable, feature_name, free_arcs_many
 from tether.curves import Curve
 from tether.decomposition.structure import (
@@ -130,6 +131,8 @@ class Decomposition:
     _crossing_arcs: ArcTable | None = field(default=None, repr=False, compare=False)
     _cell_codes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(
         default=None, repr=False, compare=False)
+    #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
+    memo: Memo = memo_field()
 
     def __repr__(self) -> str:
         return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "

@@ -235,9 +235,9 @@ def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
     A part's candidates depend on the arrangement only: they are computed once per part and
     cached on ``arr`` (region merges recompute the chains, not the parts)."""
     sa, sb, sowner, tree = arr.segments()
-    cache = arr.__dict__.get("_part_candidates")
+    cache = arr.memo.get("part_candidates")
     if cache is None:
-        cache = arr.__dict__["_part_candidates"] = {
+        cache = arr.memo["part_candidates"] = {
             "done": np.zeros(len(arr.parts), bool), "Q": np.zeros((0, 2)),
             "part": np.zeros(0, np.int64), "rank": np.zeros(0, np.int64), "clear": np.zeros(0)}
     todo = need & ~cache["done"]

@@ -116,8 +116,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                                             lss)
     # the segments' grid and the candidates cache are no longer needed: freed before the
     # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
-    arr.__dict__.pop("_segments", None)
-    arr.__dict__.pop("_part_candidates", None)
+    arr.memo.pop("segments", None)
+    arr.memo.pop("part_candidates", None)
     release_memory()
     # the regions made after that: their polygons and cells do not add to the grid's peak
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)

@@ -205,9 +205,9 @@ def _number_regions(arr: Arrangement, flat: np.ndarray, size: np.ndarray, pts: n
     face farthest from its boundary. Returns the groups' best faces, areas and points, the
     group of each region id (``rank``) and the region of every face (-1: none); the groups'
     faces (``flat`` and ``size``, for the regions made) are added by :func:`face_regions`."""
-    face_area = arr.__dict__.get("_face_area")
+    face_area = arr.memo.get("face_area")
     if face_area is None:
-        face_area = arr.__dict__["_face_area"] = shapely.area(arr.faces)
+        face_area = arr.memo["face_area"] = shapely.area(arr.faces)
     group = np.repeat(np.arange(len(size)), size)
     best = flat[_best_per_group(clear[flat], group)]
     # numpy sums 8 or more values pairwise: those few groups are summed as before, bit for bit

@@ -144,7 +144,7 @@ def structure_names(env: Environment, s: Structure) -> list[tuple[str, str]]:
         return [(FREE, FREE)]
     if s == Structure.EMPTY:
         return []
-    memo = env.__dict__.setdefault("_structure_names", {})  # many regions share structures
+    memo = env.memo.setdefault("structure_names", {})  # many regions share structures
     got = memo.get(s)
     if got is None:
         names = feature_names(env)
@@ -159,7 +159,7 @@ def structure_codes(env: Environment, s: Structure) -> np.ndarray:
         return np.full((1, 2), -1, dtype=np.int64)
     if s == Structure.EMPTY:
         return np.zeros((0, 2), dtype=np.int64)
-    memo = env.__dict__.setdefault("_structure_codes", {})
+    memo = env.memo.setdefault("structure_codes", {})
     got = memo.get(s)
     if got is None:
         names = feature_names(env)
@@ -170,21 +170,21 @@ def structure_codes(env: Environment, s: Structure) -> np.ndarray:
 
 def feature_names(env: Environment) -> list[str]:
     """Every feature code's name (``feature_name``), computed once per map."""
-    got = env.__dict__.get("_feature_names")
+    got = env.memo.get("feature_names")
     if got is None:
-        got = env.__dict__["_feature_names"] = [feature_name(env, c) for c in range(2 * env.n)]
+        got = env.memo["feature_names"] = [feature_name(env, c) for c in range(2 * env.n)]
     return got
 
 
 def feature_name_rank(env: Environment) -> np.ndarray:
     """``rank[code + 1]``: the position of feature ``code``'s name (``FREE`` for -1) among all
     of them sorted as strings, cached per map."""
-    got = env.__dict__.get("_feature_name_rank")
+    got = env.memo.get("feature_name_rank")
     if got is None:
         names = [FREE] + feature_names(env)
         got = np.empty(len(names), dtype=np.int64)
         got[sorted(range(len(names)), key=names.__getitem__)] = np.arange(len(names))
-        env.__dict__["_feature_name_rank"] = got
+        env.memo["feature_name_rank"] = got
     return got
 
 

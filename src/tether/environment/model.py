@@ -21,6 +21,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from tether._util.memo import Memo, memo_field
 from tether.environment.frame import (
     Frame,
     identity_frame,
@@ -87,6 +88,8 @@ class Environment:
     boundary: np.ndarray
     holes: tuple[np.ndarray, ...] = ()
     name: str = ""
+    #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
+    memo: Memo = memo_field()
 
     def __post_init__(self) -> None:
         boundary = ring_array(self.boundary, "boundary")
@@ -355,7 +358,7 @@ class Environment:
     # ------------------------------------------------------------------ queries
     def edge_index(self, reach: float) -> EdgeIndex:
         """Grid index of the oriented edges for queries of radius ``reach`` (cached per reach)."""
-        cache = self.__dict__.setdefault("_edge_indexes", {})
+        cache = self.memo.setdefault("edge_indexes", {})
         key = float(reach)
         if key not in cache:
             A, B, _, _ = self.oriented_edges
