@@ -106,7 +106,7 @@ def test_batches_in_threads_give_the_single_threaded_decomposition(monkeypatch):
     from tether.analysis import analyze
     from tether.decomposition import pieces
     from tether.examples.floorplan import floor_plan
-    monkeypatch.setattr(arcs, "POINT_BATCH", 300)
+    monkeypatch.setattr(arcs.free, "POINT_BATCH", 300)
     monkeypatch.setattr(pieces, "ACROSS_BATCH", 200)
     monkeypatch.setattr(pieces, "CLEARANCE_BATCH", 250)
     env = floor_plan(30, seed=2)

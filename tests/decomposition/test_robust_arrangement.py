@@ -219,7 +219,7 @@ def test_batched_arc_and_rod_tests_equal_unbatched(monkeypatch):
               & (np.asarray(env.boundary_distance(pts[:, 0], pts[:, 1])) > 0)]
     ang = rng.uniform(0, 2 * np.pi, len(pts))
     whole = A.free_arcs_many(env, pts, 2.0, check=False), A.rod_is_free_many(env, pts, ang, 2.0)
-    monkeypatch.setattr(A, "POINT_BATCH", 97)
+    monkeypatch.setattr(A.free, "POINT_BATCH", 97)
     batched = A.free_arcs_many(env, pts, 2.0, check=False), A.rod_is_free_many(env, pts, ang, 2.0)
     for f in ("point", "start", "end", "start_code", "end_code", "full"):
         assert np.array_equal(getattr(whole[0], f), getattr(batched[0], f))

@@ -8,19 +8,16 @@ import numpy as np
 import pytest
 
 from tether.arcs import (
-    _GROUP,
     TWO_PI,
     ArcTable,
-    _edge_columns,
-    _facing_index,
-    _merge,
-    _order_by_point_angle,
     blocked_intervals,
     check_lss,
     rod_is_free_many,
     rod_is_free_rows,
     rod_rows,
 )
+from tether.arcs.free import _GROUP, _facing_index, _merge, _order_by_point_angle
+from tether.arcs.free import edge_columns as _edge_columns
 from tether.decomposition.pieces import _clearance
 from tether.environment import Environment
 from tether.examples.floorplan import floor_plan
