@@ -20,6 +20,7 @@ def test_registries_name_the_players_of_sim_and_game():
         make_target("nope", None)
 
 
+@pytest.mark.slow
 def test_sim_never_imports_the_game():
     code = ("import sys, tether.sim.controller, tether.sim.targets, tether.sim.simulate, "
             "tether.sim.scenarios, tether.sim.diagnose; "

@@ -148,6 +148,7 @@ def test_rows_concern_the_blocked_gap_next_to_their_cell():
     assert r.outcome == "lost"  # the verdict is right: this start can be lost
 
 
+@pytest.mark.slow
 def test_prop3_applies_to_vertex_escape_points():
     """Gallery, vt/vo = 0.6, start (0.939, 2.344, 6.143): reflex vertex V6 (5, 4) needs a CW
     sweep toward the floor, V7 (5, 6) a CCW one, and neither order finishes in time (Prop. 3).

@@ -27,7 +27,25 @@ from tether.examples.floorplan import floor_plan
 
 CASES = [(SQUARE_HOLE, 2.0), (L_SHAPE, 3.0), (STAR_HOLE, 1.5), (GENERIC, 2.5),
          (floor_plan(50, seed=3), 0.8)]
-DECS = {(e.name, lss): decompose(e, lss) for e, lss in CASES}
+
+
+class _LazyDecompositions(dict):
+    """The cases' decompositions by (map name, lss), each built when a selected test first asks
+    for it (collecting the tests builds none)."""
+
+    def __init__(self, cases):
+        super().__init__()
+        self.cases = {(e.name, lss): (e, lss) for e, lss in cases}
+
+    def __iter__(self):
+        return iter(self.cases)
+
+    def __missing__(self, key):
+        got = self[key] = decompose(*self.cases[key])
+        return got
+
+
+DECS = _LazyDecompositions(CASES)
 
 
 @pytest.fixture(params=list(DECS), ids=lambda k: f"{k[0]}-{k[1]}")

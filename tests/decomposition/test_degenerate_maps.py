@@ -197,6 +197,7 @@ def _write(tmp_path, rings, name="m"):
     return str(path)
 
 
+@pytest.mark.slow
 def test_cli_analyze_reports_a_critical_length(tmp_path, capsys):
     square = ([[0, 0], [4, 0], [4, 4], [0, 4]], [])
     path = _write(tmp_path, square)
@@ -255,6 +256,7 @@ def test_the_lost_pocket_fails_the_self_check(monkeypatch):
     assert not analyze(dec, near_critical=False).verified
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", _tiers([0, 3, 6, 10], (3,)))
 @pytest.mark.parametrize("how", ["x0.1", "x10", "far"])
 def test_rasterized_maps_same_counts_moved_and_scaled(seed, how):

@@ -55,6 +55,7 @@ def test_six_vertex_with_an_edge_just_over_lss():
     assert_sound(six_vertex(), 0.5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", [0.5, 1.0])
 def test_vertex_circles_through_vertices(lss):
     """Holes spaced exactly lss apart: every vertex circle passes through other vertices, and

@@ -235,7 +235,8 @@ def test_cli_decompose_touching_map(tmp_path, capsys):
     assert "region" in out.lower()
 
 
-@pytest.mark.parametrize("name", ["diagonal", pytest.param("reflex", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["diagonal", "reflex"])
 def test_escape_table_vertex_rows_lie_in_the_free_space(name):
     from tether.analysis import analyze, escape_table_of
 

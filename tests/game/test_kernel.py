@@ -144,6 +144,7 @@ def test_fast_observer_kernel_is_the_surviving_cells_random_maps(seed):
     assert (k.kernel_states > 0) == ver.strategy_exists
 
 
+@pytest.mark.slow
 def test_monotone_in_speed_ratio(room_kernels):
     k3, k6, k9 = room_kernels[0.3], room_kernels[0.6], room_kernels[0.9]
     assert all(k.converged for k in (k3, k6, k9))
@@ -327,6 +328,7 @@ def test_levels_give_the_target_a_winning_move(room_kernels):
         assert found, (i, b, n)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scheme", ["inner", "outer"])
 def test_sixteen_directions_kernel_is_inside_the_eight_directions_kernel(room_kernels, scheme):
     """``directions=16`` keeps the 8 lattice moves (same steps, same times) and adds the knight

@@ -223,6 +223,7 @@ def _known_random_map(name: str = "random_incomplete") -> tuple[Environment, flo
     return env, data["lss"]
 
 
+@pytest.mark.slow
 def test_known_random_map_checks():
     env, lss = _known_random_map()
     assert check(decompose(env, lss), 8).ok
