@@ -172,6 +172,7 @@ def test_prop3_applies_to_vertex_escape_points():
     assert r.outcome == "held"
 
 
+@pytest.mark.slow
 def test_wall_rows_cover_every_contact_point_and_inclination():
     """Gallery, vt/vo = 0.3, start (7.95, 2.97, 0.074): a random walker (seed 4) heads right
     along y = 2.97 and the rod's tip meets the hole's wall E10 (x = 11) 7° off its normal,

@@ -101,6 +101,7 @@ def test_bound_plot(tmp_path, capsys):
     assert out.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_decompose_json_shape(capsys, tmp_path):
     out = tmp_path / "d.png"
     data = run_json(capsys, ["decompose", str(example_path("rectangle")), "--lss", "1",

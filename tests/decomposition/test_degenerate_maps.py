@@ -223,6 +223,7 @@ def test_cli_check_lines_option(tmp_path, capsys):
     assert "--lines" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_only_the_line_scan_catches_a_room_taken_for_one_region():
     """What the frame bug produced for the 4 x 4 room at lss 1: one FULL region, no piece.
     One point per region lands in the room's FULL middle for some seeds, and then the points

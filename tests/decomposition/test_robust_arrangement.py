@@ -46,6 +46,7 @@ def assert_sound(env: Environment, lss: float) -> None:
     assert rep.ok or verdict.verified is False, rep.to_dict()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", [0.45, 0.5, 0.55])
 def test_two_holes_with_bottoms_on_one_line(lss):
     assert_sound(two_holes_on_a_line(), lss)
@@ -90,6 +91,7 @@ def failing_node(monkeypatch):
     monkeypatch.setattr(shapely, "node", fail)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, lss", [("rectangle", 1.0), ("convex_corner", 1.0),
                                        ("nonconvex_corner", 1.0), ("gallery", 2.0)])
 def test_snap_rounding_fallback_keeps_the_result(name, lss, failing_node):

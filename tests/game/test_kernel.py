@@ -162,6 +162,7 @@ def test_outer_scheme_contains_inner():
     assert outer.kernel_states >= inner.kernel_states
 
 
+@pytest.mark.slow
 def test_kernel_is_a_fixed_point(room_kernels):
     """Re-check one iteration at sampled kernel states by a plain loop over the bins."""
     from tether.rates import rate_interval
