@@ -21,9 +21,9 @@ True
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from tether._util.lazy import lazy_attributes
 from tether.errors import (
     ArrangementError,
     InvalidMapError,
@@ -111,17 +111,4 @@ if TYPE_CHECKING:  # what static tools see; at run time the names load lazily
     from tether.strategies import make_target
 
 
-def __getattr__(name: str) -> Any:
-    """Load a facade name or a subpackage on first use (PEP 562)."""
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value  # later lookups skip this function
-        return value
-    if name in _SUBPACKAGES:
-        return importlib.import_module(f"tether.{name}")
-    raise AttributeError(f"module 'tether' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    """The module's names and the facade's, for ``dir(tether)`` and completion."""
-    return sorted(set(globals()) | set(_LAZY) | set(_SUBPACKAGES))
+__getattr__, __dir__ = lazy_attributes("tether", globals(), _LAZY, _SUBPACKAGES)

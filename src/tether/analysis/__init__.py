@@ -8,19 +8,19 @@ paper's ``L``), ``assessment`` (:func:`assess`, :func:`is_safe`, the second set 
 curves), ``critical`` (critical rod lengths of a map, internal).
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from tether._util.lazy import lazy_attributes
 from tether.analysis.connectivity import ConnectivityGraph, build_graph
 from tether.analysis.elimination import Elimination, Verdict, analyze
 
 #: Names of the start analysis, loaded on first use: they need scipy (through
 #: :mod:`tether.bounds`), which ``analyze`` does not (0.3 s saved on ``tether analyze``).
 _LAZY = {
-    "Assessment": "assessment", "EscapePoint": "assessment", "assess": "assessment",
-    "critical_distance_field": "assessment", "is_safe": "assessment",
-    "EscapeTable": "escape_points", "escape_table": "escape_points",
-    "escape_table_of": "escape_points", "l_paper": "escape_points", "l_safe": "escape_points",
+    **dict.fromkeys(["Assessment", "EscapePoint", "assess", "critical_distance_field", "is_safe"],
+                    "tether.analysis.assessment"),
+    **dict.fromkeys(["EscapeTable", "escape_table", "escape_table_of", "l_paper", "l_safe"],
+                    "tether.analysis.escape_points"),
 }
 
 if TYPE_CHECKING:
@@ -46,15 +46,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """Load a start-analysis name on first use (PEP 562)."""
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"tether.analysis.{_LAZY[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'tether.analysis' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    """The module's names and the lazily loaded ones."""
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_attributes("tether.analysis", globals(), _LAZY)
