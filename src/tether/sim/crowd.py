@@ -80,8 +80,8 @@ def walkable_area(env: Environment, clearance: float) -> Polygon:
     >>> from tether import Environment
     >>> from tether.sim.crowd import walkable_area
     >>> room = Environment([(0, 0), (4, 0), (4, 3), (0, 3)])
-    >>> walkable_area(room, 0.2).bounds
-    (0.2, 0.2, 3.8, 2.8)
+    >>> [round(b, 9) for b in walkable_area(room, 0.2).bounds]
+    [0.2, 0.2, 3.8, 2.8]
     """
     area = env.polygon.buffer(-float(clearance), join_style="mitre")
     if area.geom_type == "MultiPolygon":
