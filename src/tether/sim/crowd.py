@@ -21,7 +21,7 @@ half-width off every wall; only the largest piece is kept when the shrinking spl
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -124,7 +124,8 @@ def _check(count: int, duration: float, dt: float, speed: float, scale: float) -
 
 def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float | None = None,
                       duration: float = 60.0, goals: Sequence[Sequence[float]] | None = None,
-                      dt: float = 0.05, metres_per_unit: float = 1.0) -> list[Track]:
+                      dt: float = 0.05, metres_per_unit: float = 1.0,
+                      progress: Callable[[str, float], None] | None = None) -> list[Track]:
     """``count`` people walking journeys in ``env``'s free space (jupedsim's collision-free
     speed model), sampled every ``dt`` s for ``duration`` s.
 
@@ -145,6 +146,8 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
         walkable area). Default: each person its own :data:`RANDOM_GOALS` random goals.
     metres_per_unit : float
         Metres in one map unit (scales the person's radius and the default speed).
+    progress : callable, optional
+        ``progress(stage, fraction)`` for long walks.
 
     Returns
     -------
@@ -197,6 +200,10 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
         for _ in range(substeps):
             sim.iterate()
         xy[k] = [sim.agent(i).position for i in ids]
+        if progress is not None and k % 200 == 0:
+            progress("walk", k / n)
+    if progress is not None:
+        progress("walk", 1.0)
     xy[1:] /= scale
     t = np.arange(n) * float(dt)
     meta = {"source": "jupedsim CollisionFreeSpeedModel", "seed": int(seed), "speed": v0,
