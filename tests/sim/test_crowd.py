@@ -135,4 +135,4 @@ def test_cli_without_jupedsim_one_line(capsys, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "jupedsim", None)
     rc, out, err = _tracks(capsys, example_path("gallery"), "--count", 1, "--out",
                            tmp_path / "x")
-    assert rc == 2 and "needs `pip install tether[crowd]`" in err and err.count("\n") == 1
+    assert rc == 2 and "need `pip install tether[crowd]`" in err and err.count("\n") == 1
