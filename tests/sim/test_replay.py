@@ -171,10 +171,10 @@ def test_cli_pedestrian_walks_one_simulated_person(capsys, files):
 
     m, _ = files
     rc, out, err = _run(capsys, "simulate", m, "--lss", 0.8, "--vt", 0.5, "--vo", 2,
-                        "--target", "pedestrian", "--seed", 4, "--duration", 6, "--dt", 0.05,
+                        "--target", "pedestrian", "--seed", 4, "--duration", 3, "--dt", 0.05,
                         "--controller", "follow", "--json")
     assert rc == 0, err
     d = json.loads(out)
-    (person,) = pedestrian_tracks(MAP, 1, 4, speed=0.5, duration=6.0, dt=0.05)
+    (person,) = pedestrian_tracks(MAP, 1, 4, speed=0.5, duration=3.0, dt=0.05)
     assert np.allclose(d["start"][:2], person.xy[0], atol=1e-12)
     assert d["track"]["clipped_segments"] == []
