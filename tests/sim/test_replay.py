@@ -178,3 +178,30 @@ def test_cli_pedestrian_walks_one_simulated_person(capsys, files):
     (person,) = pedestrian_tracks(MAP, 1, 4, speed=0.5, duration=3.0, dt=0.05)
     assert np.allclose(d["start"][:2], person.xy[0], atol=1e-12)
     assert d["track"]["clipped_segments"] == []
+
+
+def test_a_track_through_a_wall_is_reported_as_a_deviation(capsys, tmp_path):
+    m = tmp_path / "hall.json"
+    m.write_text(json.dumps(MAP.to_dict()))
+    walk = tmp_path / "out.csv"
+    write_track(Track([0, 4, 30], [(8, 3), (9.5, 3), (12, 3)]), walk)  # leaves through x = 10
+    rc, out, err = _run(capsys, "simulate", m, "--lss", 0.8, "--vt", 0.5, "--vo", 2,
+                        "--target", "track", "--track", walk, "--controller", "follow",
+                        "--dt", 0.1, "--duration", 14, "--json")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["outcome"] == "held"
+    # the track is at x = 9.5 + 10·2.5/26 at t = 14; the walls held the target at x < 10
+    assert d["track"]["max_deviation"] == pytest.approx(10 * 2.5 / 26 - 0.5, abs=1e-3)
+    rc, out, err = _run(capsys, "simulate", m, "--lss", 0.8, "--vt", 0.5, "--vo", 2,
+                        "--target", "track", "--track", walk, "--controller", "follow",
+                        "--dt", 0.1, "--duration", 14)
+    assert "the walls held the target up to" in out
+
+
+def test_cli_json_deviation_is_zero_inside(capsys, files):
+    m, walk = files
+    rc, out, _ = _run(capsys, "simulate", m, "--lss", 0.8, "--vt", 0.5, "--vo", 2,
+                      "--target", "track", "--track", walk, "--track-speed", "clip",
+                      "--controller", "follow", "--dt", 0.1, "--json")
+    assert json.loads(out)["track"]["max_deviation"] < 1e-9

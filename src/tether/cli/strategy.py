@@ -154,7 +154,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from tether.plot import animate_run
 
         animate_run(res, world, args.animate)
-    replay = {"track": target.report()} if args.target in REPLAYED else {}
+    replay = {}
+    if args.target in REPLAYED:
+        replay = {"track": {**target.report(),
+                            "max_deviation": target.deviation(res.trace.t, res.trace.p)}}
     if args.json:
         print_json({**res.to_dict(), **({"cause": cause.to_dict()} if cause else {}), **replay})
         return 0
@@ -182,6 +185,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 #: Target kinds replayed from a track; the track fixes the start.
 REPLAYED = ("track", "pedestrian")
+#: A replay's largest distance from its track (map units) worth a word in the text output.
+DEVIATION_SHOWN = 1e-6
 
 
 def _check_replay_options(args: argparse.Namespace) -> None:
@@ -244,6 +249,9 @@ def _replay_line(rep: dict, vt: float) -> str:
     """The replay's line of the text output: the track and what the speed bound changed."""
     line = (f"track {rep['name'] or '(unnamed)'}: {rep['samples']} samples over "
             f"{rep['duration']:g}s")
+    if rep["max_deviation"] > DEVIATION_SHOWN:
+        line += (f"; the walls held the target up to {rep['max_deviation']:.3g} map units off "
+                 "the track")
     clipped = rep["clipped_segments"]
     if clipped:
         first = clipped[0]

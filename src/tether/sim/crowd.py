@@ -113,9 +113,12 @@ def _random_points(area: Polygon, count: int, rng: np.random.Generator,
     return np.array(out).reshape(-1, 2)
 
 
-def _check(count: int, duration: float, dt: float, speed: float, scale: float) -> None:
+def _check(count: int, seed: int, duration: float, dt: float, speed: float,
+           scale: float) -> None:
     if not (isinstance(count, int | np.integer) and count >= 1):
         raise InvalidParameterError(f"count must be a whole number >= 1 (got {count!r})")
+    if not (isinstance(seed, int | np.integer) and seed >= 0):
+        raise InvalidParameterError(f"seed must be a whole number >= 0 (got {seed!r})")
     for name, v in (("duration", duration), ("dt", dt), ("speed", speed),
                     ("metres_per_unit", scale)):
         if not (math.isfinite(v) and v > 0):
@@ -173,7 +176,7 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
     """
     scale = float(metres_per_unit)
     v0 = DESIRED_SPEED / scale if speed is None else float(speed)
-    _check(count, float(duration), float(dt), v0, scale)
+    _check(count, seed, float(duration), float(dt), v0, scale)
     jps = _jupedsim()
     radius = RADIUS / scale
     area = walkable_area(env, radius)

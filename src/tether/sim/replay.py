@@ -196,6 +196,15 @@ class TrackTarget:
                 "clipped_segments": list(self.clipped),
                 "delay": float(sum(c["delay"] for c in self.clipped))}
 
+    def deviation(self, t: np.ndarray, p: np.ndarray) -> float:
+        """The largest distance (map units) between the positions ``p`` (n, 2) of a run at
+        times ``t`` (s) and the track's: zero up to rounding, unless the simulator stopped the
+        target at a wall the track crosses or grazes."""
+        t = np.asarray(t, dtype=float) + self.track.start
+        want = np.column_stack([np.interp(t, self.track.t, self.track.xy[:, 0]),
+                                np.interp(t, self.track.t, self.track.xy[:, 1])])
+        return float(np.hypot(*(np.asarray(p, dtype=float) - want).T).max(initial=0.0))
+
     def reset(self, world: World, p: np.ndarray, a: float, rng: np.random.Generator) -> None:
         """Start a run from ``p``, which must be the track's first position."""
         tol = START_TOL * world.env.diameter
