@@ -304,10 +304,10 @@ def register(add) -> None:
     add_map_lss(sp)
     sp.add_argument("--vt", type=float_arg, required=True, help="target speed bound")
     sp.add_argument("--vo", type=float_arg, required=True, help="observer speed bound (> vt)")
-    sp.add_argument("--start", type=float_arg, nargs="+", metavar="X Y A",
-                    help="start target position and rod orientation (radians); for --target "
-                    "track/pedestrian the track's start: give A alone or nothing (a free rod "
-                    "behind the target)")
+    sp.add_argument("--start", type=float_arg, nargs="+", metavar="N",
+                    help="X Y A: start target position and rod orientation (radians); for "
+                    "--target track/pedestrian the track's start: give A alone or nothing (a "
+                    "free rod behind the target)")
     sp.add_argument("--target", default="random",
                     help="target kind: path, random, wall, tangential, dash, escape, search, "
                     "kernel-evader, track (a recorded track, --track), pedestrian (a "
