@@ -7,10 +7,11 @@ given) and, having reached the last, starts over at the first, for ``duration`` 
 is sampled every ``dt`` s into a :class:`~tether.io.tracks.Track`.
 
 Scale. jupedsim's parameters are physical (metres, seconds). A map's unit is taken as
-``metres_per_unit`` metres (1 by default: the bundled maps and ROS maps are in metres); the
+``metres_per_unit`` metres (1 by default: ROS maps are in metres, and a polygon map declares
+no unit, so it is read as metres); the
 geometry is scaled to metres for jupedsim and the positions back to map units. The desired
 speed ``speed`` is in map units/s; by default :data:`DESIRED_SPEED` (1.34 m/s, Weidmann's mean
-free walking speed, the value jupedsim's documentation walks people at) converted to map units.
+free walking speed; jupedsim 1.4's own parameter default is 1.2 m/s) converted to map units.
 The docs' runs use ``vt`` = 0.3 map units/s, so they give ``speed`` explicitly.
 
 Walkable area. The map's free space (a shapely polygon with holes) shrunk by the person's
