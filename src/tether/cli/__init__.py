@@ -37,6 +37,7 @@ GROUPS = [
     "strategy",
     "ros",
     "kernel",
+    "tracks",
 ]
 
 
@@ -69,10 +70,13 @@ EXAMPLES = {
     "convert": f"tether convert {_EX}/office.yaml office.geojson",
     "sweep": f"tether sweep {_EX}/rectangle.json --lss 0.5:2:0.25",
 }
+EXAMPLES["tracks"] = (f"tether tracks {_EX}/gallery.json --count 5 --seed 1 --speed 0.29 "
+                      "--out people")
 
 #: Commands that read a map file; their help describes the format.
 MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep", "assess",
                 "simulate", "kernel"}
+MAP_COMMANDS |= {"tracks"}
 
 MAP_FORMAT = """\
 map files:
