@@ -9,6 +9,7 @@ __all__ = [
     "ArrangementError", "InvalidMapError", "InvalidParameterError", "NonFiniteResultError",
     "OutputPathError", "OutsideFreeSpaceError", "ResourceLimitError", "TetherError"
 ]
+__all__ += ["InvalidTrackError"]
 
 
 class TetherError(Exception):
@@ -42,3 +43,9 @@ class ArrangementError(TetherError):
 
 class ResourceLimitError(TetherError):
     """A computation would exceed tether's memory bound (refused before allocating)."""
+
+
+class InvalidTrackError(InvalidParameterError):
+    """A target track (a CSV, JSON or ROS bag file of timed positions) is malformed: a missing
+    column, a non-numeric or non-finite value, times not increasing, no samples, an unknown topic
+    or message type, a truncated file. The message names the file and what is wrong."""
