@@ -37,6 +37,7 @@ GROUPS = [
     "strategy",
     "ros",
     "kernel",
+    "follow",
 ]
 
 
@@ -68,11 +69,14 @@ EXAMPLES = {
     "kernel": f"tether kernel {_EX}/gallery.json --lss 2 --vt 0.3 --vo 1 --at 2 2.5 0.5 --json",
     "convert": f"tether convert {_EX}/office.yaml office.geojson",
     "sweep": f"tether sweep {_EX}/rectangle.json --lss 0.5:2:0.25",
+    "follow": (f"tether follow {_EX}/office.yaml --track person.csv --lss 0.8 --vt 0.3 --vo 1 "
+               "--baseline spin --plot follow.png"),
 }
 
 #: Commands that read a map file; their help describes the format.
 MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep", "assess",
                 "simulate", "kernel"}
+MAP_COMMANDS |= {"follow"}
 
 MAP_FORMAT = """\
 map files:

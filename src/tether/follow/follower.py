@@ -10,9 +10,10 @@ paper's with a verdict, the kernel's with a kernel) in the simulator's state, th
 orientation ``a`` of the observer about the target; the commanded velocity is the controller's
 ``v + lss·ȧ·u⊥(a)`` plus a radial correction ``(lss − d)/(4·period)`` toward the rod length
 (the controller keeps the distance exactly only in its own model), clipped to ``vo``. While the
-observer is off the rod length by more than :data:`APPROACH_TOL` (a fraction of ``lss``), it
-first closes in on the pose at ``lss`` nearest it with a free rod (``approaching`` in the
-command's reason).
+observer is off the rod length by more than :data:`APPROACH_TOL` (a fraction of ``lss``), or
+the controller finds no admissible rate (the rod squeezed, the target winning at this instant),
+it heads straight (or round the corners on the way) for the pose at ``lss`` with the free rod
+orientation nearest its own, at up to ``vo`` (``approaching`` in the command's reason).
 
 **Searching** (no sighting now). From the last accepted sighting ``(t_s, p_s)`` the follower
 keeps the cells of a grid the target can have reached, ``d(p_s, x) <= vt·(t − t_s) + r0``
@@ -33,9 +34,9 @@ the reachable set widened by ``gate``, it is rejected (``gate`` defaults to ``3�
 1 % of ``lss``). A rejected observation while tracking is a detection that does not fit: the
 follower coasts on its prediction (status ``tracking``, reason ``observation rejected by the
 gate``); :data:`RETAKE_AFTER` rejections in a row and the next observation is taken as the
-target's true position (a target that really moved faster than ``vt``). Accepted observations update an alpha–beta filter, gains
-``(1, 1)`` without noise (the observation is the position, the velocity its difference) and
-``(0.5, 0.1)`` with noise.
+target's true position (a target that really moved faster than ``vt``). Accepted observations
+update an alpha–beta filter, gains ``(1, 1)`` without noise (the observation is the position,
+the velocity its difference) and ``(0.5, 0.1)`` with noise.
 
 **Late observations.** ``update(t, observation, stamp=s)`` says the position was measured at
 ``s <= t``: the filter runs at ``s`` and predicts to ``t`` at constant velocity; the reachable set
@@ -392,7 +393,9 @@ class Follower:
         self._tracking_started = False
         goal = p + self.lss * _u(self._free_angle(p, a))
         way = goal if clear_segments(self.env, o, goal[None, :])[0] else self._waypoint(o, goal)
-        vel = _clip(v + (way - o) / dt, self.vo)
+        step = way - o
+        dist = float(np.hypot(*step))
+        vel = step * (min(self.vo, dist / dt) / dist) if dist > 0 else np.zeros(2)
         return self._command(t, goal, p, vel, Status.TRACKING, note or "approaching")
 
     def _free_angle(self, p: np.ndarray, a: float) -> float:

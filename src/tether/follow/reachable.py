@@ -46,12 +46,15 @@ _BLOCK = 400_000
 
 def _crossings(p: np.ndarray, q: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """(m, n) whether segment ``p[i]–q[i]`` properly crosses edge ``A[j]–B[j]``."""
-    dx, dy = (q - p).T
-    o1 = dx[:, None] * (A[None, :, 1] - p[:, None, 1]) - dy[:, None] * (A[None, :, 0] - p[:, None, 0])
-    o2 = dx[:, None] * (B[None, :, 1] - p[:, None, 1]) - dy[:, None] * (B[None, :, 0] - p[:, None, 0])
-    ex, ey = (B - A).T
-    o3 = ex[None, :] * (p[:, None, 1] - A[None, :, 1]) - ey[None, :] * (p[:, None, 0] - A[None, :, 0])
-    o4 = ex[None, :] * (q[:, None, 1] - A[None, :, 1]) - ey[None, :] * (q[:, None, 0] - A[None, :, 0])
+    dx, dy = (q - p).T[:, :, None]
+    px, py = p.T[:, :, None]
+    ax, ay = A.T[:, None, :]
+    bx, by = B.T[:, None, :]
+    o1 = dx * (ay - py) - dy * (ax - px)
+    o2 = dx * (by - py) - dy * (bx - px)
+    ex, ey = bx - ax, by - ay
+    o3 = ex * (py - ay) - ey * (px - ax)
+    o4 = ex * (q[:, 1:2] - ay) - ey * (q[:, 0:1] - ax)
     return (o1 * o2 < 0) & (o3 * o4 < 0)
 
 
