@@ -114,7 +114,7 @@ def follow_figure(run: Any, env: Any, baseline: Any = None) -> Figure:
 
 
 def animate_follow(run: Any, env: Any, path: str | Path, fps: int = 10,
-                   max_frames: int = 200) -> Path:
+                   max_frames: int = 100) -> Path:
     """Write an animation of the run to ``path`` (``.gif``, ``.mp4`` with ffmpeg, or
     ``.html``): target, observer (coloured by status), the line of sight when in view, and the
     latest possible set while searching.
