@@ -435,28 +435,17 @@ class Follower:
         self._growth = 0.0
         self._goal = None
         self.searching_since = t
-        escape = [self.p]
+        corners: tuple[int, ...] = ()
         o = self.observer
         if o is not None:
             e = first_blocking_edge(self.env, o, self.p + self.v * (t - self.t_seen))
             if e is not None:
-                A, B, ta, tb = self.env.oriented_edges
+                _, _, ta, tb = self.env.oriented_edges
                 j = min((int(ta[e]), int(tb[e])), key=lambda k: (
                     not self.env.reflex[k], float(np.hypot(*(self.env.vertices[k] - self.p)))))
                 self.escape_vertex = j
-                corner = self._beside(j)
-                if corner is not None:
-                    escape.insert(0, corner)
-        self.planner.set_escape(np.array(escape))
-
-    def _beside(self, j: int) -> np.ndarray | None:
-        d_out, d_in = self.env.cone
-        out = -(d_out[j] + d_in[j])
-        n = float(np.hypot(*out))
-        if n < 1e-12:
-            return None
-        q = self.env.vertices[j] + min(0.5 * self.grid.h, 0.1 * self.lss) * out / n
-        return q if bool(self.env.contains(q[0], q[1])) else None
+                corners = (j,)
+        self.planner.set_escape(self.p[None, :], corners)
 
     def _search(self, t: float, dt: float) -> Command:
         if not self.searching:

@@ -266,6 +266,9 @@ class Geodesics:
         self.node_dist = dijkstra(self._graph, directed=False) if k else np.zeros((0, 0))
         #: (k, m) whether reflex vertex i sees cell j
         self.node_sees_cell = self._sees(self.nodes, grid.centers)
+        #: (k, m) distance from reflex vertex i to cell j where it sees it, inf elsewhere
+        self._node_cell = np.where(self.node_sees_cell, np.linalg.norm(
+            grid.centers[None, :, :] - self.nodes[:, None, :], axis=2), np.inf)
 
     def _sees(self, sources: np.ndarray, points: np.ndarray) -> np.ndarray:
         out = np.zeros((len(sources), len(points)), dtype=bool)
@@ -290,9 +293,7 @@ class Geodesics:
         direct = np.where(visible_from(self.env, s, c), np.linalg.norm(c - s, axis=1), np.inf)
         if not len(self.nodes):
             return direct
-        dn = self.node_distances(s)
-        far = np.linalg.norm(c[None, :, :] - self.nodes[:, None, :], axis=2)
-        via = np.where(self.node_sees_cell, dn[:, None] + far, np.inf).min(axis=0)
+        via = (self._node_cell + self.node_distances(s)[:, None]).min(axis=0)
         return np.minimum(direct, via)
 
     def distance(self, source: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -4,9 +4,9 @@ the target can be, how soon the observer gets there, and the way there.
 **Candidates**, in three tiers (a tier's score is multiplied by its weight, so a higher tier wins
 a near tie):
 
-1. *escape poses* of the loss (weight :data:`ESCAPE_WEIGHT`): beside the reflex vertex that cut
-   the line of sight when the target left view (the point where it escaped), and the last
-   sighting itself;
+1. *escape poses* of the loss (weight :data:`ESCAPE_WEIGHT`): the corner pose beside the reflex
+   vertex that cut the line of sight when the target left view (where it escaped), and the
+   last sighting itself;
 2. *corner poses* (weight :data:`CORNER_WEIGHT`): beside every reflex vertex of the map (pushed
    into the free space along the bisector of its free cone, by ``clearance``);
 3. *grid poses* (weight 1): free points on a square lattice of spacing ``spacing``.
@@ -56,12 +56,12 @@ class Plan:
         self.view, self.eta, self.tier = view, eta, tier
 
 
-def _pushed_corners(env: Environment, clearance: float) -> np.ndarray:
+def _pushed_corners(env: Environment, clearance: float) -> tuple[np.ndarray, np.ndarray]:
     """Each reflex vertex moved ``clearance`` into the free space along its cone's bisector
-    (those that land outside the free space are dropped)."""
+    (those that land outside the free space are dropped), and the vertex index of each."""
     idx = env.reflex_indices
     if not len(idx):
-        return np.zeros((0, 2))
+        return np.zeros((0, 2)), np.zeros(0, dtype=int)
     d_out, d_in = env.cone
     out = -(d_out[idx] + d_in[idx])
     n = np.linalg.norm(out, axis=1)
@@ -69,7 +69,7 @@ def _pushed_corners(env: Environment, clearance: float) -> np.ndarray:
     pts = env.vertices[idx] + clearance * out
     ok = env.contains(pts[:, 0], pts[:, 1]) & (env.boundary_distance(pts[:, 0], pts[:, 1])
                                                > 0.5 * clearance)
-    return pts[ok]
+    return pts[ok], idx[ok]
 
 
 class SearchPlanner:
@@ -95,16 +95,17 @@ class SearchPlanner:
         self.vo, self.vt, self.lss = vo, vt, lss
         self.range = sensor_range
         self.horizon = lss / vt if vt > 0 else math.inf
-        self.nav = _pushed_corners(env, clearance)
+        self.nav, self.nav_vertex = _pushed_corners(env, clearance)
         lattice = ReachGrid(env, spacing)
         far = env.boundary_distance(lattice.centers[:, 0], lattice.centers[:, 1]) > clearance
         self.static = np.vstack((self.nav, lattice.centers[far]))
         self.static_tier = np.r_[np.full(len(self.nav), 2), np.full(int(far.sum()), 3)]
+        self.tier = self.static_tier.copy()
         self._nav_graph()
         self.static_view = self.view_matrix(self.static)
         self.static_reach = self._nav_to(self.static)
         self.extra = np.zeros((0, 2))
-        self.extra_view = np.zeros((0, len(grid)), dtype=np.float32)
+        self.extra_view = np.zeros((len(grid), 0), dtype=bool)
         self.extra_reach = np.zeros((len(self.nav), 0))
 
     # ------------------------------------------------------------------ precomputed
@@ -121,16 +122,20 @@ class SearchPlanner:
 
     def sees(self, source: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Whether ``source`` sees each of ``points`` (line of sight within the range)."""
-        ok = visible_from(self.env, source, points)
-        if self.range is not None:
-            ok &= np.linalg.norm(points - source, axis=1) <= self.range
+        if self.range is None:
+            return visible_from(self.env, source, points)
+        ok = np.hypot(points[:, 0] - source[0], points[:, 1] - source[1]) <= self.range
+        idx = np.flatnonzero(ok)
+        ok[idx] = visible_from(self.env, source, points[idx])
         return ok
 
     def view_matrix(self, poses: np.ndarray) -> np.ndarray:
-        """(c, m) float32: 1 where pose ``i`` sees cell ``j``."""
-        out = np.zeros((len(poses), len(self.grid)), dtype=np.float32)
-        for i, c in enumerate(poses):
-            out[i] = self.sees(c, self.grid.centers)
+        """(m, c) booleans: whether cell ``i`` is seen from pose ``j`` (one row per cell, so
+        that the rows of the possible cells are gathered and summed, a few hundred rows
+        rather than a product over the whole grid)."""
+        out = np.zeros((len(self.grid), len(poses)), dtype=bool)
+        for j, c in enumerate(poses):
+            out[:, j] = self.sees(c, self.grid.centers)
         return out
 
     def _nav_to(self, poses: np.ndarray) -> np.ndarray:
@@ -138,19 +143,24 @@ class SearchPlanner:
         k = len(self.nav)
         if not k or not len(poses):
             return np.zeros((k, len(poses)))
-        last = np.full((k, len(poses)), np.inf)
-        for j in range(k):
-            ok = clear_segments(self.env, self.nav[j], poses)
-            last[j, ok] = np.linalg.norm(poses[ok] - self.nav[j], axis=1)
+        a = np.repeat(self.nav, len(poses), axis=0)
+        b = np.tile(poses, (k, 1))
+        ok = clear_segments(self.env, a, b).reshape(k, len(poses))
+        last = np.where(ok, np.linalg.norm(poses[None, :, :] - self.nav[:, None, :], axis=2),
+                        np.inf)
         return np.min(self.nav_dist[:, :, None] + last[None, :, :], axis=1)
 
     # ------------------------------------------------------------------ per loss
-    def set_escape(self, poses: np.ndarray) -> None:
-        """The tier-1 poses of the current loss (replacing the previous loss's)."""
+    def set_escape(self, poses: np.ndarray, vertices: tuple[int, ...] = ()) -> None:
+        """The tier-1 candidates of the current loss (replacing the previous loss's): extra
+        ``poses`` (n, 2), and the corner poses beside the reflex ``vertices`` (map vertex
+        indices; their views are the corner poses' own, computed once)."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 2)
         self.extra = poses
         self.extra_view = self.view_matrix(poses)
         self.extra_reach = self._nav_to(poses)
+        self.tier = self.static_tier.copy()
+        self.tier[np.flatnonzero(np.isin(self.nav_vertex, list(vertices)))] = 1
 
     # ------------------------------------------------------------------ per update
     def poses(self) -> np.ndarray:
@@ -161,11 +171,11 @@ class SearchPlanner:
                ) -> tuple[np.ndarray, np.ndarray]:
         """Geodesic distance from ``observer`` to each pose and the first corner on the way
         (−1: straight there)."""
-        direct = np.where(clear_segments(self.env, observer, poses),
+        direct = np.where(visible_from(self.env, observer, poses),
                           np.linalg.norm(poses - observer, axis=1), np.inf)
         if not len(self.nav):
             return direct, np.full(len(poses), -1)
-        to_nav = np.where(clear_segments(self.env, observer, self.nav),
+        to_nav = np.where(visible_from(self.env, observer, self.nav),
                           np.linalg.norm(self.nav - observer, axis=1), np.inf)
         via = to_nav[:, None] + reach
         k = np.argmin(via, axis=0)
@@ -177,16 +187,16 @@ class SearchPlanner:
              ) -> Plan | None:
         """The best candidate for the possible set ``possible`` (booleans over the grid's
         cells) from ``observer``; ``None`` when no reachable pose sees any of the set."""
-        weights = possible.astype(np.float32)
-        total = float(weights.sum())
-        if total <= 0:
+        idx = np.flatnonzero(possible)
+        if not len(idx):
             return None
-        view = np.r_[self.extra_view @ weights, self.static_view @ weights] / total
+        view = np.r_[np.count_nonzero(self.extra_view[idx], axis=0),
+                     np.count_nonzero(self.static_view[idx], axis=0)] / len(idx)
         poses = self.poses()
         reach = np.hstack((self.extra_reach, self.static_reach))
         dist, first = self.travel(observer, poses, reach)
         eta = dist / self.vo
-        tier = np.r_[np.ones(len(self.extra), dtype=int), self.static_tier]
+        tier = np.r_[np.ones(len(self.extra), dtype=int), self.tier]
         weight = np.choose(tier - 1, [ESCAPE_WEIGHT, CORNER_WEIGHT, 1.0])
         score = np.where(np.isfinite(eta) & (view > 0),
                          view * np.exp(-eta / self.horizon) * weight, -1.0)
@@ -197,8 +207,8 @@ class SearchPlanner:
             best = current
         goal = poses[best]
         ne = len(self.extra)
-        row = self.extra_view[best] if best < ne else self.static_view[best - ne]
-        seen = (row > 0) & possible
+        col = self.extra_view[:, best] if best < ne else self.static_view[:, best - ne]
+        seen = col & possible
         centre = self.grid.centers[seen].mean(axis=0)
         heading = math.atan2(centre[1] - goal[1], centre[0] - goal[0])
         way = goal if first[best] < 0 else self.nav[first[best]]
