@@ -6,8 +6,9 @@ points of the free space at ``vt`` (:class:`tether.sim.paths.PathPlanner`, seede
 is replayed on that track with line-of-sight sensing limited to a range of ``2·lss``, so that it
 both tracks and searches (:func:`tether.follow.replay.replay`); each ``update`` is timed and
 filed under the status it returned (the first update of each search, which computes the
-geodesic distance field and the escape poses, apart as ``search start``). A second run times a pure search: one sighting, then no
-observation at all. Wall-clock on a shared machine: noisy, compare medians.
+geodesic distance field and the escape poses, apart as ``search start``). A second run times
+a pure search: one sighting, then no observation at all. Wall-clock on a shared machine:
+noisy, compare medians.
 """
 
 from __future__ import annotations
