@@ -13,6 +13,7 @@ from tether.game.controller import KernelController
 from tether.game.evader import KernelEvader
 from tether.sim.controller import FollowController, PaperController, TranslateController
 from tether.sim.protocols import World
+from tether.sim.replay import PedestrianTarget, TrackTarget
 from tether.sim.targets import (
     DashTarget,
     EscapeTarget,
@@ -59,6 +60,8 @@ TARGETS: dict[str, TargetFactory] = {
     "escape": EscapeTarget,
     "search": SearchTarget,
     "kernel-evader": _kernel_evader,
+    "track": TrackTarget,
+    "pedestrian": PedestrianTarget,
 }
 
 
@@ -75,7 +78,8 @@ def make_target(kind: str, world: World, **options: Any) -> Any:
     >>> make_target("wall", world).name
     'wall'
     >>> sorted(TARGETS)
-    ['dash', 'escape', 'kernel-evader', 'path', 'random', 'search', 'tangential', 'wall']
+    ['dash', 'escape', 'kernel-evader', 'path', 'pedestrian', 'random', 'search', 'tangential',
+     'track', 'wall']
     """
     try:
         factory = TARGETS[kind]

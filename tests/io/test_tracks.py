@@ -51,7 +51,7 @@ def test_an_unknown_suffix_is_read_by_its_content(tmp_path):
 finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=15, deadline=None)
 @given(st.lists(st.tuples(st.floats(1e-6, 100), finite, finite), min_size=1, max_size=20),
        st.floats(-1e6, 1e6), st.sampled_from([".csv", ".json"]))
 def test_round_trip_is_exact(tmp_path_factory, rows, t0, suffix):

@@ -82,7 +82,7 @@ def _bag(tmp_path, version, storage, topics, **kw):
 
 
 @pytest.mark.parametrize("version, storage, msgtype", [
-    (2, "sqlite3", MSGTYPES[0]), (2, "mcap", MSGTYPES[1]), (1, None, MSGTYPES[3])])
+    (2, "mcap", MSGTYPES[1]), (1, None, MSGTYPES[3])])
 def test_one_message_type_in_each_bag(tmp_path, version, storage, msgtype):
     test_every_message_type_in_every_bag(tmp_path, version, storage, msgtype)
 
@@ -102,19 +102,19 @@ def test_every_message_type_in_every_bag(tmp_path, version, storage, msgtype):
 
 def test_a_zero_stamp_falls_back_to_the_receive_time(tmp_path):
     samples = [(100.0, 100.5, 0.0, 0.0), (0, 101.5, 1.0, 0.0), (102.0, 102.5, 2.0, 0.0)]
-    bag = _bag(tmp_path, 2, "sqlite3", {"/p": (MSGTYPES[0], samples)})
+    bag = _bag(tmp_path, 2, "mcap", {"/p": (MSGTYPES[0], samples)})
     tr = read_track(bag)
     assert tr.t.tolist() == [0.0, 1.5, 2.0] and tr.meta["receive_time_samples"] == 1
 
 
 def test_the_storage_file_names_its_bag(tmp_path):
-    bag = _bag(tmp_path, 2, "sqlite3", {"/p": (MSGTYPES[1], SAMPLES)})
-    (db,) = bag.glob("*.db3")
+    bag = _bag(tmp_path, 2, "mcap", {"/p": (MSGTYPES[1], SAMPLES)})
+    (db,) = bag.glob("*.mcap")
     assert np.array_equal(read_track(db).xy, read_track(bag).xy)
 
 
 def test_topic_choice(tmp_path):
-    bag = _bag(tmp_path, 2, "sqlite3", {"/a": (MSGTYPES[0], SAMPLES),
+    bag = _bag(tmp_path, 2, "mcap", {"/a": (MSGTYPES[0], SAMPLES),
                                         "/b": (MSGTYPES[3], SAMPLES[:2]),
                                         "/chatter": ("std_msgs/msg/String", [])})
     assert len(read_track(bag, topic="/b")) == 2
@@ -124,12 +124,12 @@ def test_topic_choice(tmp_path):
 
 
 def _string_bag(tmp_path):
-    from rosbags.rosbag2 import Writer
+    from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS2_HUMBLE)
     path = tmp_path / "chatter"
-    with Writer(path, version=9) as w:
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         conn = w.add_connection("/chatter", "std_msgs/msg/String", typestore=ts)
         w.write(conn, 1, ts.serialize_cdr(ts.types["std_msgs/msg/String"](data="hi"),
                                           "std_msgs/msg/String"))
@@ -159,7 +159,7 @@ BAD_BAGS = {
                            "no topic of a supported type"),
     "no messages": (lambda d: (_bag(d, 1, None, {"/p": (MSGTYPES[2], [])}), None),
                     "topic '/p' has no messages"),
-    "repeated stamp": (lambda d: (_bag(d, 2, "sqlite3", {"/p": (MSGTYPES[0], [
+    "repeated stamp": (lambda d: (_bag(d, 2, "mcap", {"/p": (MSGTYPES[0], [
         (5.0, 5.0, 0, 0), (5.0, 5.1, 1, 0)])}), None),
                        "/p message 1: times must increase strictly"),
     "a folder, no bag": (lambda d: (d, None), "a folder that is not a ROS 2 bag (no "
@@ -170,7 +170,8 @@ BAD_BAGS = {
 }
 
 
-@pytest.mark.parametrize("case", BAD_BAGS)
+@pytest.mark.parametrize("case", [
+    pytest.param(c, marks=pytest.mark.slow) if "rosbag2 storage" in c else c for c in BAD_BAGS])
 def test_malformed_bags_one_line(tmp_path, case):
     make, words = BAD_BAGS[case]
     path, topic = make(tmp_path)

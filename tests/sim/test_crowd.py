@@ -82,3 +82,57 @@ def test_without_jupedsim_one_line(monkeypatch):
     monkeypatch.setitem(sys.modules, "jupedsim", None)
     with pytest.raises(CrowdUnavailableError, match=r"pip install tether\[crowd\]"):
         pedestrian_tracks(ROOM, 1, 0)
+
+
+# ----------------------------------------------------------------------------- tether tracks
+def _tracks(capsys, *argv):
+    from tether.cli import main
+
+    rc = main(["tracks", *(str(a) for a in argv)])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_cli_writes_the_tracks_it_lists(capsys, tmp_path):
+    import json
+
+    from tether.examples import path as example_path
+    from tether.io.tracks import read_track
+
+    out_dir = tmp_path / "new" / "people"
+    rc, out, err = _tracks(capsys, example_path("gallery"), "--count", 3, "--seed", 5,
+                           "--speed", 0.29, "--duration", 4, "--dt", 0.1, "--out", out_dir,
+                           "--format", "json", "--json")
+    assert rc == 0, err
+    listed = json.loads(out)["files"]
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "track_000.json", "track_001.json", "track_002.json"]
+    direct = pedestrian_tracks(GALLERY, 3, seed=5, speed=0.29, duration=4.0, dt=0.1)
+    for row, person in zip(listed, direct, strict=True):
+        back = read_track(row["path"])
+        assert np.array_equal(back.xy, person.xy) and np.array_equal(back.t, person.t)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--count", 0, "--out", "{tmp}/x"], "--count: 0 is out of range"),
+    (["--count", 1, "--out", "{file}/x"], "is a file, not a folder"),
+    (["--count", 1, "--out", "{tmp}/x", "--speed", -1], "--speed"),
+])
+def test_cli_errors_one_line(capsys, tmp_path, argv, words):
+    from tether.examples import path as example_path
+
+    (tmp_path / "f.txt").write_text("")
+    argv = [str(a).replace("{tmp}", str(tmp_path)).replace("{file}", str(tmp_path / "f.txt"))
+            for a in argv]
+    rc, out, err = _tracks(capsys, example_path("gallery"), *argv)
+    assert rc == 2 and words in err and err.count("\n") == 1 and out == ""
+    assert not (tmp_path / "x").exists()
+
+
+def test_cli_without_jupedsim_one_line(capsys, tmp_path, monkeypatch):
+    from tether.examples import path as example_path
+
+    monkeypatch.setitem(sys.modules, "jupedsim", None)
+    rc, out, err = _tracks(capsys, example_path("gallery"), "--count", 1, "--out",
+                           tmp_path / "x")
+    assert rc == 2 and "need `pip install tether[crowd]`" in err and err.count("\n") == 1

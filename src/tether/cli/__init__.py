@@ -37,6 +37,7 @@ GROUPS = [
     "strategy",
     "ros",
     "kernel",
+    "tracks",
     "follow",
 ]
 
@@ -72,10 +73,13 @@ EXAMPLES = {
     "follow": (f"tether follow {_EX}/office.yaml --track person.csv --lss 0.8 --vt 0.3 --vo 1 "
                "--baseline spin --plot follow.png"),
 }
+EXAMPLES["tracks"] = (f"tether tracks {_EX}/gallery.json --count 5 --seed 1 --speed 0.29 "
+                      "--out people")
 
 #: Commands that read a map file; their help describes the format.
 MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep", "assess",
                 "simulate", "kernel"}
+MAP_COMMANDS |= {"tracks"}
 MAP_COMMANDS |= {"follow"}
 
 MAP_FORMAT = """\

@@ -109,22 +109,32 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                                     f"{', '.join(sorted(TARGETS))})")
     if not (args.dt > 0 and math.isfinite(args.dt)):
         raise InvalidParameterError(f"--dt must be > 0 (got {args.dt:g})")
-    if not (args.duration >= 0 and math.isfinite(args.duration)):
+    if args.duration is not None and not (args.duration >= 0 and math.isfinite(args.duration)):
         raise InvalidParameterError(f"--duration must be >= 0 (got {args.duration:g})")
     if args.kernel and args.controller != "kernel" and args.target != "kernel-evader":
         raise InvalidParameterError("--kernel applies to --controller kernel or "
                                     "--target kernel-evader only")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
+    _check_replay_options(args)
+    if args.target in REPLAYED:
+        target, start, duration = _replay_target(args)
+    else:
+        if args.start is None or len(args.start) != 3:
+            raise InvalidParameterError(f"--target {args.target} needs --start X Y A")
+        target, start, duration = None, tuple(args.start), args.duration
+        duration = 20.0 if duration is None else duration
+    args.start = start
     kernel = _load_kernel(args) if args.kernel else None
     world = _world(args, args.start, rod=True)
     if kernel is not None:
         world.extra["kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
-    target = make_target(args.target, world, **opts)
+    if target is None:
+        target = make_target(args.target, world, **opts)
     paper = args.controller == "paper"
     controller = CONTROLLERS[args.controller](world, **({"record": True} if paper else {}))
-    res = simulate(world, controller, target, tuple(args.start), duration=args.duration,
+    res = simulate(world, controller, target, tuple(args.start), duration=duration,
                    dt=args.dt, seed=args.seed, progress=Progress("simulate"))
     cause = None
     if paper and not res.held:
@@ -144,8 +154,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from tether.plot import animate_run
 
         animate_run(res, world, args.animate)
+    replay = {}
+    if args.target in REPLAYED:
+        replay = {"track": {**target.report(),
+                            "max_deviation": target.deviation(res.trace.t, res.trace.p)}}
     if args.json:
-        print_json({**res.to_dict(), **({"cause": cause.to_dict()} if cause else {})})
+        print_json({**res.to_dict(), **({"cause": cause.to_dict()} if cause else {}), **replay})
         return 0
     print(f"{res.target} vs {res.controller} from {tuple(args.start)} for {res.duration:g}s "
           f"(dt={res.dt:g}, seed={res.seed}): {res.outcome.upper()}"
@@ -159,12 +173,92 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               + (f"safe by Props. 2-3 until t={cause.t_safe:.3f}s"
                  if cause.t_safe is not None else "unsafe from the start")
               + (f", then {cause.escape}" if cause.escape else "") + f"; {cause.text}")
+    if replay:
+        print("  " + _replay_line(replay["track"], args.vt))
     print("  modes: " + " -> ".join(res.modes))
     print("  time per mode: " + ", ".join(f"{m} {t:.2f}s" for m, t in res.mode_time.items()))
     m = res.monitor
     print(f"  monitor: max speed ratio {m.max_speed_ratio:.6f}, min clearance "
           f"{m.min_clearance:.3g}, max distance error {m.max_distance_error:.3g}")
     return 0
+
+
+#: Target kinds replayed from a track; the track fixes the start.
+REPLAYED = ("track", "pedestrian")
+#: A replay's largest distance from its track (map units) worth a word in the text output.
+DEVIATION_SHOWN = 1e-6
+
+
+def _check_replay_options(args: argparse.Namespace) -> None:
+    """Refuse the replay options with a target kind they do not apply to."""
+    for flag, value, kinds in (("--track", args.track, ("track",)),
+                               ("--topic", args.topic, ("track",)),
+                               ("--columns", args.columns, ("track",)),
+                               ("--track-speed", args.track_speed, ("track",)),
+                               ("--speed", args.speed, ("pedestrian",))):
+        if value is not None and args.target not in kinds:
+            raise InvalidParameterError(f"{flag} applies to --target {' or '.join(kinds)} only")
+    if args.target == "track" and not args.track:
+        raise InvalidParameterError("--target track needs --track FILE (CSV, JSON or a ROS bag)")
+
+
+def _columns(text: str | None) -> tuple[str, ...] | None:
+    """``--columns t,x,y``: the names of the time, x and y columns."""
+    if text is None:
+        return None
+    cols = tuple(c.strip() for c in text.split(","))
+    if len(cols) != 3 or not all(cols):
+        raise InvalidParameterError(f"--columns takes three names T,X,Y (got {text!r})")
+    return cols
+
+
+def _replay_target(args: argparse.Namespace):
+    """The replayed target of ``args`` (built on the map before the decomposition), the start
+    ``(x, y, a)`` its track fixes and the run's duration (the track's by default).
+
+    ``--start`` may be left out (the rod is put behind the target's first motion, free), give
+    the rod orientation alone (``--start A``), or ``X Y A`` with ``X Y`` the track's start."""
+    from tether.sim.protocols import World
+    from tether.sim.replay import START_TOL
+    from tether.strategies import make_target
+
+    env = load_map_lss(args)
+    _speeds(args)
+    scene = World(env, args.lss, args.vt, args.vo)
+    if args.target == "track":
+        opts = {"path": args.track, "topic": args.topic, "columns": _columns(args.columns),
+                "speed": args.track_speed or "refuse"}
+    else:
+        opts = {"seed": args.seed, "speed": args.speed}
+    target = make_target(args.target, scene, dt=args.dt, duration=args.duration, **opts)
+    duration = target.track.duration if args.duration is None else args.duration
+    target.duration = duration
+    x, y = (float(c) for c in target.start)
+    given = args.start or []
+    if len(given) not in (0, 1, 3):
+        raise InvalidParameterError("--start takes X Y A, or the rod orientation A alone")
+    if len(given) == 3 and math.hypot(given[0] - x, given[1] - y) > START_TOL * env.diameter:
+        raise InvalidParameterError(
+            f"--start {given[0]:g} {given[1]:g} is not the track's first position ({x:g}, "
+            f"{y:g}): give --start A (the rod alone) or leave --start out")
+    a = float(given[-1]) if given else target.start_angle(scene)
+    return target, (x, y, a), duration
+
+
+def _replay_line(rep: dict, vt: float) -> str:
+    """The replay's line of the text output: the track and what the speed bound changed."""
+    line = (f"track {rep['name'] or '(unnamed)'}: {rep['samples']} samples over "
+            f"{rep['duration']:g}s")
+    if rep["max_deviation"] > DEVIATION_SHOWN:
+        line += (f"; the walls held the target up to {rep['max_deviation']:.3g} map units off "
+                 "the track")
+    clipped = rep["clipped_segments"]
+    if clipped:
+        first = clipped[0]
+        line += (f"; {len(clipped)} segments faster than vt={vt:g} clipped to vt (first: "
+                 f"segment {first['segment']} at t={first['t']:g}s, {first['speed']:.4g} map "
+                 f"units/s), {rep['delay']:.3g}s later in all")
+    return line
 
 
 def _load_kernel(args: argparse.Namespace):
@@ -210,19 +304,33 @@ def register(add) -> None:
     add_map_lss(sp)
     sp.add_argument("--vt", type=float_arg, required=True, help="target speed bound")
     sp.add_argument("--vo", type=float_arg, required=True, help="observer speed bound (> vt)")
-    sp.add_argument("--start", type=float_arg, nargs=3, required=True, metavar=("X", "Y", "A"),
-                    help="start target position and rod orientation (radians)")
+    sp.add_argument("--start", type=float_arg, nargs="+", metavar="N",
+                    help="X Y A: start target position and rod orientation (radians); for "
+                    "--target track/pedestrian the track's start: give A alone or nothing (a "
+                    "free rod behind the target)")
     sp.add_argument("--target", default="random",
                     help="target kind: path, random, wall, tangential, dash, escape, search, "
-                    "kernel-evader")
+                    "kernel-evader, track (a recorded track, --track), pedestrian (a "
+                    "simulated person, needs tether[crowd])")
     sp.add_argument("--path", help="waypoint file for --target path (JSON or 'x y' lines)")
+    sp.add_argument("--track", metavar="FILE", help="track for --target track: CSV, JSON, "
+                    "a rosbag2 folder or a ROS 1 .bag (docs/tracks.md)")
+    sp.add_argument("--topic", help="the bag's topic for --track (default: its one topic of "
+                    "a supported type)")
+    sp.add_argument("--columns", metavar="T,X,Y", help="CSV columns (JSON keys) of time, x "
+                    "and y for --track (default t,x,y)")
+    sp.add_argument("--track-speed", choices=["refuse", "clip"], help="segments faster than "
+                    "vt: refuse the track (default) or replay them at vt, reported")
+    sp.add_argument("--speed", type=float_arg, help="desired walking speed of --target "
+                    "pedestrian, map units/s (default vt)")
     sp.add_argument("--controller", default="paper",
                     help="paper, follow, translate or kernel (the surveillance kernel's "
                     "controller; the kernel is computed on a coarse grid unless --kernel)")
     sp.add_argument("--kernel", metavar="FILE.npz",
                     help="kernel for --controller kernel / --target kernel-evader, saved by "
                     "'tether kernel --save' with the same map, lss and speeds")
-    sp.add_argument("--duration", type=float_arg, default=20.0, help="seconds (default 20)")
+    sp.add_argument("--duration", type=float_arg, help="seconds (default 20; a replayed "
+                    "track's own duration)")
     sp.add_argument("--dt", type=float_arg, default=0.02, help="step in seconds (0.02)")
     sp.add_argument("--seed", type=int, default=0, help="seed of the target (0)")
     sp.add_argument("--json", action="store_true", help="print JSON")

@@ -7,10 +7,11 @@ given) and, having reached the last, starts over at the first, for ``duration`` 
 is sampled every ``dt`` s into a :class:`~tether.io.tracks.Track`.
 
 Scale. jupedsim's parameters are physical (metres, seconds). A map's unit is taken as
-``metres_per_unit`` metres (1 by default: the bundled maps and ROS maps are in metres); the
+``metres_per_unit`` metres (1 by default: ROS maps are in metres, and a polygon map declares
+no unit, so it is read as metres); the
 geometry is scaled to metres for jupedsim and the positions back to map units. The desired
 speed ``speed`` is in map units/s; by default :data:`DESIRED_SPEED` (1.34 m/s, Weidmann's mean
-free walking speed, the value jupedsim's documentation walks people at) converted to map units.
+free walking speed; jupedsim 1.4's own parameter default is 1.2 m/s) converted to map units.
 The docs' runs use ``vt`` = 0.3 map units/s, so they give ``speed`` explicitly.
 
 Walkable area. The map's free space (a shapely polygon with holes) shrunk by the person's
@@ -21,7 +22,7 @@ half-width off every wall; only the largest piece is kept when the shrinking spl
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -113,9 +114,12 @@ def _random_points(area: Polygon, count: int, rng: np.random.Generator,
     return np.array(out).reshape(-1, 2)
 
 
-def _check(count: int, duration: float, dt: float, speed: float, scale: float) -> None:
+def _check(count: int, seed: int, duration: float, dt: float, speed: float,
+           scale: float) -> None:
     if not (isinstance(count, int | np.integer) and count >= 1):
         raise InvalidParameterError(f"count must be a whole number >= 1 (got {count!r})")
+    if not (isinstance(seed, int | np.integer) and seed >= 0):
+        raise InvalidParameterError(f"seed must be a whole number >= 0 (got {seed!r})")
     for name, v in (("duration", duration), ("dt", dt), ("speed", speed),
                     ("metres_per_unit", scale)):
         if not (math.isfinite(v) and v > 0):
@@ -124,7 +128,8 @@ def _check(count: int, duration: float, dt: float, speed: float, scale: float) -
 
 def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float | None = None,
                       duration: float = 60.0, goals: Sequence[Sequence[float]] | None = None,
-                      dt: float = 0.05, metres_per_unit: float = 1.0) -> list[Track]:
+                      dt: float = 0.05, metres_per_unit: float = 1.0,
+                      progress: Callable[[str, float], None] | None = None) -> list[Track]:
     """``count`` people walking journeys in ``env``'s free space (jupedsim's collision-free
     speed model), sampled every ``dt`` s for ``duration`` s.
 
@@ -145,6 +150,8 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
         walkable area). Default: each person its own :data:`RANDOM_GOALS` random goals.
     metres_per_unit : float
         Metres in one map unit (scales the person's radius and the default speed).
+    progress : callable, optional
+        ``progress(stage, fraction)`` for long walks.
 
     Returns
     -------
@@ -170,7 +177,7 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
     """
     scale = float(metres_per_unit)
     v0 = DESIRED_SPEED / scale if speed is None else float(speed)
-    _check(count, float(duration), float(dt), v0, scale)
+    _check(count, seed, float(duration), float(dt), v0, scale)
     jps = _jupedsim()
     radius = RADIUS / scale
     area = walkable_area(env, radius)
@@ -197,6 +204,10 @@ def pedestrian_tracks(env: Environment, count: int, seed: int, *, speed: float |
         for _ in range(substeps):
             sim.iterate()
         xy[k] = [sim.agent(i).position for i in ids]
+        if progress is not None and k % 200 == 0:
+            progress("walk", k / n)
+    if progress is not None:
+        progress("walk", 1.0)
     xy[1:] /= scale
     t = np.arange(n) * float(dt)
     meta = {"source": "jupedsim CollisionFreeSpeedModel", "seed": int(seed), "speed": v0,
