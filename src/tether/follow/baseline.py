@@ -46,7 +46,7 @@ class SpinSearch:
     >>> b = SpinSearch(lss=0.5, vo=1.0)
     >>> b.update(0.0, (1.0, 1.0), observer=(2.0, 1.0)).status
     'tracking'
-    >>> [b.update(t, None).status for t in (1.0, 5.0, 12.0)]
+    >>> [b.update(t, None, observer=(1.5, 1.0)).status for t in (1.0, 5.0, 11.5)]
     ['searching', 'searching', 'lost']
     """
 

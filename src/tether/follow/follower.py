@@ -188,11 +188,11 @@ class Follower:
     >>> from tether.follow import Follower
     >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])  # an L-shaped room
     >>> f = Follower(ell, lss=0.5, vt=0.3, vo=1.0, cell=0.25)
-    >>> f.update(0.0, None).status, f.update(0.1, (3.0, 1.0), observer=(3.5, 1.0)).status
+    >>> f.update(0.0, None).status, f.update(0.1, (1.5, 2.5), observer=(1.5, 2.0)).status
     ('lost', 'tracking')
-    >>> cmd = f.update(0.2, None)            # the target is not seen any more
-    >>> cmd.status, bool(abs(cmd.velocity).max() <= 1.0)
-    ('searching', True)
+    >>> cmd = f.update(0.2, None, observer=(3.5, 1.0))  # unseen, the robot round the corner
+    >>> cmd.status, bool(abs(cmd.velocity).max() <= 1.0), cmd.view
+    ('searching', True, 1.0)
     """
 
     def __init__(self, env: Environment, lss: float, vt: float, vo: float, *,

@@ -68,7 +68,7 @@ def clear_segments(env: Environment, p: np.ndarray, q: np.ndarray) -> np.ndarray
     >>> from tether import Environment
     >>> from tether.follow.reachable import clear_segments
     >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])
-    >>> clear_segments(ell, np.array([3.0, 1.0]), np.array([[1.0, 1.0], [1.0, 3.0]])).tolist()
+    >>> clear_segments(ell, np.array([3.0, 1.0]), np.array([[1.0, 1.0], [1.0, 3.5]])).tolist()
     [True, False]
     """
     q = np.asarray(q, dtype=float).reshape(-1, 2)
@@ -128,7 +128,7 @@ def visible_from(env: Environment, source: np.ndarray, points: np.ndarray) -> np
     >>> from tether import Environment
     >>> from tether.follow.reachable import visible_from
     >>> ell = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])
-    >>> visible_from(ell, np.array([3.0, 1.0]), np.array([[1.0, 1.0], [1.0, 3.0]])).tolist()
+    >>> visible_from(ell, np.array([3.0, 1.0]), np.array([[1.0, 1.0], [1.0, 3.5]])).tolist()
     [True, False]
     """
     s = np.asarray(source, dtype=float).reshape(2)
