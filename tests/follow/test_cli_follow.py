@@ -23,6 +23,7 @@ def files(tmp_path, corridor, track):
 BASE = ["--lss", "1", "--vt", "0.5", "--vo", "1", "--start", "0.5", "0.5", "--cell", "0.1"]
 
 
+@pytest.mark.slow
 def test_json_report_with_baseline(capsys, files):
     m, t = files
     assert main(["follow", m, "--track", t, *BASE, "--baseline", "spin", "--json"]) == 0
@@ -40,6 +41,11 @@ def test_json_report_with_baseline(capsys, files):
 
 def test_text_report(capsys, files):
     m, t = files
+    assert main(["follow", m, "--track", t, *BASE, "--range", "3", "--noise", "0.02",
+                 "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["range"] == 3.0 and d["follower"]["monitor"]["max_speed_ratio"] <= 1 + 1e-12
+    assert "baseline" not in d
     assert main(["follow", m, "--track", t, *BASE, "--range", "3", "--noise", "0.02"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("follow 'person' in 'corridor'")
@@ -57,12 +63,14 @@ def test_faster_track_is_reported(capsys, files):
     (["--vo", "0.4"], "vo must exceed vt"),
     (["--plot", "/no/such/folder/f.png"], "does not exist"),
     (["--noise", "-1"], "out of range"),
+    (["--start", "9", "9"], "--start (9, 9) is not in the map's free space"),
 ])
 def test_bad_input_one_line(capsys, files, extra, message):
     m, t = files
     argv = ["follow", m, "--track", t, *BASE]
-    if extra[0] == "--vo":
-        argv[argv.index("--vo") + 1] = extra[1]
+    if extra[0] in ("--vo", "--start"):
+        i = argv.index(extra[0])
+        argv[i + 1:i + len(extra)] = extra[1:]
     else:
         argv += extra
     assert main(argv) == 2

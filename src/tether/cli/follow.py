@@ -85,6 +85,9 @@ def cmd_follow(args: argparse.Namespace) -> int:
             f"the track starts at ({track.xy[0][0]:g}, {track.xy[0][1]:g}), outside the map's "
             "free space (is it in the map's frame?)")
     start = None if args.start is None else tuple(args.start)
+    if start is not None and not (all(map(math.isfinite, start)) and bool(env.contains(*start))):
+        raise InvalidParameterError(f"--start ({start[0]:g}, {start[1]:g}) is not in the map's "
+                                    "free space")
     common = dict(lss=args.lss, vo=args.vo, dt=args.dt, sensor_range=args.range,
                   noise=args.noise, latency=args.latency, seed=args.seed, start=start)
     follower = _follower(args, env)

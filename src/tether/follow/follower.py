@@ -18,8 +18,9 @@ orientation nearest its own, at up to ``vo`` (``approaching`` in the command's r
 **Searching** (no sighting now). From the last accepted sighting ``(t_s, p_s)`` the follower
 keeps the cells of a grid the target can have reached, ``d(p_s, x) <= vt·(t − t_s) + r0``
 (exact geodesic distances through the reflex vertices, :mod:`tether.follow.reachable`;
-``r0 = 3σ + h/√2`` covers the noise and the cell), minus the cells seen empty since, which the
-target can re-enter only from the cells still possible (an 8-neighbour growth of one cell per
+``r0 = 3σ + h/√2`` covers the noise and the cell), minus the cells seen empty since (a cell is
+seen when its centre and its four corners are in view), which the target can re-enter only from
+the cells still possible (an 8-neighbour growth of one cell per
 ``h/vt`` s); it heads to the observer pose that brings most of that set back in view soonest
 (:mod:`tether.follow.search`, escape poses first).
 
@@ -459,9 +460,7 @@ class Follower:
         o = self.observer
         if o is None:  # no pose known: look from the last sighting
             o = self.observer = self.p.copy()
-        idx = np.flatnonzero(possible)
-        if len(idx):
-            possible[idx[self.planner.sees(o, self.grid.centers[idx])]] = False
+        possible[self._seen_whole(o, np.flatnonzero(possible))] = False
         self.possible = possible
         if not possible.any():
             return self._lost(t, "the whole reachable set was seen without the target (it "
@@ -479,6 +478,20 @@ class Follower:
         speed = min(self.vo, dist / self.period)
         vel = step * (speed / dist) if dist > 0 else np.zeros(2)
         return Command(t, plan.pose, vel, Status.SEARCHING, None, self.p.copy(), plan.view)
+
+    def _seen_whole(self, o: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """The cells of ``idx`` seen whole from ``o``: the centre and the four corners (pulled
+        in by 0.1 % of the side) in view, so that a target hiding in a corner of a cell whose
+        centre is in view (beyond a door jamb) keeps the cell possible."""
+        if not len(idx):
+            return idx
+        c = self.grid.centers[idx]
+        ok = self.planner.sees(o, c)
+        half = 0.4995 * self.grid.h
+        for dx, dy in ((-half, -half), (half, -half), (half, half), (-half, half)):
+            k = np.flatnonzero(ok)
+            ok[k] = self.planner.sees(o, c[k] + (dx, dy))
+        return idx[ok]
 
     def _lost(self, t: float, reason: str) -> Command:
         o = self.observer
