@@ -128,8 +128,8 @@ def test_late_and_out_of_order_observations(corridor):
     cmd = f.update(1.0, (1.4, 0.5), stamp=0.8)  # measured 0.2 s ago, moving +x at 0.5
     assert cmd.target[0] == pytest.approx(1.4 + 0.5 * 0.2)
     assert f.t_seen == 0.8
-    f.update(1.1, (1.2, 0.5), stamp=0.7)  # older than what we have: ignored
-    assert f.t_seen == 0.8
+    cmd = f.update(1.1, (1.2, 0.5), stamp=0.7)  # older than what we have: ignored
+    assert f.t_seen == 0.8 and cmd.reason == "observation older than the last one, ignored"
     with pytest.raises(InvalidParameterError, match="stamp"):
         f.update(1.2, (1.5, 0.5), stamp=1.3)
 

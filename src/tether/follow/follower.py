@@ -249,6 +249,7 @@ class Follower:
         self.rejected = 0
         self._last_velocity = np.zeros(2)
         self._tracking_started = False
+        self._why_not = ""
         self._search_reset()
 
     def _search_reset(self) -> None:
@@ -327,7 +328,7 @@ class Follower:
             seen = self._accept(obs, s)
         if seen or (observation is not None and self.t_seen is not None
                     and not self.searching):
-            cmd = self._track(t, None if seen else "observation rejected by the gate")
+            cmd = self._track(t, None if seen else self._why_not)
         elif self.t_seen is None:
             cmd = self._lost(t, "no sighting of the target yet")
         else:
@@ -340,7 +341,8 @@ class Follower:
         """Gate ``obs`` measured at ``s``; on acceptance run the filter and return True."""
         env = self.env
         if self.t_seen is not None and s <= self.t_seen:
-            return False  # older than what we have: out of order
+            self._why_not = "observation older than the last one, ignored"
+            return False
         if not bool(env.contains(obs[0], obs[1])):
             return self._reject()
         if self.t_seen is not None and self.rejected < RETAKE_AFTER:
@@ -365,6 +367,7 @@ class Follower:
 
     def _reject(self) -> bool:
         self.rejected += 1
+        self._why_not = "observation rejected by the gate"
         return False
 
     # ------------------------------------------------------------------ tracking
