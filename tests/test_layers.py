@@ -41,6 +41,8 @@ LAYERS: dict[str, float] = {
     "tether.analysis": 5,
     # L6 simulation, L7 the game, L8 registries and sweeps
     "tether.sim": 6, "tether.game": 7, "tether.strategies": 8, "tether.sweep": 8,
+    # L8.5 the follower for a robot's loop (uses the controllers by name)
+    "tether.follow": 8.5,
     # L9 figures, L10 the command line
     "tether.plot": 9,
     "tether.cli": 10,

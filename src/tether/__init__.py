@@ -60,6 +60,7 @@ _LAZY = {
     "Kernel": "tether.game",
     "surveillance_kernel": "tether.game",
     "make_target": "tether.strategies",
+    "Follower": "tether.follow",
 }
 
 #: Subpackages reachable as attributes (``tether.examples.load(...)``) without an import.
@@ -71,6 +72,7 @@ __all__ = [
     "ArrangementError",
     "Decomposition",
     "Environment",
+    "Follower",
     "FreeArcs",
     "InvalidMapError",
     "InvalidParameterError",
@@ -104,6 +106,7 @@ if TYPE_CHECKING:  # what static tools see; at run time the names load lazily
     from tether.curves import critical_curves
     from tether.decomposition import Decomposition, check, decompose, self_check
     from tether.environment import Environment
+    from tether.follow import Follower
     from tether.game import Kernel, surveillance_kernel
     from tether.io import load_map, save_map
     from tether.sim.protocols import World

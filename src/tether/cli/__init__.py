@@ -38,6 +38,7 @@ GROUPS = [
     "ros",
     "kernel",
     "tracks",
+    "follow",
 ]
 
 
@@ -69,6 +70,8 @@ EXAMPLES = {
     "kernel": f"tether kernel {_EX}/gallery.json --lss 2 --vt 0.3 --vo 1 --at 2 2.5 0.5 --json",
     "convert": f"tether convert {_EX}/office.yaml office.geojson",
     "sweep": f"tether sweep {_EX}/rectangle.json --lss 0.5:2:0.25",
+    "follow": (f"tether follow {_EX}/office.yaml --track person.csv --lss 0.8 --vt 0.3 --vo 1 "
+               "--baseline spin --plot follow.png"),
 }
 EXAMPLES["tracks"] = (f"tether tracks {_EX}/gallery.json --count 5 --seed 1 --speed 0.29 "
                       "--out people")
@@ -77,6 +80,7 @@ EXAMPLES["tracks"] = (f"tether tracks {_EX}/gallery.json --count 5 --seed 1 --sp
 MAP_COMMANDS = {"info", "arcs", "decompose", "analyze", "check", "convert", "sweep", "assess",
                 "simulate", "kernel"}
 MAP_COMMANDS |= {"tracks"}
+MAP_COMMANDS |= {"follow"}
 
 MAP_FORMAT = """\
 map files:
