@@ -34,13 +34,16 @@ critical parts: breakpoints, semi-free tests, bisection, the parts lying on wall
 :mod:`~tether.curves.draw` (overshoot, polylines with their exact marks, the vertex
 estimate), :mod:`~tether.curves.share` (straight curves on one line made to share their
 vertices) and :mod:`~tether.curves.project` (projection of points onto the curves).
-:func:`critical_curves` runs them in that order; it and the memory bound
-:data:`MAX_CURVE_VERTICES` live here so that ``tether.curves.MAX_CURVE_VERTICES = ...`` (the
-documented knob) keeps taking effect.
+:func:`critical_curves` runs them in that order; it and the vertex bound
+:data:`MAX_CURVE_VERTICES` live here so that ``tether.curves.MAX_CURVE_VERTICES = ...`` keeps
+taking effect. :mod:`~tether.curves.budget` estimates a decomposition's memory before any
+curve is computed and refuses what does not fit the memory budget (the default ceiling).
 """
 
 from __future__ import annotations
 
+from tether._util.memory import format_size, memory_budget
+from tether.curves.budget import BASE_BYTES, BYTES_PER_EXACT_VERTEX
 from tether.curves.critical import ON_WALL_TOLS as ON_WALL_TOLS
 from tether.curves.critical import critical_intervals, off_walls, wall_band
 from tether.curves.draw import draw_all, overshoot_family, vertex_estimates
@@ -64,21 +67,32 @@ __all__ = ["KINDS", "KIND_NAMES", "MAX_CURVE_VERTICES", "Curve", "Family", "Reso
 
 
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
-#: this: the peak memory is about 1.2 kB per estimated vertex on floor plans (noded parts,
-#: faces, region polygons, cells and G; measured 1.25 M -> 1.53 GB at 1,000 map vertices,
-#: decompose + analyze), so the default bounds a decomposition near 2 GB. Raise it on a
-#: machine with more memory.
-MAX_CURVE_VERTICES = 1_500_000
+#: this, when set to a number. The default ceiling is the memory budget instead
+#: (:mod:`tether.curves.budget`: ``--memory-limit``, ``TETHER_MEMORY_LIMIT``, else what the
+#: machine lets this process use); setting this adds a fixed ceiling of its own (until
+#: 2026-11 it was 1,500,000, about 2 GB).
+MAX_CURVE_VERTICES: int | None = None
 
 
 def check_vertex_budget(vertices: float, lss: float) -> None:
-    """Raise :class:`ResourceLimitError` (one line) if ``vertices`` exceeds the bound."""
-    if vertices > MAX_CURVE_VERTICES:
+    """Raise :class:`ResourceLimitError` (one line) if ``vertices`` (the exact estimate made
+    after the critical intervals) exceeds :data:`MAX_CURVE_VERTICES` (when set), or its memory
+    (:data:`tether.curves.budget.BYTES_PER_EXACT_VERTEX` per vertex) exceeds the memory
+    budget."""
+    if MAX_CURVE_VERTICES is not None and vertices > MAX_CURVE_VERTICES:
         raise ResourceLimitError(
             f"the critical curves at lss {lss:g} (internal units) would need about "
             f"{vertices:,.0f} polyline vertices, more than the limit {MAX_CURVE_VERTICES:,} "
-            "(tether.curves.MAX_CURVE_VERTICES, about 2 GB of memory): use a smaller lss, "
+            "(tether.curves.MAX_CURVE_VERTICES): use a smaller lss, "
             "a coarser curve tolerance, or split the map")
+    budget = memory_budget()
+    need = BASE_BYTES + BYTES_PER_EXACT_VERTEX * vertices
+    if budget.bytes is not None and need > budget.bytes:
+        raise ResourceLimitError(
+            f"the critical curves at lss {lss:g} (internal units) would need about "
+            f"{vertices:,.0f} polyline vertices, about {format_size(need)} of memory, more "
+            f"than the budget {budget.describe()}: use a smaller lss, a coarser curve "
+            "tolerance, tiles (--tiles), or raise the budget with --memory-limit SIZE")
 
 
 def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
