@@ -8,8 +8,14 @@ import sys
 from pathlib import Path
 
 from tether._util.files import IMAGE_KINDS
-from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_json
-from tether.cli.common import add_memory_limit
+from tether.cli.common import (
+    MAP_HELP,
+    add_memory_limit,
+    finite_arg,
+    float_arg,
+    int_range,
+    print_json,
+)
 from tether.errors import InvalidParameterError, TetherError
 from tether.io.polygon import text_of as map_text
 

@@ -35,7 +35,8 @@ from tether.decomposition.structure import Structure
 from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "read_decomposition", "write_decomposition"]
+__all__ = ["FORMAT", "TABLES", "VERSION", "check_store_dir", "read_decomposition",
+           "write_decomposition"]
 
 #: The store's format name and version (``index.json``'s ``format`` and ``version``)
 FORMAT = "tether-decomposition"
@@ -46,11 +47,13 @@ TABLES = {
     "regions": ("area", "point", "polygon_wkb", "polygon_ptr", "structure_kind",
                 "structure_ptr", "structure_pairs"),
     "cells": ("region", "start", "end"),
-    "pieces": ("pair", "q", "n", "eps", "ok", "desc", "geometry_wkb", "geometry_ptr"),
+    "pieces": ("pair", "q", "n", "eps", "ok", "desc", "geometry_wkb", "geometry_ptr",
+               "desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr",
+               "desc_features"),
     "curves": ("id", "kind", "index", "domain", "interval_ptr", "intervals", "feature_ptr",
                "features", "polyline_ptr", "vertex_ptr", "vertices", "params", "fam_p",
                "fam_d", "fam_w", "fam_lo", "fam_hi", "fam_lss"),
-    "arcs": ("point", "start", "end", "start_code", "end_code", "full"),
+    "arcs": ("point", "start", "end", "start_code", "end_code", "full_points"),
 }
 
 _STRUCTURE_KINDS = {0: None, 1: Structure.FULL, 2: Structure.EMPTY}
@@ -90,7 +93,7 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     """
     if int(parts) < 1:
         raise InvalidParameterError(f"parts must be >= 1, got {parts}")
-    target = _check_target(path)
+    target = check_store_dir(path)
     tables = {name: fn(dec) for name, fn in _WRITERS.items()}
     with _folder_written_whole(target) as tmp:
         entries = []
@@ -113,7 +116,7 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     return target
 
 
-def _check_target(path: str | os.PathLike) -> Path:
+def check_store_dir(path: str | os.PathLike) -> Path:
     """The store's folder, checked before any work: writable, and missing, empty or a store."""
     p = check_output_dir(path)
     if p.exists() and any(p.iterdir()) and not (p / "index.json").is_file():
@@ -136,6 +139,7 @@ def _folder_written_whole(target: Path) -> Iterator[Path]:
     old = None
     try:
         yield tmp
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's folder is private: as mkdir makes one
         if target.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
             os.replace(target, old / "store")
@@ -149,6 +153,12 @@ def _folder_written_whole(target: Path) -> Iterator[Path]:
         shutil.rmtree(tmp, ignore_errors=True)
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def _rows(cols: dict[str, np.ndarray]) -> int:
