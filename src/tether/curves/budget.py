@@ -1,22 +1,23 @@
 """The decomposition's memory, estimated before the work that needs it, against the memory
 budget (``docs/memory.md``).
 
-The peak memory of ``decompose`` + ``analyze`` grows with the polyline vertices of the critical
-curves (the noded parts, faces, region polygons, cells and G all follow them). Those are
-known exactly only after the critical intervals (seconds to minutes on a big map), so the
-decomposition is estimated first from what costs milliseconds: the map's vertices ``n``, the
-pairs (vertex, edge) closer than ``lss`` (``P``: the conchoids and the lines through two
-vertices come from them) and the polyline step of the curved curves, ``sqrt(8 tol / lss)``
-(radians; a circle of radius ``lss`` drawn within ``tol`` has ``2π / step`` vertices)::
+The peak memory of ``decompose`` + ``analyze`` grows with the decomposition's size (the noded
+curves, faces, region polygons, cells, pieces and G). That is known only after the critical
+curves (seconds to minutes on a big map), so it is estimated first from what costs
+milliseconds: the map's vertices ``n``, the pairs (vertex, edge) closer than ``lss`` (``P``:
+the conchoids, the lines through two vertices and most cells come from them) and the polyline
+step of the curved curves, ``step = sqrt(8 tol / lss)`` (radians; a circle of radius ``lss``
+drawn within ``tol`` has ``2π / step`` vertices)::
 
-    vertices ≈ VERTICES_PER_STEP * (n + PAIR_WEIGHT * P) / step
-    peak     ≈ BASE_BYTES + BYTES_PER_VERTEX * vertices
+    peak ≈ BASE_BYTES + (BYTES_PER_VERTEX_STEP * n + BYTES_PER_PAIR_STEP * P) / step
 
 The constants are fitted on seeded floor plans of 200 to 1,000 vertices at three rod lengths
-each (``tools/memory_calibration.py`` prints the estimate against the measured peak resident
-memory); they are upper bounds there (the estimate is never below the measured peak on them).
-The estimate grows with ``lss`` and shrinks with ``tol``, so the largest ``lss`` and the
-smallest tolerance that fit are found from it directly.
+each, against the peak resident memory of ``tether analyze`` (decompose, self-check, G,
+elimination and, where it applies, the critical-length check), then raised by 10 % so that
+the estimate is at or above every measured peak there (``docs/memory_table.py`` prints the
+table, ``docs/memory.md``). ``decompose`` alone peaks at about half of it. The estimate grows
+with ``lss`` and shrinks with ``tol``, so the largest ``lss`` and the smallest tolerance that
+fit are found from it directly.
 
 After the critical intervals, :func:`tether.curves.check_vertex_budget` checks the exact
 vertex estimate against the same budget (and :data:`tether.curves.MAX_CURVE_VERTICES` if set).
@@ -35,34 +36,31 @@ from tether.errors import ResourceLimitError
 from tether.spatial import EdgeIndex, point_segment_distance
 from tether.tolerances import REL_CURVE_TOL
 
-__all__ = ["BASE_BYTES", "BYTES_PER_EXACT_VERTEX", "BYTES_PER_VERTEX", "PAIR_WEIGHT",
-           "VERTICES_PER_STEP", "MemoryEstimate", "check_memory", "estimate_memory"]
+__all__ = ["BASE_BYTES", "BYTES_PER_EXACT_VERTEX", "BYTES_PER_PAIR_STEP", "BYTES_PER_VERTEX_STEP",
+           "MemoryEstimate", "check_memory", "estimate_memory"]
 
 #: Resident memory of a process that has imported tether and loaded a map, bytes
-BASE_BYTES = 160 << 20
-#: Estimated polyline vertices per (map vertex, radian of step): the circles about the
-#: vertices and the conchoids (fitted, see the module's docstring)
-VERTICES_PER_STEP = 1.0
-#: Weight of one (vertex, edge) pair within lss against one map vertex (fitted)
-PAIR_WEIGHT = 1.0
-#: Peak bytes per estimated polyline vertex, decompose + analyze (fitted)
-BYTES_PER_VERTEX = 1000.0
-#: Peak bytes per vertex of the exact estimate made after the critical intervals
-#: (:func:`tether.curves.draw.vertex_estimates`; fitted alike)
-BYTES_PER_EXACT_VERTEX = 1000.0
+BASE_BYTES = 64 << 20
+#: Peak bytes per map vertex per radian of polyline step (its vertex circle, its walls)
+BYTES_PER_VERTEX_STEP = 3050.0
+#: Peak bytes per (vertex, edge) pair within lss per radian of polyline step
+BYTES_PER_PAIR_STEP = 760.0
+#: Peak bytes per polyline vertex of the exact estimate made after the critical intervals
+#: (:func:`tether.curves.draw.vertex_estimates`), an upper bound on the same plans
+BYTES_PER_EXACT_VERTEX = 2000.0
 
 
 @dataclass(frozen=True)
 class MemoryEstimate:
     """The estimated peak memory of decomposing and analyzing one map at one ``lss``.
 
-    ``bytes``: the estimated peak resident memory; ``vertices``: the estimated polyline
-    vertices of the critical curves; ``pairs``: the (vertex, edge) pairs closer than lss;
-    ``lss`` and ``rel_tol`` as given (map units; relative to the map's diameter)."""
+    ``bytes``: the estimated peak resident memory; ``pairs``: the (vertex, edge) pairs closer
+    than lss; ``step``: the polyline step of the curved curves (radians); ``lss`` and
+    ``rel_tol`` as given (map units; relative to the map's diameter)."""
 
     bytes: float
-    vertices: float
     pairs: int
+    step: float
     lss: float
     rel_tol: float
 
@@ -136,9 +134,9 @@ def _refusal(env: Environment, est: MemoryEstimate, budget: MemoryBudget,
     fits.append("tiles (--tiles)")
     fit = ", ".join(fits[:-1]) + f" or {fits[-1]}" if len(fits) > 1 else fits[0]
     return (f"map {env.name!r} at lss {est.lss:g} would need about {format_size(est.bytes)} "
-            f"of memory (estimated from {env.n:,} vertices and {est.pairs:,} vertex-wall "
-            f"pairs within lss: about {est.vertices:,.0f} curve vertices), more than the "
-            f"budget {budget.describe()}; what would fit: {fit}; or raise the budget with "
+            f"of memory (estimated from its {env.n:,} vertices, {est.pairs:,} vertex-wall "
+            f"pairs within lss and a curve step of {est.step:.2g} rad), more than the budget "
+            f"{budget.describe()}; what would fit: {fit}; or raise the budget with "
             "--memory-limit SIZE")
 
 
@@ -163,12 +161,12 @@ def _largest_lss(env: Environment, est: MemoryEstimate, budget: float, dist: np.
 
 def _smallest_tol(est: MemoryEstimate, budget: float) -> float | None:
     """The smallest relative curve tolerance whose estimate fits ``budget`` at ``est.lss``
-    (the vertices scale as ``1 / sqrt(tol)``), or None if the base memory alone exceeds it
-    or the tolerance would be coarser than 1e-3 of the map's diameter."""
+    (the size scales as ``1 / step``, as ``1 / sqrt(tol)``), or None if the base memory
+    alone exceeds it or the tolerance would be coarser than 1e-3 of the map's diameter."""
     room = budget - BASE_BYTES
     if room <= 0:
         return None
-    scale = (est.bytes - BASE_BYTES) / room  # vertices over what fits
+    scale = (est.bytes - BASE_BYTES) / room  # the size over what fits
     tol = est.rel_tol * scale * scale * 1.001
     return tol if tol <= 1e-3 else None
 
@@ -177,9 +175,8 @@ def _estimate(env: Environment, lss: float, rel_tol: float, pairs: int) -> Memor
     """The estimate for ``pairs`` (vertex, edge) pairs within ``lss`` (the formula of the
     module's docstring, in the map's own units: ``tol / lss`` does not depend on them)."""
     step = math.sqrt(8.0 * rel_tol * env.diameter / lss)
-    vertices = VERTICES_PER_STEP * (env.n + PAIR_WEIGHT * pairs) / step
-    return MemoryEstimate(BASE_BYTES + BYTES_PER_VERTEX * vertices, vertices, pairs,
-                          float(lss), float(rel_tol))
+    size = (BYTES_PER_VERTEX_STEP * env.n + BYTES_PER_PAIR_STEP * pairs) / step
+    return MemoryEstimate(BASE_BYTES + size, pairs, step, float(lss), float(rel_tol))
 
 
 def _pair_distances(env: Environment, lss: float) -> np.ndarray:

@@ -31,7 +31,7 @@ from tether._util.files import check_output_dir
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
 from tether.decomposition.model import Decomposition, Region
-from tether.decomposition.structure import Structure
+from tether.decomposition.structure import Structure, Structures
 from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
 from tether.errors import InvalidParameterError, OutputPathError
 
@@ -44,20 +44,17 @@ VERSION = 1
 
 #: The tables of a part and their columns (documented in ``docs/store.md``)
 TABLES = {
-    "regions": ("area", "point", "polygon_wkb", "polygon_ptr", "structure_kind",
-                "structure_ptr", "structure_pairs"),
+    "regions": ("area", "point", "structure", "polygon_ptr", "polygon_wkb", "union_ptr",
+                "face_ptr", "face_wkb", "internal_frame", "structures_ptr", "structures_pairs"),
     "cells": ("region", "start", "end"),
-    "pieces": ("pair", "q", "n", "eps", "ok", "desc", "geometry_wkb", "geometry_ptr",
-               "desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr",
+    "pieces": ("pair", "q", "n", "eps", "ok", "desc", "internal_frame", "geometry_ptr",
+               "geometry_wkb", "desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr",
                "desc_features"),
     "curves": ("id", "kind", "index", "domain", "interval_ptr", "intervals", "feature_ptr",
                "features", "polyline_ptr", "vertex_ptr", "vertices", "params", "fam_p",
                "fam_d", "fam_w", "fam_lo", "fam_hi", "fam_lss"),
     "arcs": ("point", "start", "end", "start_code", "end_code", "full_points"),
 }
-
-_STRUCTURE_KINDS = {0: None, 1: Structure.FULL, 2: Structure.EMPTY}
-
 
 # ----------------------------------------------------------------------------- writing
 def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int = 1) -> Path:
@@ -173,14 +170,16 @@ def _split(n: int, parts: int, k: int) -> tuple[int, int]:
 
 #: The ragged columns: each ``*_ptr`` (one entry per row, plus one) and the columns it indexes
 #: (``vertex_ptr`` is indexed by ``polyline_ptr`` in turn: two levels)
-_RAGGED = {"polygon_ptr": ("polygon_wkb",), "structure_ptr": ("structure_pairs",),
+_RAGGED = {"polygon_ptr": ("polygon_wkb",), "union_ptr": ("face_ptr",),
+           "face_ptr": ("face_wkb",), "structures_ptr": ("structures_pairs",),
            "geometry_ptr": ("geometry_wkb",), "interval_ptr": ("intervals",),
            "feature_ptr": ("features",), "polyline_ptr": ("vertex_ptr",),
            "vertex_ptr": ("vertices", "params")}
 #: Columns of a whole table, not of its rows: written in every part, read from the first
-#: (the pieces' distinct descriptions, the arcs' per-point ``full_points``)
+#: (the pieces' distinct descriptions, the distinct structures, the arcs' per-point
+#: ``full_points``)
 _WHOLE = ("desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr", "desc_features",
-          "full_points")
+          "full_points", "structures_ptr", "structures_pairs")
 
 
 def _row_columns(cols: dict[str, np.ndarray]) -> list[str]:
@@ -242,29 +241,59 @@ def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = flo
 
 def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Geometries as one byte column and offsets (WKB keeps every double exactly)."""
-    blobs = shapely.to_wkb(geoms, output_dimension=2)
-    ptr, raw = _ragged([np.frombuffer(b, dtype=np.uint8) for b in blobs], dtype=np.uint8)
-    return raw, ptr
+    blobs = shapely.to_wkb(geoms, output_dimension=2) if len(geoms) else []
+    ptr = np.zeros(len(blobs) + 1, dtype=np.int64)
+    np.cumsum(np.fromiter(map(len, blobs), dtype=np.int64, count=len(blobs)), out=ptr[1:])
+    return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
 
 
 def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    """The regions' columns: the polygons as held (a multi-face region whose union is not
+    made yet keeps its faces, the union made when read, as :func:`decompose` leaves it), the
+    distinct structures in the file's codes and each region's structure id."""
     regs = dec.regions
-    wkb, ptr = _wkb(dec.region_polygons(np.arange(len(regs))))
-    kind, pairs = [], []
-    for r in regs:
-        s = r.structure
-        if isinstance(s, frozenset):
-            kind.append(0)
-            pairs.append(np.array(sorted(s), dtype=np.int64).reshape(-1, 2))
-        else:
-            kind.append(1 if s == Structure.FULL else 2)
-            pairs.append(np.zeros((0, 2), dtype=np.int64))
-    sptr, spairs = _ragged(pairs, 2, np.int64)
+    holder = regs[0]._polygon if regs else None
+    if isinstance(holder, RegionShapes):
+        geoms, frame = holder.held()
+        pending = holder.pending_unions()
+    else:
+        geoms, frame, pending = dec.region_polygons(np.arange(len(regs))), None, {}
+    wkb, ptr = _wkb(geoms)
+    multi = sorted(pending)
+    count = np.zeros(len(regs), dtype=np.int64)
+    count[multi] = [len(pending[i]) for i in multi]
+    union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
+    face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
+                              else np.zeros(0, dtype=object))
+    sid, sptr, spairs = _structure_columns(dec)
     return {"area": np.array([r.area for r in regs], dtype=float),
             "point": np.array([r.point for r in regs], dtype=float).reshape(-1, 2),
-            "polygon_wkb": wkb, "polygon_ptr": ptr,
-            "structure_kind": np.array(kind, dtype=np.int8),
-            "structure_ptr": sptr, "structure_pairs": spairs}
+            "structure": sid, "polygon_ptr": ptr, "polygon_wkb": wkb,
+            "union_ptr": union_ptr, "face_ptr": face_ptr, "face_wkb": face_wkb,
+            "internal_frame": np.array([frame is not None] * len(regs), dtype=bool),
+            "structures_ptr": sptr, "structures_pairs": spairs}
+
+
+def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each region's structure id and the distinct structures (``ptr``, ``(k, 2)`` pairs of
+    the file's feature codes, sorted; id 0 EMPTY, 1 FULL), read from the shared
+    :class:`Structures` when the regions hold one (no frozenset made)."""
+    regs = dec.regions
+    held = regs[0]._structure if regs else None
+    if type(held) is Structures and all(r._structure is held for r in regs):
+        a, b = np.divmod(held.pairs, held.base)
+        if held._code_map is not None:
+            a, b = held._code_map[a], held._code_map[b]
+        owner = np.repeat(np.arange(len(held)), np.diff(held.ptr))
+        order = np.lexsort((b, a, owner))
+        return (np.asarray(held.region, np.int64), np.asarray(held.ptr, np.int64),
+                np.column_stack((a[order], b[order])).astype(np.int64))
+    ids: dict[Any, int] = {Structure.EMPTY: 0, Structure.FULL: 1}
+    sid = np.array([ids.setdefault(r.structure, len(ids)) for r in regs], dtype=np.int64)
+    sets = [np.zeros((0, 2), np.int64)] * 2 + [
+        np.array(sorted(s), dtype=np.int64).reshape(-1, 2) for s in list(ids)[2:]]
+    ptr, pairs = _ragged(sets, 2, np.int64)
+    return sid, ptr, pairs
 
 
 def _cell_columns(dec: Decomposition) -> dict[str, np.ndarray]:
@@ -284,21 +313,33 @@ def _feature_names(dec: Decomposition) -> list[str]:
 
 
 def _piece_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    pieces = list(dec.pieces)
-    descs: dict[tuple, int] = {}
-    desc = np.array([descs.setdefault((p.curves, p.kind, p.features), len(descs))
-                     for p in pieces], dtype=np.int64)
-    wkb, ptr = _wkb(np.array([p.geometry for p in pieces], dtype=object))
-    dlist = list(descs)
+    """The pieces' columns (read from the columns :func:`decompose` keeps, lines as held)."""
+    if type(dec.pieces) is Pieces:
+        t = dec.pieces._table
+        geoms, frame = t.shapes.held()
+        pair, q, n, eps, ok, desc, dlist = t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs
+    else:
+        pieces = list(dec.pieces)
+        descs: dict[tuple, int] = {}
+        desc = np.array([descs.setdefault((p.curves, p.kind, p.features), len(descs))
+                         for p in pieces], dtype=np.int64)
+        dlist = list(descs)
+        geoms = np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces))
+        frame = None
+        pair = np.array([p.regions for p in pieces], np.int64).reshape(-1, 2)
+        q = np.array([p.sample for p in pieces], float).reshape(-1, 2)
+        n = np.array([p.normal for p in pieces], float).reshape(-1, 2)
+        eps = np.array([p.eps for p in pieces], float)
+        ok = np.array([p.verified for p in pieces], bool)
+    wkb, ptr = _wkb(geoms)
     cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
     fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
-    return {"pair": np.array([p.regions for p in pieces], np.int64).reshape(-1, 2),
-            "q": np.array([p.sample for p in pieces], float).reshape(-1, 2),
-            "n": np.array([p.normal for p in pieces], float).reshape(-1, 2),
-            "eps": np.array([p.eps for p in pieces], float),
-            "ok": np.array([p.verified for p in pieces], bool),
-            "desc": desc, "geometry_wkb": wkb, "geometry_ptr": ptr,
-            # the distinct descriptions (a table of their own, not split by part)
+    return {"pair": np.asarray(pair, np.int64), "q": np.asarray(q, float),
+            "n": np.asarray(n, float), "eps": np.asarray(eps, float),
+            "ok": np.asarray(ok, bool), "desc": np.asarray(desc, np.int64),
+            "internal_frame": np.array([frame is not None] * len(pair), dtype=bool),
+            "geometry_ptr": ptr, "geometry_wkb": wkb,
+            # the distinct descriptions (a table of their own, whole in every part)
             "desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
             "desc_curve_ptr": cptr, "desc_curves": cvals,
             "desc_feature_ptr": fptr, "desc_features": fvals}
@@ -413,9 +454,10 @@ def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
         if name in _WHOLE:
             out[name] = parts[0][name]
         elif name in _RAGGED:  # offsets: each part's shifted past the parts before it
-            pieces = [parts[0][name]]
+            pieces, shift = [parts[0][name]], int(parts[0][name][-1])
             for p in parts[1:]:
-                pieces.append(p[name][1:] + pieces[-1][-1])
+                pieces.append(p[name][1:] + shift)
+                shift += int(p[name][-1])
             out[name] = np.concatenate(pieces)
         else:
             out[name] = np.concatenate([p[name] for p in parts])
@@ -425,21 +467,26 @@ def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
 def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Decomposition:
     """The decomposition of the tables (in the map's frame, as :func:`decompose` reports)."""
     names = list(index["feature_names"])
+    frame = None if env.is_internal else env.frame
     reg = t["regions"]
     nreg = len(reg["area"])
-    polys = _from_wkb(reg["polygon_wkb"], reg["polygon_ptr"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    shapes = RegionShapes(polys, {}, None, prepare=True)
-    shapely.prepare(polys)
-    kind, sptr, spairs = reg["structure_kind"], reg["structure_ptr"], reg["structure_pairs"]
-    regions = []
-    for i in range(nreg):
-        k = int(kind[i])
-        s = _STRUCTURE_KINDS[k] if k else frozenset(
-            (int(a), int(b)) for a, b in spairs[sptr[i]:sptr[i + 1]].tolist())
-        regions.append(Region(i, shapes, float(reg["area"][i]),
-                              (float(reg["point"][i, 0]), float(reg["point"][i, 1])), s, table))
+    polys = _from_wkb(reg["polygon_wkb"], reg["polygon_ptr"])
+    faces = _from_wkb(reg["face_wkb"], reg["face_ptr"])
+    uptr = reg["union_ptr"]
+    multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
+    unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
+    shapes = RegionShapes(polys, unions, frame if _internal(reg) else None, prepare=True)
+    if not unions and not _internal(reg):
+        shapely.prepare(polys)
+    base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
+    sp = reg["structures_pairs"].astype(np.int64)
+    structs = Structures(base, reg["structures_ptr"].astype(np.int64),
+                         sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
+    area, point = reg["area"].tolist(), reg["point"].tolist()
+    regions = tuple(Region(i, shapes, area[i], (point[i][0], point[i][1]), structs, table)
+                    for i in range(nreg))
     pc = t["pieces"]
     descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
                                                          pc["desc_curve_ptr"][j + 1]]),
@@ -449,15 +496,24 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
              for j in range(len(pc["desc_kind"]))]
     pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
                         pc["desc"], descs,
-                        Shapes(_from_wkb(pc["geometry_wkb"], pc["geometry_ptr"])))
+                        Shapes(_from_wkb(pc["geometry_wkb"], pc["geometry_ptr"]),
+                               frame if _internal(pc) else None))
     a = t["arcs"]
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
-    return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), tuple(regions),
+    return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), regions,
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
                          _crossing_arcs=arcs, _cell_codes=codes)
+
+
+def _internal(cols: dict[str, np.ndarray]) -> bool:
+    """Whether a table's geometries are in the map's internal frame (converted when read)."""
+    flag = cols["internal_frame"]
+    if len(flag) and flag.min() != flag.max():
+        raise ValueError("the parts' geometries are in different frames")
+    return bool(flag[0]) if len(flag) else False
 
 
 def _from_wkb(raw: np.ndarray, ptr: np.ndarray) -> np.ndarray:
