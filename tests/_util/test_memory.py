@@ -177,7 +177,7 @@ def test_refusal_comes_before_any_curve(monkeypatch):
 def test_refusal_names_an_lss_and_a_tolerance_that_fit(monkeypatch):
     env, lss = SQUARE_HOLE, 3.0
     need = estimate_memory(env, lss).bytes
-    budget = int(0.5 * (need + C.budget.BASE_BYTES))  # room for half the vertices
+    budget = int(0.5 * (need + C.budget.BASE_BYTES))  # room for half the size
     monkeypatch.setenv(M.ENV_VAR, str(budget))
     with pytest.raises(ResourceLimitError) as info:
         check_memory(env, lss)
@@ -223,7 +223,10 @@ def test_max_curve_vertices_still_refuses_when_set(monkeypatch):
 
 
 def test_exact_check_uses_the_budget(monkeypatch):
+    from tether.curves.budget import check_exact
+
     monkeypatch.setenv(M.ENV_VAR, "1G")
-    C.check_vertex_budget(1000, 1.0)
+    check_exact(GENERIC, 3.0, 1000)
     with pytest.raises(ResourceLimitError, match="budget 1.00 GB"):
-        C.check_vertex_budget(1e9, 1.0)
+        check_exact(GENERIC, 3.0, 1e9)
+    C.check_vertex_budget(1e9, 3.0)  # MAX_CURVE_VERTICES unset: no fixed ceiling

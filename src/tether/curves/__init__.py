@@ -42,8 +42,7 @@ curve is computed and refuses what does not fit the memory budget (the default c
 
 from __future__ import annotations
 
-from tether._util.memory import format_size, memory_budget
-from tether.curves.budget import BASE_BYTES, BYTES_PER_EXACT_VERTEX
+from tether.curves.budget import check_exact
 from tether.curves.critical import ON_WALL_TOLS as ON_WALL_TOLS
 from tether.curves.critical import critical_intervals, off_walls, wall_band
 from tether.curves.draw import draw_all, overshoot_family, vertex_estimates
@@ -76,23 +75,14 @@ MAX_CURVE_VERTICES: int | None = None
 
 def check_vertex_budget(vertices: float, lss: float) -> None:
     """Raise :class:`ResourceLimitError` (one line) if ``vertices`` (the exact estimate made
-    after the critical intervals) exceeds :data:`MAX_CURVE_VERTICES` (when set), or its memory
-    (:data:`tether.curves.budget.BYTES_PER_EXACT_VERTEX` per vertex) exceeds the memory
-    budget."""
+    after the critical intervals) exceeds :data:`MAX_CURVE_VERTICES`, when that is set (the
+    memory budget is checked by :func:`tether.curves.budget.check_exact`)."""
     if MAX_CURVE_VERTICES is not None and vertices > MAX_CURVE_VERTICES:
         raise ResourceLimitError(
             f"the critical curves at lss {lss:g} (internal units) would need about "
             f"{vertices:,.0f} polyline vertices, more than the limit {MAX_CURVE_VERTICES:,} "
             "(tether.curves.MAX_CURVE_VERTICES): use a smaller lss, "
             "a coarser curve tolerance, or split the map")
-    budget = memory_budget()
-    need = BASE_BYTES + BYTES_PER_EXACT_VERTEX * vertices
-    if budget.bytes is not None and need > budget.bytes:
-        raise ResourceLimitError(
-            f"the critical curves at lss {lss:g} (internal units) would need about "
-            f"{vertices:,.0f} polyline vertices, about {format_size(need)} of memory, more "
-            f"than the budget {budget.describe()}: use a smaller lss, a coarser curve "
-            "tolerance, tiles (--tiles), or raise the budget with --memory-limit SIZE")
 
 
 def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
@@ -141,7 +131,9 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
             walls = wall_band(env) if walls is None else walls
             ivs = off_walls(fam, ivs, walls)
         found += overshoot_family(fam, ivs, margin)
-    check_vertex_budget(sum(vertex_estimates(found, tol)), lss)
+    vertices = sum(vertex_estimates(found, tol))
+    check_vertex_budget(vertices, lss)
+    check_exact(env, lss, vertices)
     drawn_all = draw_all(found, tol)
     domains = {id(fam): (fam.lo.tolist(), fam.hi.tolist())
                for fam in {id(f): f for f, _, _ in found}.values()}
