@@ -112,8 +112,9 @@ def page(runs: list[dict], example: dict) -> str:
         peak = r["peak_kb"] * 1024
         ratios.append(e["estimate"] / peak)
         rows.append(f"| {r['n']} | {r['lss']:.3g} (w/{r['div']:g}) | {e['pairs']:,} | "
-                    f"{e['cells']:,.0f} | {r['cells']:,} | {e['estimate'] / mb:,.0f} | {e['exact_bound'] / mb:,.0f} "
-                    f"| {r['decompose_kb'] / 1024:,.0f} | {peak / mb:,.0f} | "
+                    f"{e['cells']:,.0f} | {r['cells']:,} | {e['estimate'] / mb:,.0f} | "
+                    f"{e['exact_bound'] / mb:,.0f} | {r['decompose_kb'] / 1024:,.0f} | "
+                    f"{peak / mb:,.0f} | "
                     f"{'yes' if r['critical'] else 'no'} | {e['estimate'] / peak:.2f} |")
     lo, hi = min(ratios), max(ratios)
     return "\n".join([
