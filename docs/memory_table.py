@@ -199,7 +199,7 @@ def main() -> int:
                 print(f"{n} vertices, lss w/{div:g}: peak {run['peak_kb'] // 1024} MB "
                       f"({run['seconds']:.0f} s)", file=sys.stderr, flush=True)
                 runs.append(run)
-        RUNS.write_text(json.dumps(runs, indent=1) + "\n")
+                RUNS.write_text(json.dumps(runs, indent=1) + "\n")  # kept as they come
     PAGE.write_text(page(runs, refusal_example()))
     print(PAGE.read_text())
     return 0
