@@ -37,7 +37,7 @@ def test_parse_size_refuses(text):
         M.parse_size(text)
 
 
-@settings(max_examples=50)
+@settings(max_examples=25)
 @given(st.integers(1, 1 << 20), st.sampled_from(["K", "M", "G"]))
 def test_parse_size_units_are_powers_of_1024(value, unit):
     scale = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}[unit]
@@ -123,14 +123,14 @@ def test_this_machine_has_a_budget():
 
 
 # ------------------------------------------------------------------------- the estimate
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=12, deadline=None)
 @given(st.floats(0.2, 6.0), st.floats(1.01, 3.0))
 def test_estimate_grows_with_lss(lss, factor):
     a, b = estimate_memory(SQUARE_HOLE, lss), estimate_memory(SQUARE_HOLE, lss * factor)
     assert a.pairs <= b.pairs and a.step > b.step and a.bytes < b.bytes
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=12, deadline=None)
 @given(st.floats(1e-7, 1e-4), st.floats(1.01, 10.0))
 def test_estimate_shrinks_with_a_coarser_tolerance(tol, factor):
     a, b = estimate_memory(GENERIC, 2.0, tol), estimate_memory(GENERIC, 2.0, tol * factor)

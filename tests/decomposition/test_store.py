@@ -86,7 +86,7 @@ def test_round_trip_equal_and_full_analysis_equal(decs, tmp_path, name, parts):
 
 
 def test_parts_concatenate_to_the_whole(decs, tmp_path):
-    dec = decs["generic"]
+    dec = decs["rectangle"]
     S.write_decomposition(dec, tmp_path / "one")
     S.write_decomposition(dec, tmp_path / "five", parts=5)
     index = json.loads((tmp_path / "five" / "index.json").read_text())
@@ -120,10 +120,19 @@ def test_cli_decompose_out_then_analyze_from(tmp_path, capsys):
     direct = capsys.readouterr().out
     assert main(["analyze", "--from", store, "--json"]) == 0
     assert capsys.readouterr().out == direct
-    assert main(["analyze", rect, "--lss", "1"]) == 0
-    direct = capsys.readouterr().out
-    assert main(["analyze", "--from", store]) == 0
-    assert capsys.readouterr().out == direct
+
+
+@pytest.mark.slow
+def test_cli_analyze_from_a_store_prints_the_same(tmp_path, capsys):
+    gallery = str(example_path("gallery"))
+    store = str(tmp_path / "g")
+    assert main(["decompose", gallery, "--lss", "2", "--out", store]) == 0
+    capsys.readouterr()
+    for extra in ([], ["--json"]):
+        assert main(["analyze", gallery, "--lss", "2", *extra]) == 0
+        direct = capsys.readouterr().out
+        assert main(["analyze", "--from", store, *extra]) == 0
+        assert capsys.readouterr().out == direct
 
 
 def _refused(capsys, argv, *words):
@@ -171,7 +180,7 @@ def _break(store: Path, how: str) -> None:
                                  "pickled column", "no parts"])
 def test_malformed_store_refused_in_one_line(decs, tmp_path, capsys, how):
     store = tmp_path / "s"
-    S.write_decomposition(decs["generic"], store)
+    S.write_decomposition(decs["rectangle"], store)
     _break(store, how)
     with pytest.raises(InvalidParameterError):
         S.read_decomposition(store)
