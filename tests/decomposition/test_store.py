@@ -144,7 +144,7 @@ def _refused(capsys, argv, *words):
 
 
 def _break(store: Path, how: str) -> None:
-    part = store / "part-00000"
+    part = store / "part-00001"
     if how == "no index":
         (store / "index.json").unlink()
     elif how == "bad json":
@@ -169,6 +169,10 @@ def _break(store: Path, how: str) -> None:
             cols = {k: z[k] for k in z.files}
         cols["region"] = np.array([object()] * 3, dtype=object)
         np.savez(part / "cells.npz", **cols)
+    elif how == "a part left out":
+        index = json.loads((store / "index.json").read_text())
+        index["parts"] = index["parts"][:1]
+        (store / "index.json").write_text(json.dumps(index))
     elif how == "no parts":
         index = json.loads((store / "index.json").read_text())
         index["parts"] = []
@@ -177,10 +181,10 @@ def _break(store: Path, how: str) -> None:
 
 @pytest.mark.parametrize("how", ["no index", "bad json", "other format", "newer version",
                                  "missing table", "truncated table", "missing column",
-                                 "pickled column", "no parts"])
+                                 "pickled column", "a part left out", "no parts"])
 def test_malformed_store_refused_in_one_line(decs, tmp_path, capsys, how):
     store = tmp_path / "s"
-    S.write_decomposition(decs["rectangle"], store)
+    S.write_decomposition(decs["rectangle"], store, parts=2)
     _break(store, how)
     with pytest.raises(InvalidParameterError):
         S.read_decomposition(store)

@@ -502,6 +502,10 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
+    got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
+           "pieces": len(pieces)}
+    if got != index["counts"]:
+        raise ValueError(f"the parts hold {got}, the index says {index['counts']}")
     return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), regions,
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
