@@ -151,9 +151,10 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         check_store_dir(args.out)
     dec = _decompose(args)
     if args.out is not None:
+        from tether._util.progress import Progress
         from tether.decomposition.store import write_decomposition
 
-        write_decomposition(dec, args.out)
+        write_decomposition(dec, args.out, progress=Progress("store"))
     if args.plot:
         from tether.plot import new_axes, plot_decomposition, save
 

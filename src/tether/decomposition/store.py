@@ -57,7 +57,8 @@ TABLES = {
 }
 
 # ----------------------------------------------------------------------------- writing
-def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int = 1) -> Path:
+def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int = 1,
+                        progress: Any = None) -> Path:
     """Write ``dec`` to the folder ``path`` (see the module's docstring), whole or not at all.
 
     Parameters
@@ -67,6 +68,8 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
         The store's folder: missing, empty, or an earlier store (replaced).
     parts : int
         Split the rows into this many parts (as tiles would write them; at least 1).
+    progress : callable, optional
+        Called as ``progress(table_name, fraction_done)``.
 
     Returns
     -------
@@ -91,7 +94,12 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     if int(parts) < 1:
         raise InvalidParameterError(f"parts must be >= 1, got {parts}")
     target = check_store_dir(path)
-    tables = {name: fn(dec) for name, fn in _WRITERS.items()}
+    report = progress or (lambda stage, frac: None)
+    tables = {}
+    for k, (name, fn) in enumerate(_WRITERS.items()):
+        report(name, 0.8 * k / len(_WRITERS))
+        tables[name] = fn(dec)
+    report("files", 0.8)
     with _folder_written_whole(target) as tmp:
         entries = []
         for k in range(int(parts)):
@@ -110,6 +118,7 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
                  "feature_names": _feature_names(dec), "counts": dec.counts,
                  "parts": entries}
         (tmp / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
+    report("done", 1.0)
     return target
 
 
