@@ -20,6 +20,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from tether import __version__
+from tether._util.memory import memory_limit
 from tether.cli.common import example_path
 from tether.errors import TetherError
 
@@ -144,7 +145,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # argparse: --help/--version (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
+        with warnings.catch_warnings(), np.errstate(all="ignore"), \
+                memory_limit(getattr(args, "memory_limit", None)):
             if not _debug():
                 warnings.simplefilter("ignore")
             return int(args.func(args) or 0)

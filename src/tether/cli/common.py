@@ -13,7 +13,8 @@ from tether.examples import path as example_path  # noqa: F401 (tether.cli.examp
 
 __all__ = [
     "LSS_HELP", "MAP_HELP", "add_map_lss", "add_speeds", "check_plot_arg", "deg", "finite_arg",
-    "float_arg", "float_range", "int_range", "load_map_lss", "print_json"
+    "float_arg", "float_range", "int_range", "load_map_lss", "print_json",
+    "MEMORY_LIMIT_HELP", "add_memory_limit", "size_arg",
 ]
 
 
@@ -118,9 +119,32 @@ LSS_HELP = ("rod length (map units), between 0.001 and 1000 times the map's diam
 
 
 def add_map_lss(sp: argparse.ArgumentParser) -> None:
-    """Add the MAP argument and ``--lss`` (map units) to a command."""
+    """Add the MAP argument and ``--lss`` (map units) to a command (and
+    ``--memory-limit``: every such command decomposes the map)."""
     sp.add_argument("map", help=MAP_HELP)
     sp.add_argument("--lss", type=float_arg, required=True, help=LSS_HELP)
+    add_memory_limit(sp)
+
+
+MEMORY_LIMIT_HELP = ("memory the decomposition may use, e.g. 8G or 500M (K, M, G, T: powers "
+                     "of 1024; default: TETHER_MEMORY_LIMIT, else what this machine lets the "
+                     "process use); a decomposition estimated above it is refused at once")
+
+
+def size_arg(text: str) -> int:
+    """Argparse type: a memory size in bytes (:func:`tether._util.memory.parse_size`)."""
+    from tether._util.memory import parse_size
+    from tether.errors import InvalidParameterError
+
+    try:
+        return parse_size(text)
+    except InvalidParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_memory_limit(sp: argparse.ArgumentParser) -> None:
+    """Add ``--memory-limit SIZE`` (applied by :func:`tether.cli.main` around the command)."""
+    sp.add_argument("--memory-limit", type=size_arg, metavar="SIZE", help=MEMORY_LIMIT_HELP)
 
 
 def load_map_lss(args: argparse.Namespace):

@@ -9,6 +9,7 @@ from tether.cli.common import (
     LSS_HELP,
     MAP_HELP,
     add_map_lss,
+    add_memory_limit,
     check_plot_arg,
     deg,
     example_path,
@@ -18,6 +19,7 @@ from tether.cli.common import (
     load_map_lss,
     print_json,
 )
+from tether.errors import InvalidParameterError
 from tether.tolerances import CHECK_LINES, LINES_RANGE, SAMPLES_RANGE
 
 __all__ = [
@@ -143,7 +145,16 @@ def _decompose(args: argparse.Namespace):
 def cmd_decompose(args: argparse.Namespace) -> int:
     """``tether decompose``: regions, cells and pieces (and a figure); exit status."""
     check_plot_arg(args)
+    if args.out is not None:  # checked before any computation
+        from tether.decomposition.store import check_store_dir
+
+        check_store_dir(args.out)
     dec = _decompose(args)
+    if args.out is not None:
+        from tether._util.progress import Progress
+        from tether.decomposition.store import write_decomposition
+
+        write_decomposition(dec, args.out, progress=Progress("store"))
     if args.plot:
         from tether.plot import new_axes, plot_decomposition, save
 
@@ -159,6 +170,9 @@ def cmd_decompose(args: argparse.Namespace) -> int:
     if dec.unresolved_pieces:
         print(f"({dec.unresolved_pieces} boundary stretches below the curve tolerance "
               f"{dec.curve_tol:.2g} were not counted as pieces)")
+    if args.out is not None:
+        print(f"written to {args.out} (columns, docs/store.md; 'tether analyze --from "
+              f"{args.out}' analyzes it)")
     if args.verbose:
         for r in dec.regions:
             print(f"  {r.name:>5}  area {r.area:9.4g}  at ({r.point[0]:.4g}, {r.point[1]:.4g})  "
@@ -171,7 +185,12 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from tether.analysis import analyze
 
     check_plot_arg(args)
-    dec = _decompose(args)
+    if args.from_dir is not None:
+        dec = _stored(args)
+    elif args.map is None or args.lss is None:
+        raise InvalidParameterError("analyze needs MAP --lss L, or --from DIR")
+    else:
+        dec = _decompose(args)
     verdict = analyze(dec)
     if args.plot:
         from tether.plot import plot_verdict, save
@@ -182,6 +201,16 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return 0 if verdict.verified is not False else 1
     print(format_verdict(verdict))
     return 0 if verdict.verified is not False else 1
+
+
+def _stored(args: argparse.Namespace):
+    """The decomposition of ``analyze --from DIR`` (MAP and --lss not given)."""
+    from tether.decomposition.store import read_decomposition
+
+    if args.map is not None or args.lss is not None:
+        raise InvalidParameterError("give MAP --lss L or --from DIR, not both (the store "
+                                    "holds its map and lss)")
+    return read_decomposition(args.from_dir)
 
 
 def format_verdict(verdict) -> str:
@@ -287,9 +316,17 @@ def register(add) -> None:
     sp.add_argument("--geometry", action="store_true",
                     help="with --json: also pieces, curves and every region's polygon (large)")
     sp.add_argument("-v", "--verbose", action="store_true", help="list the regions")
+    sp.add_argument("--out", metavar="DIR",
+                    help="also write the decomposition to the folder DIR as columns "
+                    "(docs/store.md), for 'tether analyze --from DIR'")
 
     sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")
-    add_map_lss(sp)
+    sp.add_argument("map", nargs="?", help=MAP_HELP + " (or --from DIR)")
+    sp.add_argument("--lss", type=float_arg, help=LSS_HELP + " (required with MAP)")
+    add_memory_limit(sp)
+    sp.add_argument("--from", dest="from_dir", metavar="DIR",
+                    help="analyze the decomposition stored in DIR by 'tether decompose --out "
+                    "DIR' (instead of MAP --lss L)")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the verdict figure to an image file")
 

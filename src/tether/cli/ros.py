@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 
 from tether._util.files import IMAGE_KINDS
-from tether.cli.common import MAP_HELP, finite_arg, float_arg, int_range, print_json
+from tether.cli.common import (
+    MAP_HELP,
+    add_memory_limit,
+    finite_arg,
+    float_arg,
+    int_range,
+    print_json,
+)
 from tether.errors import InvalidParameterError, TetherError
 from tether.io.polygon import text_of as map_text
 
@@ -214,3 +221,4 @@ def register(add) -> None:
                     help="run on a Dask cluster (scheduler address; extra [cluster])")
     sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
     _add_ros_options(sp)
+    add_memory_limit(sp)  # issue 25: per process (each worker decomposes one lss at a time)

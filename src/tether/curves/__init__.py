@@ -34,13 +34,15 @@ critical parts: breakpoints, semi-free tests, bisection, the parts lying on wall
 :mod:`~tether.curves.draw` (overshoot, polylines with their exact marks, the vertex
 estimate), :mod:`~tether.curves.share` (straight curves on one line made to share their
 vertices) and :mod:`~tether.curves.project` (projection of points onto the curves).
-:func:`critical_curves` runs them in that order; it and the memory bound
-:data:`MAX_CURVE_VERTICES` live here so that ``tether.curves.MAX_CURVE_VERTICES = ...`` (the
-documented knob) keeps taking effect.
+:func:`critical_curves` runs them in that order; it and the vertex bound
+:data:`MAX_CURVE_VERTICES` live here so that ``tether.curves.MAX_CURVE_VERTICES = ...`` keeps
+taking effect. :mod:`~tether.curves.budget` estimates a decomposition's memory before any
+curve is computed and refuses what does not fit the memory budget (the default ceiling).
 """
 
 from __future__ import annotations
 
+from tether.curves.budget import check_exact
 from tether.curves.critical import ON_WALL_TOLS as ON_WALL_TOLS
 from tether.curves.critical import critical_intervals, off_walls, wall_band
 from tether.curves.draw import draw_all, overshoot_family, vertex_estimates
@@ -64,20 +66,22 @@ __all__ = ["KINDS", "KIND_NAMES", "MAX_CURVE_VERTICES", "Curve", "Family", "Reso
 
 
 #: Refuse decompositions whose curves would need more polyline vertices (estimated) than
-#: this: the peak memory is about 1.2 kB per estimated vertex on floor plans (noded parts,
-#: faces, region polygons, cells and G; measured 1.25 M -> 1.53 GB at 1,000 map vertices,
-#: decompose + analyze), so the default bounds a decomposition near 2 GB. Raise it on a
-#: machine with more memory.
-MAX_CURVE_VERTICES = 1_500_000
+#: this, when set to a number. The default ceiling is the memory budget instead
+#: (:mod:`tether.curves.budget`: ``--memory-limit``, ``TETHER_MEMORY_LIMIT``, else what the
+#: machine lets this process use); setting this adds a fixed ceiling of its own (until
+#: 2026-11 it was 1,500,000, about 2 GB).
+MAX_CURVE_VERTICES: int | None = None
 
 
 def check_vertex_budget(vertices: float, lss: float) -> None:
-    """Raise :class:`ResourceLimitError` (one line) if ``vertices`` exceeds the bound."""
-    if vertices > MAX_CURVE_VERTICES:
+    """Raise :class:`ResourceLimitError` (one line) if ``vertices`` (the exact estimate made
+    after the critical intervals) exceeds :data:`MAX_CURVE_VERTICES`, when that is set (the
+    memory budget is checked by :func:`tether.curves.budget.check_exact`)."""
+    if MAX_CURVE_VERTICES is not None and vertices > MAX_CURVE_VERTICES:
         raise ResourceLimitError(
             f"the critical curves at lss {lss:g} (internal units) would need about "
             f"{vertices:,.0f} polyline vertices, more than the limit {MAX_CURVE_VERTICES:,} "
-            "(tether.curves.MAX_CURVE_VERTICES, about 2 GB of memory): use a smaller lss, "
+            "(tether.curves.MAX_CURVE_VERTICES): use a smaller lss, "
             "a coarser curve tolerance, or split the map")
 
 
@@ -127,7 +131,9 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
             walls = wall_band(env) if walls is None else walls
             ivs = off_walls(fam, ivs, walls)
         found += overshoot_family(fam, ivs, margin)
-    check_vertex_budget(sum(vertex_estimates(found, tol)), lss)
+    vertices = sum(vertex_estimates(found, tol))
+    check_vertex_budget(vertices, lss)
+    check_exact(env, lss, vertices)
     drawn_all = draw_all(found, tol)
     domains = {id(fam): (fam.lo.tolist(), fam.hi.tolist())
                for fam in {id(f): f for f, _, _ in found}.values()}

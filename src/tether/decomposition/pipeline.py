@@ -12,6 +12,7 @@ from shapely.errors import GEOSException
 from tether._util.memory import gc_paused, release_memory
 from tether.arcs import check_lss, free_arcs_many, near_edge_lines
 from tether.curves import critical_curves
+from tether.curves.budget import check_memory  # issue 25: the memory estimate, checked first
 from tether.decomposition.arrangement import arrangement
 from tether.decomposition.faces import face_points
 from tether.decomposition.frame import UserFrame
@@ -66,6 +67,7 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     [9]
     """
     lss = check_lss(lss, env)
+    check_memory(env, lss, rel_tol)  # issue 25: refused in milliseconds if it cannot fit
     out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         out = UserFrame(env, lss)

@@ -93,6 +93,11 @@ class Shapes:
             return self._geoms[ids]
         return self._to_user(self._geoms[ids])
 
+    def held(self) -> tuple[np.ndarray, Any]:
+        """The geometries as kept and the frame they are in (None: the map's), for a store
+        to write them as made (:mod:`tether.decomposition.store`)."""
+        return self._geoms, self._frame
+
     def _to_user(self, geoms: np.ndarray) -> np.ndarray:
         """Geometries converted to the map's frame (:class:`RegionShapes` also repairs
         polygons that rounding made invalid)."""
@@ -131,6 +136,11 @@ class RegionShapes(Shapes):
             if self._frame is None and self._prepare:
                 shapely.prepare(geoms)
         return super().all()
+
+    def pending_unions(self) -> dict[int, np.ndarray]:
+        """The faces of each multi-face region whose union is not made yet (its item in
+        :meth:`held` is then a placeholder)."""
+        return dict(self._unions or {})
 
     def crossing(self, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The pairs ``(i, region)`` where region's polygon intersects ``geoms[i]`` (map

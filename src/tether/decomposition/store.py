@@ -1,0 +1,570 @@
+"""A :class:`~tether.decomposition.Decomposition` on disk, as columns (``docs/store.md``):
+written by ``tether decompose MAP --lss L --out DIR``, read back for analysis by ``tether
+analyze --from DIR``.
+
+A store is a folder: ``index.json`` (the format, the map, ``lss``, the tolerances and the list
+of *parts*) and one folder per part holding five ``.npz`` tables (``regions``, ``cells``,
+``pieces``, ``curves``, ``arcs``: numpy arrays only, no pickled objects; geometries as WKB
+bytes with offsets). Every id in a part is global (region, piece and curve ids, cell rows):
+the tables of the whole decomposition are the parts' tables concatenated in the index's
+order, so a tiled computation appends one part per tile and then the index. A store is
+written into a temporary folder beside ``DIR`` and renamed onto it when whole: a failed or
+interrupted write leaves nothing (an older store at ``DIR`` is replaced only on success).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+
+from tether._util.files import check_output_dir
+from tether.arcs import ArcTable
+from tether.curves import Curve, Family
+from tether.decomposition.model import Decomposition, Region
+from tether.decomposition.structure import Structure, Structures
+from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
+from tether.errors import InvalidParameterError, OutputPathError
+
+__all__ = ["FORMAT", "TABLES", "VERSION", "check_store_dir", "read_decomposition",
+           "write_decomposition"]
+
+#: The store's format name and version (``index.json``'s ``format`` and ``version``)
+FORMAT = "tether-decomposition"
+VERSION = 1
+
+#: The tables of a part and their columns (documented in ``docs/store.md``)
+TABLES = {
+    "regions": ("area", "point", "structure", "polygon_ptr", "polygon_wkb", "union_ptr",
+                "face_ptr", "face_wkb", "internal_frame", "structures_ptr", "structures_pairs"),
+    "cells": ("region", "start", "end"),
+    "pieces": ("pair", "q", "n", "eps", "ok", "desc", "internal_frame", "geometry_ptr",
+               "geometry_wkb", "desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr",
+               "desc_features"),
+    "curves": ("id", "kind", "index", "domain", "interval_ptr", "intervals", "feature_ptr",
+               "features", "polyline_ptr", "vertex_ptr", "vertices", "params", "fam_p",
+               "fam_d", "fam_w", "fam_lo", "fam_hi", "fam_lss"),
+    "arcs": ("point", "start", "end", "start_code", "end_code", "full_points"),
+}
+
+# ----------------------------------------------------------------------------- writing
+def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int = 1,
+                        progress: Any = None) -> Path:
+    """Write ``dec`` to the folder ``path`` (see the module's docstring), whole or not at all.
+
+    Parameters
+    ----------
+    dec : Decomposition
+    path : str or path-like
+        The store's folder: missing, empty, or an earlier store (replaced).
+    parts : int
+        Split the rows into this many parts (as tiles would write them; at least 1).
+    progress : callable, optional
+        Called as ``progress(table_name, fraction_done)``.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputPathError
+        If the folder cannot be written, or exists and holds something else than a store.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from tether import Environment
+    >>> from tether.decomposition import decompose
+    >>> from tether.decomposition.store import read_decomposition, write_decomposition
+    >>> room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     read_decomposition(write_decomposition(decompose(room, 1.0), tmp + "/rect"))
+    Decomposition(map='', lss=1, curves=8, regions=19, cells=32, pieces=28)
+    """
+    if int(parts) < 1:
+        raise InvalidParameterError(f"parts must be >= 1, got {parts}")
+    target = check_store_dir(path)
+    report = progress or (lambda stage, frac: None)
+    tables = {}
+    for k, (name, fn) in enumerate(_WRITERS.items()):
+        report(name, 0.8 * k / len(_WRITERS))
+        tables[name] = fn(dec)
+    report("files", 0.8)
+    with _folder_written_whole(target) as tmp:
+        entries = []
+        for k in range(int(parts)):
+            name = f"part-{k:05d}"
+            (tmp / name).mkdir()
+            rows = {}
+            for table, cols in tables.items():
+                lo, hi = _split(_rows(cols), int(parts), k)
+                np.savez(tmp / name / f"{table}.npz", **_slice(cols, lo, hi))
+                rows[table] = [lo, hi]
+            entries.append({"name": name, "rows": rows})
+        index = {"format": FORMAT, "version": VERSION, "map": dec.env.to_dict(),
+                 "lss": dec.lss, "curve_tol": dec.curve_tol,
+                 "unresolved_pieces": dec.unresolved_pieces,
+                 "unresolved_longest": dec.unresolved_longest,
+                 "feature_names": _feature_names(dec), "counts": dec.counts,
+                 "parts": entries}
+        (tmp / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
+    report("done", 1.0)
+    return target
+
+
+def check_store_dir(path: str | os.PathLike) -> Path:
+    """The store's folder, checked before any work: writable, and missing, empty or a store."""
+    p = check_output_dir(path)
+    if p.exists() and any(p.iterdir()) and not (p / "index.json").is_file():
+        raise OutputPathError(f"cannot write a decomposition into {os.fspath(path)!r}: the "
+                              "folder is not empty and holds no tether store (index.json)")
+    return p
+
+
+@contextlib.contextmanager
+def _folder_written_whole(target: Path) -> Iterator[Path]:
+    """Yield a temporary folder beside ``target``; on success it replaces ``target`` (an
+    earlier store or an empty folder), on failure it is removed and ``target`` left as is."""
+    parent = target.absolute().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    except OSError as exc:
+        raise OutputPathError(f"cannot write {os.fspath(target)!r}: {exc.strerror or exc}") \
+            from None
+    old = None
+    try:
+        yield tmp
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp's folder is private: as mkdir makes one
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
+            os.replace(target, old / "store")
+        os.replace(tmp, target)
+    except OSError as exc:
+        if old is not None and not target.exists():
+            os.replace(old / "store", target)  # the earlier store back in place
+        raise OutputPathError(f"cannot write {os.fspath(target)!r}: {exc.strerror or exc}") \
+            from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _rows(cols: dict[str, np.ndarray]) -> int:
+    """The rows of a table: the length of its first column."""
+    return len(next(iter(cols.values())))
+
+
+def _split(n: int, parts: int, k: int) -> tuple[int, int]:
+    """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
+    return n * k // parts, n * (k + 1) // parts
+
+
+#: The ragged columns: each ``*_ptr`` (one entry per row, plus one) and the columns it indexes
+#: (``vertex_ptr`` is indexed by ``polyline_ptr`` in turn: two levels)
+_RAGGED = {"polygon_ptr": ("polygon_wkb",), "union_ptr": ("face_ptr",),
+           "face_ptr": ("face_wkb",), "structures_ptr": ("structures_pairs",),
+           "geometry_ptr": ("geometry_wkb",), "interval_ptr": ("intervals",),
+           "feature_ptr": ("features",), "polyline_ptr": ("vertex_ptr",),
+           "vertex_ptr": ("vertices", "params")}
+#: Columns of a whole table, not of its rows: written in every part, read from the first
+#: (the pieces' distinct descriptions, the distinct structures, the arcs' per-point
+#: ``full_points``)
+_WHOLE = ("desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr", "desc_features",
+          "full_points", "structures_ptr", "structures_pairs")
+
+
+def _row_columns(cols: dict[str, np.ndarray]) -> list[str]:
+    """The columns with one entry per row (neither ragged values nor whole-table columns)."""
+    inner = {v for vs in _RAGGED.values() for v in vs}
+    return [k for k in cols if k not in inner and k not in _WHOLE and k not in _RAGGED]
+
+
+def _rows(cols: dict[str, np.ndarray]) -> int:
+    """The rows of a table: the length of its row columns (or of its first ``*_ptr`` less
+    one)."""
+    rows = _row_columns(cols)
+    if rows:
+        return len(cols[rows[0]])
+    return len(next(c for k, c in cols.items() if k in _RAGGED)) - 1
+
+
+def _split(n: int, parts: int, k: int) -> tuple[int, int]:
+    """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
+    return n * k // parts, n * (k + 1) // parts
+
+
+def _slice(cols: dict[str, np.ndarray], lo: int, hi: int) -> dict[str, np.ndarray]:
+    """Rows ``lo:hi`` of a table, its ragged columns' offsets rebased to start at 0."""
+    out = {k: cols[k][lo:hi] for k in _row_columns(cols)}
+    out.update({k: cols[k] for k in _WHOLE if k in cols})
+
+    def ragged(ptr_name: str, a: int, b: int) -> None:
+        ptr = cols[ptr_name]
+        c, d = int(ptr[a]), int(ptr[b])
+        out[ptr_name] = ptr[a:b + 1] - c
+        for v in _RAGGED[ptr_name]:
+            if v in _RAGGED:
+                ragged(v, c, d)
+            else:
+                out[v] = cols[v][c:d]
+
+    for name in cols:
+        if name in _RAGGED and name not in _inner_ptrs() and name not in _WHOLE:
+            ragged(name, lo, hi)
+    return out
+
+
+def _inner_ptrs() -> set[str]:
+    """The ``*_ptr`` columns indexed by another (the second level)."""
+    return {v for vs in _RAGGED.values() for v in vs if v in _RAGGED}
+
+
+def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = float
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """``(ptr, values)`` of a list of arrays (CSR)."""
+    ptr = np.zeros(len(arrays) + 1, dtype=np.int64)
+    np.cumsum([len(a) for a in arrays], out=ptr[1:])
+    shape = (0,) if width is None else (0, width)
+    values = (np.concatenate([np.asarray(a, dtype=dtype).reshape((-1,) + shape[1:])
+                              for a in arrays]) if arrays else np.zeros(shape, dtype=dtype))
+    return ptr, values
+
+
+def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Geometries as one byte column and offsets (WKB keeps every double exactly)."""
+    blobs = shapely.to_wkb(geoms, output_dimension=2) if len(geoms) else []
+    ptr = np.zeros(len(blobs) + 1, dtype=np.int64)
+    np.cumsum(np.fromiter(map(len, blobs), dtype=np.int64, count=len(blobs)), out=ptr[1:])
+    return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
+
+
+def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    """The regions' columns: the polygons as held (a multi-face region whose union is not
+    made yet keeps its faces, the union made when read, as :func:`decompose` leaves it), the
+    distinct structures in the file's codes and each region's structure id."""
+    regs = dec.regions
+    holder = regs[0]._polygon if regs else None
+    if isinstance(holder, RegionShapes):
+        geoms, frame = holder.held()
+        pending = holder.pending_unions()
+    else:
+        geoms, frame, pending = dec.region_polygons(np.arange(len(regs))), None, {}
+    wkb, ptr = _wkb(geoms)
+    multi = sorted(pending)
+    count = np.zeros(len(regs), dtype=np.int64)
+    count[multi] = [len(pending[i]) for i in multi]
+    union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
+    face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
+                              else np.zeros(0, dtype=object))
+    sid, sptr, spairs = _structure_columns(dec)
+    return {"area": np.array([r.area for r in regs], dtype=float),
+            "point": np.array([r.point for r in regs], dtype=float).reshape(-1, 2),
+            "structure": sid, "polygon_ptr": ptr, "polygon_wkb": wkb,
+            "union_ptr": union_ptr, "face_ptr": face_ptr, "face_wkb": face_wkb,
+            "internal_frame": np.array([frame is not None] * len(regs), dtype=bool),
+            "structures_ptr": sptr, "structures_pairs": spairs}
+
+
+def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each region's structure id and the distinct structures (``ptr``, ``(k, 2)`` pairs of
+    the file's feature codes, sorted; id 0 EMPTY, 1 FULL), read from the shared
+    :class:`Structures` when the regions hold one (no frozenset made)."""
+    regs = dec.regions
+    held = regs[0]._structure if regs else None
+    if type(held) is Structures and all(r._structure is held for r in regs):
+        a, b = np.divmod(held.pairs, held.base)
+        if held._code_map is not None:
+            a, b = held._code_map[a], held._code_map[b]
+        owner = np.repeat(np.arange(len(held)), np.diff(held.ptr))
+        order = np.lexsort((b, a, owner))
+        return (np.asarray(held.region, np.int64), np.asarray(held.ptr, np.int64),
+                np.column_stack((a[order], b[order])).astype(np.int64))
+    ids: dict[Any, int] = {Structure.EMPTY: 0, Structure.FULL: 1}
+    sid = np.array([ids.setdefault(r.structure, len(ids)) for r in regs], dtype=np.int64)
+    sets = [np.zeros((0, 2), np.int64)] * 2 + [
+        np.array(sorted(s), dtype=np.int64).reshape(-1, 2) for s in list(ids)[2:]]
+    ptr, pairs = _ragged(sets, 2, np.int64)
+    return sid, ptr, pairs
+
+
+def _cell_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    region, start, end = dec.cell_codes()
+    return {"region": np.asarray(region, np.int64), "start": np.asarray(start, np.int64),
+            "end": np.asarray(end, np.int64)}
+
+
+def _feature_names(dec: Decomposition) -> list[str]:
+    """The names of the feature codes ``-1 .. 2n - 1`` (:class:`CellTable`'s ``names``)."""
+    if type(dec.cells) is Cells:
+        return list(dec.cells._table.names)
+    from tether.arcs import feature_name
+    from tether.decomposition.structure import FREE
+
+    return [FREE] + [feature_name(dec.env, c) for c in range(2 * dec.env.n)]
+
+
+def _piece_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    """The pieces' columns (read from the columns :func:`decompose` keeps, lines as held)."""
+    if type(dec.pieces) is Pieces:
+        t = dec.pieces._table
+        geoms, frame = t.shapes.held()
+        pair, q, n, eps, ok, desc, dlist = t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs
+    else:
+        pieces = list(dec.pieces)
+        descs: dict[tuple, int] = {}
+        desc = np.array([descs.setdefault((p.curves, p.kind, p.features), len(descs))
+                         for p in pieces], dtype=np.int64)
+        dlist = list(descs)
+        geoms = np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces))
+        frame = None
+        pair = np.array([p.regions for p in pieces], np.int64).reshape(-1, 2)
+        q = np.array([p.sample for p in pieces], float).reshape(-1, 2)
+        n = np.array([p.normal for p in pieces], float).reshape(-1, 2)
+        eps = np.array([p.eps for p in pieces], float)
+        ok = np.array([p.verified for p in pieces], bool)
+    wkb, ptr = _wkb(geoms)
+    cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
+    fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
+    return {"pair": np.asarray(pair, np.int64), "q": np.asarray(q, float),
+            "n": np.asarray(n, float), "eps": np.asarray(eps, float),
+            "ok": np.asarray(ok, bool), "desc": np.asarray(desc, np.int64),
+            "internal_frame": np.array([frame is not None] * len(pair), dtype=bool),
+            "geometry_ptr": ptr, "geometry_wkb": wkb,
+            # the distinct descriptions (a table of their own, whole in every part)
+            "desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
+            "desc_curve_ptr": cptr, "desc_curves": cvals,
+            "desc_feature_ptr": fptr, "desc_features": fvals}
+
+
+def _curve_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    cs = dec.curves
+    iptr, ivs = _ragged([np.array(c.intervals, float).reshape(-1, 2) for c in cs], 2)
+    fptr, feats = _ragged([np.array(c.features, dtype=str) for c in cs], dtype=str)
+    pptr = np.zeros(len(cs) + 1, dtype=np.int64)
+    np.cumsum([len(c.polylines) for c in cs], out=pptr[1:])
+    lines = [p for c in cs for p in c.polylines]
+    vptr, verts = _ragged(lines, 2)
+    _, params = _ragged([t for c in cs for t in c.params])
+    fam = [c.family for c in cs]
+    idx = [c.index for c in cs]
+
+    def rows(attr: str, width: int) -> np.ndarray:
+        return np.array([getattr(f, attr)[i] for f, i in zip(fam, idx, strict=True)],
+                        dtype=float).reshape((-1, width) if width > 1 else (-1,))
+
+    return {"id": np.array([c.id for c in cs], np.int64),
+            "kind": np.array([c.kind for c in cs], dtype=str).reshape(-1),
+            "index": np.array(idx, np.int64),
+            "domain": np.array([c.domain for c in cs], float).reshape(-1, 2),
+            "interval_ptr": iptr, "intervals": ivs, "feature_ptr": fptr, "features": feats,
+            "polyline_ptr": pptr, "vertex_ptr": vptr, "vertices": verts, "params": params,
+            "fam_p": rows("p", 2), "fam_d": rows("d", 2), "fam_w": rows("w", 2),
+            "fam_lo": rows("lo", 1), "fam_hi": rows("hi", 1),
+            "fam_lss": np.array([f.lss for f in fam], float)}
+
+
+def _arc_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+    t = dec.crossing_arcs()
+    # ``full`` has one entry per point, not per row: kept whole (not split by part)
+    return {"point": t.point, "start": t.start, "end": t.end, "start_code": t.start_code,
+            "end_code": t.end_code, "full_points": np.asarray(t.full, bool)}
+
+
+_WRITERS = {"regions": _region_columns, "cells": _cell_columns, "pieces": _piece_columns,
+            "curves": _curve_columns, "arcs": _arc_columns}
+
+
+# ----------------------------------------------------------------------------- reading
+def read_decomposition(path: str | os.PathLike) -> Decomposition:
+    """Read a store written by :func:`write_decomposition` (every part, in order).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``path`` is not a complete, readable store (one line naming what is missing or
+        malformed).
+    """
+    root = Path(path)
+    shown = repr(os.fspath(path))
+    index = _read_index(root, shown)
+    try:
+        from tether.io.polygon import from_dict
+
+        env = from_dict(index["map"], "map", index["map"].get("name", ""))
+        tables = {name: _concat([_load(root / part["name"] / f"{name}.npz", shown)
+                                 for part in index["parts"]]) for name in TABLES}
+        return _assemble(env, index, tables)
+    except InvalidParameterError:
+        raise
+    except (KeyError, ValueError, IndexError, TypeError, shapely.errors.GEOSException) as exc:
+        raise InvalidParameterError(f"{shown} is not a complete tether decomposition store: "
+                                    f"{type(exc).__name__}: {exc}") from None
+
+
+def _read_index(root: Path, shown: str) -> dict:
+    if not root.is_dir():
+        raise InvalidParameterError(f"{shown} is not a folder written by 'tether decompose "
+                                    "--out'")
+    try:
+        index = json.loads((root / "index.json").read_text())
+    except FileNotFoundError:
+        raise InvalidParameterError(f"{shown} holds no index.json: not a tether "
+                                    "decomposition store") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InvalidParameterError(f"{shown}: index.json cannot be read: {exc}") from None
+    if not isinstance(index, dict) or index.get("format") != FORMAT:
+        raise InvalidParameterError(f"{shown}: index.json is not a {FORMAT} index")
+    if index.get("version") != VERSION:
+        raise InvalidParameterError(f"{shown}: store version {index.get('version')!r} is not "
+                                    f"supported (this tether reads version {VERSION})")
+    if not isinstance(index.get("parts"), list) or not index["parts"]:
+        raise InvalidParameterError(f"{shown}: index.json lists no parts")
+    return index
+
+
+def _load(path: Path, shown: str) -> dict[str, np.ndarray]:
+    """A table's columns (no pickled objects allowed)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except FileNotFoundError:
+        raise InvalidParameterError(f"{shown} is incomplete: {path.parent.name}/{path.name} "
+                                    "is missing") from None
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise InvalidParameterError(f"{shown}: {path.parent.name}/{path.name} cannot be read "
+                                    f"({type(exc).__name__}: {exc})") from None
+
+
+def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The parts' tables as one: row and ragged columns concatenated (``*_ptr`` columns
+    shifted by the values before them); whole-table columns from the first part."""
+    if len(parts) == 1:
+        return parts[0]
+    out = {}
+    for name in parts[0]:
+        if name in _WHOLE:
+            out[name] = parts[0][name]
+        elif name in _RAGGED:  # offsets: each part's shifted past the parts before it
+            pieces, shift = [parts[0][name]], int(parts[0][name][-1])
+            for p in parts[1:]:
+                pieces.append(p[name][1:] + shift)
+                shift += int(p[name][-1])
+            out[name] = np.concatenate(pieces)
+        else:
+            out[name] = np.concatenate([p[name] for p in parts])
+    return out
+
+
+def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Decomposition:
+    """The decomposition of the tables (in the map's frame, as :func:`decompose` reports)."""
+    names = list(index["feature_names"])
+    frame = None if env.is_internal else env.frame
+    reg = t["regions"]
+    nreg = len(reg["area"])
+    cells_t = t["cells"]
+    table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
+    polys = _from_wkb(reg["polygon_wkb"], reg["polygon_ptr"])
+    faces = _from_wkb(reg["face_wkb"], reg["face_ptr"])
+    uptr = reg["union_ptr"]
+    multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
+    unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
+    shapes = RegionShapes(polys, unions, frame if _internal(reg) else None, prepare=True)
+    if not unions and not _internal(reg):
+        shapely.prepare(polys)
+    base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
+    sp = reg["structures_pairs"].astype(np.int64)
+    structs = Structures(base, reg["structures_ptr"].astype(np.int64),
+                         sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
+    area, point = reg["area"].tolist(), reg["point"].tolist()
+    regions = tuple(Region(i, shapes, area[i], (point[i][0], point[i][1]), structs, table)
+                    for i in range(nreg))
+    pc = t["pieces"]
+    descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
+                                                         pc["desc_curve_ptr"][j + 1]]),
+              str(pc["desc_kind"][j]),
+              tuple(str(f) for f in pc["desc_features"][pc["desc_feature_ptr"][j]:
+                                                        pc["desc_feature_ptr"][j + 1]]))
+             for j in range(len(pc["desc_kind"]))]
+    pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
+                        pc["desc"], descs,
+                        Shapes(_from_wkb(pc["geometry_wkb"], pc["geometry_ptr"]),
+                               frame if _internal(pc) else None))
+    a = t["arcs"]
+    arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
+                    a["full_points"])
+    codes = (cells_t["region"], cells_t["start"], cells_t["end"])
+    got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
+           "pieces": len(pieces)}
+    if got != index["counts"]:
+        raise ValueError(f"the parts hold {got}, the index says {index['counts']}")
+    return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), regions,
+                         Cells(table), Pieces(pieces), float(index["curve_tol"]),
+                         int(index["unresolved_pieces"]), index["unresolved_longest"],
+                         _crossing_arcs=arcs, _cell_codes=codes)
+
+
+def _internal(cols: dict[str, np.ndarray]) -> bool:
+    """Whether a table's geometries are in the map's internal frame (converted when read)."""
+    flag = cols["internal_frame"]
+    if len(flag) and flag.min() != flag.max():
+        raise ValueError("the parts' geometries are in different frames")
+    return bool(flag[0]) if len(flag) else False
+
+
+def _from_wkb(raw: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """Geometries from a byte column and offsets (an object array)."""
+    data = raw.tobytes()
+    bounds = ptr.tolist()
+    blobs = np.array([data[bounds[i]:bounds[i + 1]] for i in range(len(bounds) - 1)],
+                     dtype=object)
+    return shapely.from_wkb(blobs) if len(blobs) else np.zeros(0, dtype=object)
+
+
+def _curves(env: Any, c: dict[str, np.ndarray]) -> tuple[Curve, ...]:
+    """The curves, each with a family of the curves of its kind (the stored rows: the exact
+    points, rod angles and projections of the curve as computed)."""
+    kinds = c["kind"].tolist()
+    fams: dict[str, Family] = {}
+    pos = np.zeros(len(kinds), dtype=np.int64)
+    for k in sorted(set(kinds)):
+        rows = np.flatnonzero(c["kind"] == k)
+        pos[rows] = np.arange(len(rows))
+        fams[k] = Family(k, float(c["fam_lss"][rows[0]]), c["fam_p"][rows], c["fam_d"][rows],
+                         c["fam_w"][rows], c["fam_lo"][rows], c["fam_hi"][rows],
+                         [tuple(_strs(c, "feature", i)) for i in rows.tolist()])
+    frame = None if env.is_internal else env.frame
+    iptr, pptr, vptr = c["interval_ptr"], c["polyline_ptr"], c["vertex_ptr"]
+    out = []
+    for i, k in enumerate(kinds):
+        lines = range(int(pptr[i]), int(pptr[i + 1]))
+        out.append(Curve(int(c["id"][i]), k, tuple(_strs(c, "feature", i)),
+                         (float(c["domain"][i, 0]), float(c["domain"][i, 1])),
+                         tuple((float(a), float(b)) for a, b in
+                               c["intervals"][iptr[i]:iptr[i + 1]].tolist()),
+                         tuple(c["vertices"][vptr[j]:vptr[j + 1]] for j in lines),
+                         tuple(c["params"][vptr[j]:vptr[j + 1]] for j in lines),
+                         fams[k], int(pos[i]), frame))
+    return tuple(out)
+
+
+def _strs(c: dict[str, np.ndarray], name: str, i: int) -> list[str]:
+    ptr = c[f"{name}_ptr"]
+    return [str(s) for s in c[f"{name}s"][ptr[i]:ptr[i + 1]]]
