@@ -22,7 +22,7 @@ from tether._util.threads import in_background
 from tether.errors import ArrangementError
 
 __all__ = ["CUT_WINDOW", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "cut_position", "geos_message",
-           "node_lines", "strip_cut"]
+           "node_floating", "node_lines", "strip_cut"]
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
 #: tolerance: coarser grids only if a finer one fails too.
@@ -53,13 +53,13 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
         strips = strip_cut(lines)
         if strips is not None:
             try:
-                right = in_background(_node_floating, strips[1])
-                left = _node_floating(strips[0])
+                right = in_background(node_floating, strips[1])
+                left = node_floating(strips[0])
                 return np.concatenate([left, right()]), 0.0
             except GEOSException:
                 pass  # the whole input, snap rounded below
     try:
-        return _node_floating(lines), 0.0
+        return node_floating(lines), 0.0
     except GEOSException:
         pass
     err = None
@@ -75,7 +75,7 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
                            f"tolerance {tol:.2g}): {geos_message(err)}")
 
 
-def _node_floating(lines: np.ndarray) -> np.ndarray:
+def node_floating(lines: np.ndarray) -> np.ndarray:
     """GEOS's floating-point noding of ``lines``: the noded parts (raises GEOSException)."""
     return shapely.get_parts(shapely.node(shapely.multilinestrings(lines)))
 

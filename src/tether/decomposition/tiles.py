@@ -1,0 +1,379 @@
+"""One map's arrangement noded in tiles, the tiles processed by any executor.
+
+The plane is cut into a grid of ``nx x ny`` tiles by vertical and horizontal lines placed
+strictly between the coordinates of the input vertices (:func:`cut_positions`), so that no
+vertex of a ring or a curve polyline, no wall and no straight curve lies on a cut. Every input
+segment crossing a cut gets a vertex exactly on it (:func:`clip_to_tiles`): computed once, from
+the segment's lexicographically smaller end (a segment and its reverse get the same vertex),
+and used by the pieces on both sides, so the cut vertices of two neighbouring tiles are
+bit-identical. Each tile's pieces are noded on their own (GEOS's floating-point noder) and
+each noded part gets its source curves there (:func:`node_tile`); pieces of different tiles
+meet only at those shared vertices, so the parts of all tiles together are a noding of the
+whole input: the same lines and intersections, with one more degree-2 vertex where a line
+crosses a cut (as the two strips of :mod:`tether.decomposition.noding`). The faces are then
+traced on all the parts at once (:func:`tether.decomposition.arrangement.traced_arrangement`)
+and the regions, structures and pieces follow as for the whole: a tile's cut is no critical
+curve, so a face cut in two by it is one face again.
+
+Two exact rules at the cuts. Cut vertices of one cut whose other coordinate differs by at most
+:data:`CUT_MERGE_ULPS` units in the last place are made one (the smallest): two lines crossing
+each other exactly on a cut, whose vertices there were rounded apart, meet at one node as in
+the whole noding. If GEOS's floating-point noder fails in any tile, the whole input is noded
+as without tiles (snap rounding then applies to the whole, never to one tile).
+
+A tile's task gets only its pieces and the input segments within the sources' reach of it, and
+returns compact arrays (part coordinates and counts, part sources as CSR arrays): never the
+map's objects. Tiles run on any :class:`concurrent.futures.Executor` (local processes, a Dask
+cluster's ``Client.get_executor()``, or threads); the result does not depend on which.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+from collections.abc import Callable
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.errors import GEOSException
+
+from tether._util.arrays import first_max_per_group, ragged_arange
+from tether._util.threads import single_threaded, thread_count
+from tether.decomposition.arrangement import SOURCE_BATCH
+from tether.decomposition.faces import part_ends, part_segments
+from tether.decomposition.noding import node_floating
+from tether.errors import InvalidParameterError
+from tether.spatial import SegmentGrid, segments_near
+
+__all__ = ["CUT_FRACTION", "CUT_MERGE_ULPS", "MAX_TILES", "TILE_SEGMENTS", "TileGrid",
+           "auto_tiles", "check_tiles", "clip_to_tiles", "cut_positions", "node_tile",
+           "process_executor", "tile_grid", "tiled_noder"]
+
+#: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
+#: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
+TILE_SEGMENTS = 250_000
+
+#: The most tiles chosen automatically, and the most a grid may have (``nx * ny``).
+MAX_TILES = 64
+
+#: Where a cut lies in the widest gap between two vertex coordinates (as a fraction of the
+#: gap from its lower end): not the middle, where a symmetric map's mirror-image curves cross.
+CUT_FRACTION = math.sqrt(2.0) - 1.0
+
+#: Cut vertices of one cut closer than this many units in the last place (of their other
+#: coordinate) are made one: the same crossing, rounded apart.
+CUT_MERGE_ULPS = 8
+
+#: The central fraction of a cut's share of the vertex ranks searched for the widest gap.
+_CUT_WINDOW = 0.25
+
+
+@dataclass(frozen=True)
+class TileGrid:
+    """The cuts of a grid of tiles (map units, increasing): tile ``(i, j)`` is column ``i``
+    (between ``xcuts[i - 1]`` and ``xcuts[i]``, unbounded at the ends) and row ``j``, and has
+    the id ``i * ny + j``."""
+
+    xcuts: np.ndarray
+    ycuts: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(nx, ny)``: columns and rows."""
+        return len(self.xcuts) + 1, len(self.ycuts) + 1
+
+    @property
+    def count(self) -> int:
+        """Number of tiles."""
+        return self.shape[0] * self.shape[1]
+
+    def tile_of(self, pts: np.ndarray) -> np.ndarray:
+        """The tile id of each point (m, 2); a point on a cut goes below/left of it."""
+        return (np.searchsorted(self.xcuts, pts[:, 0]) * self.shape[1]
+                + np.searchsorted(self.ycuts, pts[:, 1]))
+
+
+def check_tiles(tiles: Any) -> tuple[int, int] | str:
+    """``tiles`` validated: ``"auto"`` or a pair of positive integers ``(nx, ny)`` with at most
+    :data:`MAX_TILES` tiles; an ``"NXxNY"`` string is read as the pair.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``tiles`` is none of these.
+    """
+    if isinstance(tiles, str) and tiles != "auto":
+        nums = tiles.lower().split("x")
+        if len(nums) != 2 or not all(s.strip().isdigit() for s in nums):
+            raise InvalidParameterError(f"tiles must be 'auto' or NXxNY (e.g. 3x2), got "
+                                        f"{tiles!r}")
+        tiles = (int(nums[0]), int(nums[1]))
+    if tiles == "auto":
+        return "auto"
+    try:
+        nx, ny = (int(v) for v in tiles)
+        ok = (nx, ny) == tuple(tiles)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or nx < 1 or ny < 1 or nx * ny > MAX_TILES:
+        raise InvalidParameterError(f"tiles must be 'auto' or two positive integers (nx, ny) "
+                                    f"with nx * ny <= {MAX_TILES}, got {tiles!r}")
+    return nx, ny
+
+
+def auto_tiles(segments: int, width: float, height: float) -> tuple[int, int]:
+    """The grid for ``segments`` input segments over a ``width x height`` box: about
+    :data:`TILE_SEGMENTS` segments per tile (at most :data:`MAX_TILES` tiles), the tiles about
+    square. Depends on the input's size only, never on the number of workers."""
+    n = min(max(math.ceil(segments / TILE_SEGMENTS), 1), MAX_TILES)
+    aspect = width / height if width > 0 and height > 0 else 1.0
+    nx = min(max(round(math.sqrt(n * aspect)), 1), n)
+    ny = math.ceil(n / nx)
+    while nx * ny > MAX_TILES:
+        ny -= 1
+    return nx, ny
+
+
+def cut_positions(values: np.ndarray, n: int) -> np.ndarray:
+    """Up to ``n - 1`` increasing cuts, each strictly between two of ``values`` (map units):
+    cut ``k`` in the widest gap between consecutive distinct values ranked within
+    :data:`_CUT_WINDOW` of ``k / n`` of them (tiles of about equal vertex counts), at
+    :data:`CUT_FRACTION` of that gap. Fewer if there are too few distinct values."""
+    u = np.unique(values)
+    m = len(u) - 1  # gaps
+    cuts = []
+    for k in range(1, n):
+        lo = max(int(math.floor((k - _CUT_WINDOW) / n * m)), 0)
+        hi = min(int(math.ceil((k + _CUT_WINDOW) / n * m)), m)
+        if hi <= lo:
+            continue
+        i = lo + int(np.argmax(np.diff(u[lo:hi + 1])))
+        c = u[i] + CUT_FRACTION * (u[i + 1] - u[i])
+        if not u[i] < c < u[i + 1]:
+            c = 0.5 * (u[i] + u[i + 1])
+        if u[i] < c < u[i + 1]:
+            cuts.append(c)
+    return np.unique(np.asarray(cuts, dtype=float))
+
+
+def tile_grid(xy: np.ndarray, tiles: tuple[int, int]) -> TileGrid:
+    """The grid of ``tiles = (nx, ny)`` over the vertices ``xy`` (:func:`cut_positions` in x
+    and in y): no vertex on a cut."""
+    return TileGrid(cut_positions(xy[:, 0], tiles[0]), cut_positions(xy[:, 1], tiles[1]))
+
+
+def clip_to_tiles(xy: np.ndarray, line: np.ndarray, grid: TileGrid
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lines (vertices ``xy`` of lines ``line``, consecutive) cut into pieces, one tile
+    each: every segment crossing a cut gets a vertex exactly on it (from its lexicographically
+    smaller end; vertices of one cut within :data:`CUT_MERGE_ULPS` made one), shared by the
+    pieces on both sides. Zero-length segments are dropped. Returns the pieces' vertices,
+    their CSR pointer (piece ``p`` is ``pxy[ptr[p]:ptr[p + 1]]``) and each piece's tile."""
+    k = np.flatnonzero(line[1:] == line[:-1])  # segments k -> k + 1
+    a, b = np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)
+    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
+    lo, hi = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
+    seg, pts, key, along = [], [], [], []
+    for axis, cuts in ((0, grid.xcuts), (1, grid.ycuts)):
+        if len(cuts) == 0:
+            continue
+        ca, cb = np.searchsorted(cuts, a[:, axis]), np.searchsorted(cuts, b[:, axis])
+        count = np.abs(cb - ca)
+        s = np.repeat(np.arange(len(k)), count)
+        c = ragged_arange(np.minimum(ca, cb)[count > 0], count[count > 0])
+        cv = cuts[c]
+        u = (cv - lo[s, axis]) / (hi[s, axis] - lo[s, axis])
+        p = lo[s] + u[:, None] * (hi[s] - lo[s])
+        p[:, axis] = cv
+        seg.append(s)
+        pts.append(p)
+        key.append(c + axis * (len(grid.xcuts) + 1))  # one id per cut
+        along.append((cv - a[s, axis]) / (b[s, axis] - a[s, axis]))  # order from a to b
+    if seg:
+        s, p, cut, t = (np.concatenate(v) for v in (seg, pts, key, along))
+        _merge_cut_vertices(p, cut, cut >= len(grid.xcuts) + 1)
+        o = np.lexsort((t, s))
+        xy = np.insert(xy, k[s[o]] + 1, p[o], axis=0)
+        line = np.insert(line, k[s[o]] + 1, line[k[s[o]]])
+        k = np.flatnonzero(line[1:] == line[:-1])
+    k = k[np.any(xy[k] != xy[k + 1], axis=1)]  # zero-length segments dropped
+    tile = grid.tile_of(0.5 * (np.take(xy, k, axis=0) + np.take(xy, k + 1, axis=0)))
+    brk = np.r_[True, (line[k[1:]] != line[k[:-1]]) | (tile[1:] != tile[:-1])]
+    piece = np.cumsum(brk) - 1
+    last = np.flatnonzero(np.r_[brk[1:], True])
+    pxy = np.empty((len(k) + len(last), 2))
+    pxy[np.arange(len(k)) + piece] = np.take(xy, k, axis=0)
+    pxy[last + piece[last] + 1] = np.take(xy, k[last] + 1, axis=0)
+    ptr = np.r_[0, np.cumsum(np.bincount(piece, minlength=len(last)) + 1)]
+    return pxy, ptr, tile[brk]
+
+
+def _merge_cut_vertices(p: np.ndarray, cut: np.ndarray, horizontal: np.ndarray) -> None:
+    """Make the vertices ``p`` of each cut (ids ``cut``) whose coordinate along the cut (y on
+    a vertical cut, x on a horizontal one) differs from the previous one's by at most
+    :data:`CUT_MERGE_ULPS` units in the last place one: each run of such vertices takes the
+    run's smallest coordinate (in place)."""
+    along = np.where(horizontal, p[:, 0], p[:, 1])
+    o = np.lexsort((along, cut))
+    v, c = along[o], cut[o]
+    near = (c[1:] == c[:-1]) & (v[1:] - v[:-1] <= CUT_MERGE_ULPS * np.spacing(np.abs(v[1:])))
+    if not near.any():
+        return
+    run = np.cumsum(np.r_[True, ~near]) - 1
+    v = v[np.flatnonzero(np.r_[True, ~near])][run]
+    along[o] = v
+    p[:, 0] = np.where(horizontal, along, p[:, 0])
+    p[:, 1] = np.where(horizontal, p[:, 1], along)
+
+
+def _segments_by_tile(la: np.ndarray, lb: np.ndarray, grid: TileGrid, reach: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The input segments ``la-lb`` whose bounding boxes, grown by ``reach``, meet each
+    tile's (closed) box: segment indices tile after tile, and the CSR pointer over tiles."""
+    nx, ny = grid.shape
+    lo, hi = np.minimum(la, lb) - reach, np.maximum(la, lb) + reach
+    ix0, ix1 = np.searchsorted(grid.xcuts, lo[:, 0]), np.searchsorted(grid.xcuts, hi[:, 0],
+                                                                      "right")
+    iy0, iy1 = np.searchsorted(grid.ycuts, lo[:, 1]), np.searchsorted(grid.ycuts, hi[:, 1],
+                                                                      "right")
+    cols, rows = ix1 - ix0 + 1, iy1 - iy0 + 1
+    count = cols * rows
+    s = np.repeat(np.arange(len(la)), count)
+    j = ragged_arange(np.zeros(len(la), np.int64), count)
+    tile = (ix0[s] + j // rows[s]) * ny + iy0[s] + j % rows[s]
+    o = np.argsort(tile, kind="stable")
+    return s[o], np.searchsorted(tile[o], np.arange(nx * ny + 1))
+
+
+def part_sources(mid: np.ndarray, la: np.ndarray, lb: np.ndarray, lsrc: np.ndarray,
+                 reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sources of parts (``mid``: a point of each part, the middle of its longest
+    segment): the source ids ``lsrc`` (-1 = wall) of the input segments ``la-lb`` within
+    ``reach`` (map units) of it, as :func:`tether.decomposition.arrangement.arrangement`
+    finds them; CSR arrays ``(ptr, src)`` (each part's increasing, distinct)."""
+    base = int(lsrc.max(initial=0)) + 2  # sources are -1 (wall) .. max
+    tree = SegmentGrid(la, lb)
+    keys = []
+    for lo in range(0, len(mid), SOURCE_BATCH):  # bounded candidate pairs
+        qi, si, _ = segments_near(mid[lo:lo + SOURCE_BATCH], la, lb, reach, tree)
+        keys.append((qi + lo).astype(np.int64) * base + lsrc[si] + 1)
+    key = np.sort(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
+    part_of, src = np.divmod(key, base)
+    return np.searchsorted(part_of, np.arange(len(mid) + 1)), src - 1
+
+
+def node_tile(pxy: np.ndarray, ptr: np.ndarray, la: np.ndarray, lb: np.ndarray,
+              lsrc: np.ndarray, reach: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int] | None:
+    """A tile's task: its pieces (vertices ``pxy``, CSR ``ptr``) noded by GEOS's
+    floating-point noder, and each part's sources among the input segments ``la-lb`` (source
+    ids ``lsrc``) within ``reach`` of the tile. Returns the parts' vertices and vertex counts,
+    their sources (CSR ``(ptr, src)``) and this process's peak resident memory (bytes, 0 where
+    unknown); None if the noder fails."""
+    n = len(ptr) - 1
+    if n == 0:
+        empty = np.zeros(0, np.int64)
+        return np.zeros((0, 2)), empty, np.zeros(1, np.int64), empty, _peak_rss()
+    lines = shapely.linestrings(pxy, indices=np.repeat(np.arange(n), np.diff(ptr)))
+    try:
+        parts = node_floating(np.asarray(lines, dtype=object))
+    except GEOSException:
+        return None
+    del lines
+    parts = parts[shapely.length(parts) > 0]
+    ends = part_ends(parts)
+    pa, pb, powner = part_segments(ends)
+    longest = first_max_per_group(np.hypot(*(pb - pa).T), powner)
+    mid = 0.5 * (np.take(pa, longest, axis=0) + np.take(pb, longest, axis=0))
+    del pa, pb, powner
+    sptr, src = part_sources(mid, la, lb, lsrc, reach)
+    return ends[0], ends[1], sptr, src, _peak_rss()
+
+
+def _peak_rss() -> int:
+    """The peak resident memory of the calling process, bytes (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:  # not on Unix
+        return 0
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+
+
+def process_executor(workers: int | None = None) -> ProcessPoolExecutor:
+    """Local worker processes for the tiles (``workers``: by default the cores this process
+    may use), started fresh (``spawn``: nothing of this process's memory inherited), each
+    computing in one thread."""
+    return ProcessPoolExecutor(max_workers=workers or thread_count(),
+                               mp_context=multiprocessing.get_context("spawn"),
+                               initializer=single_threaded)
+
+
+def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
+                progress: Callable[[str, float], Any] | None = None,
+                log: dict | None = None) -> Callable[..., Any]:
+    """The ``noder`` of :func:`tether.decomposition.arrangement.arrangement` that nodes its
+    input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``.
+    ``tol``: the curve tolerance (map units; the sources' reach is ``1e-3 tol`` as for the
+    whole). ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as tiles finish, then
+    ``("stitch", 0.45)`` (the parts joined, the faces traced on them all); ``log``, if given, gets
+    ``tiles`` (the grid's shape), ``worker_peak_bytes`` (the largest peak resident memory a
+    tile's process reported) and ``fallback`` (True if the input was noded whole)."""
+    report = progress or (lambda stage, frac: None)
+    log = {} if log is None else log
+
+    def noder(lines: np.ndarray, source: np.ndarray, segs: tuple) -> tuple | None:
+        la, lb, lowner = segs
+        xy, line = shapely.get_coordinates(lines, return_index=True)
+        shape = tiles
+        if shape == "auto":
+            span = xy.max(axis=0) - xy.min(axis=0) if len(xy) else np.ones(2)
+            shape = auto_tiles(len(la), float(span[0]), float(span[1]))
+        grid = tile_grid(xy, shape)
+        log["tiles"] = grid.shape
+        pxy, pptr, ptile = clip_to_tiles(xy, line, grid)
+        del xy, line
+        reach = max(1e-3 * tol, 1e-12)
+        lsrc = source[lowner]
+        near, nptr = _segments_by_tile(la, lb, grid, reach)
+        order = np.argsort(ptile, kind="stable")  # pieces tile after tile
+        tptr = np.searchsorted(ptile[order], np.arange(grid.count + 1))
+        size = np.diff(pptr)
+        futures = []
+        for t in range(grid.count):
+            mine = order[tptr[t]:tptr[t + 1]]
+            rows = ragged_arange(pptr[mine], size[mine])
+            s = near[nptr[t]:nptr[t + 1]]
+            futures.append(executor.submit(node_tile, pxy[rows],
+                                           np.r_[0, np.cumsum(size[mine])], la[s], lb[s],
+                                           lsrc[s], reach))
+        del pxy, near
+        got = []
+        stage = f"tiles ({grid.shape[0]}x{grid.shape[1]})"
+        for i, f in enumerate(futures):
+            got.append(f.result())
+            report(stage, 0.3 + 0.15 * (i + 1) / len(futures))
+        report("stitch", 0.45)
+        log["worker_peak_bytes"] = max((r[4] for r in got if r is not None), default=0)
+        log["fallback"] = any(r is None for r in got)
+        if log["fallback"]:
+            return None
+        return _stitched(got)
+
+    return noder
+
+
+def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tiles' parts one after the other, as linestrings, and their sources (CSR)."""
+    coords = np.concatenate([r[0] for r in got])
+    count = np.concatenate([r[1] for r in got])
+    parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(np.arange(len(count)),
+                                                                     count)), dtype=object)
+    src = np.concatenate([r[3] for r in got])
+    offsets = np.cumsum([0] + [len(r[3]) for r in got[:-1]])
+    ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
+                                                    zip(got, offsets, strict=True)])
+    return parts, ptr, src.astype(np.int64)
