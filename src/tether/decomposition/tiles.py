@@ -3,10 +3,11 @@
 The plane is cut into a grid of ``nx x ny`` tiles by vertical and horizontal lines placed
 strictly between the coordinates of the input vertices (:func:`cut_positions`), so that no
 vertex of a ring or a curve polyline, no wall and no straight curve lies on a cut. Every input
-segment crossing a cut gets a vertex exactly on it (:func:`clip_to_tiles`): computed once, from
-the segment's lexicographically smaller end (a segment and its reverse get the same vertex),
-and used by the pieces on both sides, so the cut vertices of two neighbouring tiles are
-bit-identical. Each tile's pieces are noded on their own (GEOS's floating-point noder) and
+segment crossing a cut gets a vertex exactly on it (:func:`clip_to_tiles`; the vertical cuts
+first, then the horizontal ones): computed once, from the segment's lexicographically smaller
+end (a segment and its reverse get the same vertex), its other coordinate clamped to the
+segment's range, and used by the pieces on both sides, so the cut vertices of two neighbouring
+tiles are bit-identical. Each tile's pieces are noded on their own (GEOS's floating-point noder) and
 each noded part gets its source curves there (:func:`node_tile`); pieces of different tiles
 meet only at those shared vertices, so the parts of all tiles together are a noding of the
 whole input: the same lines and intersections, with one more degree-2 vertex where a line
@@ -91,9 +92,9 @@ class TileGrid:
         return self.shape[0] * self.shape[1]
 
     def tile_of(self, pts: np.ndarray) -> np.ndarray:
-        """The tile id of each point (m, 2); a point on a cut goes below/left of it."""
-        return (np.searchsorted(self.xcuts, pts[:, 0]) * self.shape[1]
-                + np.searchsorted(self.ycuts, pts[:, 1]))
+        """The tile id of each point (m, 2); a point on a cut goes above/right of it."""
+        return (np.searchsorted(self.xcuts, pts[:, 0], "right") * self.shape[1]
+                + np.searchsorted(self.ycuts, pts[:, 1], "right"))
 
 
 def check_tiles(tiles: Any) -> tuple[int, int] | str:
@@ -168,39 +169,20 @@ def tile_grid(xy: np.ndarray, tiles: tuple[int, int]) -> TileGrid:
 def clip_to_tiles(xy: np.ndarray, line: np.ndarray, grid: TileGrid
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The lines (vertices ``xy`` of lines ``line``, consecutive) cut into pieces, one tile
-    each: every segment crossing a cut gets a vertex exactly on it (from its lexicographically
-    smaller end; vertices of one cut within :data:`CUT_MERGE_ULPS` made one), shared by the
-    pieces on both sides. Zero-length segments are dropped. Returns the pieces' vertices,
-    their CSR pointer (piece ``p`` is ``pxy[ptr[p]:ptr[p + 1]]``) and each piece's tile."""
+    each: every segment crossing a cut gets a vertex exactly on it, shared by the pieces on
+    both sides (:func:`_cut_along`: the vertical cuts first, then the horizontal ones on the
+    segments so cut). Zero-length segments are dropped; each segment lies in its tile's
+    closed box. Returns the pieces' vertices, their
+    CSR pointer (piece ``p`` is ``pxy[ptr[p]:ptr[p + 1]]``) and each piece's tile."""
+    xy, line = _cut_along(xy, line, grid.xcuts, 0)
+    xy, line = _cut_along(xy, line, grid.ycuts, 1)
     k = np.flatnonzero(line[1:] == line[:-1])  # segments k -> k + 1
-    a, b = np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)
-    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
-    lo, hi = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
-    seg, pts, key, along = [], [], [], []
-    for axis, cuts in ((0, grid.xcuts), (1, grid.ycuts)):
-        if len(cuts) == 0:
-            continue
-        ca, cb = np.searchsorted(cuts, a[:, axis]), np.searchsorted(cuts, b[:, axis])
-        count = np.abs(cb - ca)
-        s = np.repeat(np.arange(len(k)), count)
-        c = ragged_arange(np.minimum(ca, cb)[count > 0], count[count > 0])
-        cv = cuts[c]
-        u = (cv - lo[s, axis]) / (hi[s, axis] - lo[s, axis])
-        p = lo[s] + u[:, None] * (hi[s] - lo[s])
-        p[:, axis] = cv
-        seg.append(s)
-        pts.append(p)
-        key.append(c + axis * (len(grid.xcuts) + 1))  # one id per cut
-        along.append((cv - a[s, axis]) / (b[s, axis] - a[s, axis]))  # order from a to b
-    if seg:
-        s, p, cut, t = (np.concatenate(v) for v in (seg, pts, key, along))
-        _merge_cut_vertices(p, cut, cut >= len(grid.xcuts) + 1)
-        o = np.lexsort((t, s))
-        xy = np.insert(xy, k[s[o]] + 1, p[o], axis=0)
-        line = np.insert(line, k[s[o]] + 1, line[k[s[o]]])
-        k = np.flatnonzero(line[1:] == line[:-1])
     k = k[np.any(xy[k] != xy[k + 1], axis=1)]  # zero-length segments dropped
-    tile = grid.tile_of(0.5 * (np.take(xy, k, axis=0) + np.take(xy, k + 1, axis=0)))
+    if len(k) == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    # no cut strictly inside a segment's box now: the tile holding its lower left corner
+    # (above/right of a cut through it) is the one whose closed box holds the segment
+    tile = grid.tile_of(np.minimum(np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)))
     brk = np.r_[True, (line[k[1:]] != line[k[:-1]]) | (tile[1:] != tile[:-1])]
     piece = np.cumsum(brk) - 1
     last = np.flatnonzero(np.r_[brk[1:], True])
@@ -211,22 +193,55 @@ def clip_to_tiles(xy: np.ndarray, line: np.ndarray, grid: TileGrid
     return pxy, ptr, tile[brk]
 
 
-def _merge_cut_vertices(p: np.ndarray, cut: np.ndarray, horizontal: np.ndarray) -> None:
-    """Make the vertices ``p`` of each cut (ids ``cut``) whose coordinate along the cut (y on
-    a vertical cut, x on a horizontal one) differs from the previous one's by at most
-    :data:`CUT_MERGE_ULPS` units in the last place one: each run of such vertices takes the
-    run's smallest coordinate (in place)."""
-    along = np.where(horizontal, p[:, 0], p[:, 1])
+def _cut_along(xy: np.ndarray, line: np.ndarray, cuts: np.ndarray, axis: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The lines with a vertex inserted where a segment crosses a cut ``cuts`` (increasing)
+    of coordinate ``axis`` (0: vertical cuts ``x = c``, 1: horizontal): its ``axis``
+    coordinate exactly the cut's, the other interpolated from the segment's lexicographically
+    smaller end (a segment and its reverse get the same vertex) and clamped to the segment's
+    range (never past its ends by rounding). Vertices of one cut whose other coordinates are
+    within :data:`CUT_MERGE_ULPS` are made one (:func:`_merge_cut_vertices`). Returns the new
+    vertices and their lines."""
+    if len(cuts) == 0:
+        return xy, line
+    k = np.flatnonzero(line[1:] == line[:-1])  # segments k -> k + 1
+    a, b = np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)
+    ca, cb = np.searchsorted(cuts, a[:, axis]), np.searchsorted(cuts, b[:, axis])
+    count = np.abs(cb - ca)
+    if not count.any():
+        return xy, line
+    s = np.repeat(np.arange(len(k)), count)
+    c = ragged_arange(np.minimum(ca, cb)[count > 0], count[count > 0])
+    a, b = a[s], b[s]
+    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
+    lo, hi = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
+    cv = cuts[c]
+    other = 1 - axis
+    u = (cv - lo[:, axis]) / (hi[:, axis] - lo[:, axis])
+    p = np.empty((len(s), 2))
+    p[:, axis] = cv
+    p[:, other] = np.clip(lo[:, other] + u * (hi[:, other] - lo[:, other]),
+                          np.minimum(lo[:, other], hi[:, other]),
+                          np.maximum(lo[:, other], hi[:, other]))
+    _merge_cut_vertices(p[:, other], c)
+    t = (cv - a[:, axis]) / (b[:, axis] - a[:, axis])  # the order along the segment a -> b
+    o = np.lexsort((t, s))
+    at = k[s[o]] + 1
+    return np.insert(xy, at, p[o], axis=0), np.insert(line, at, line[at - 1])
+
+
+def _merge_cut_vertices(along: np.ndarray, cut: np.ndarray) -> None:
+    """Make the cut vertices of each cut (ids ``cut``) whose coordinate along the cut
+    (``along``) differs from the previous one's by at most :data:`CUT_MERGE_ULPS` units in the
+    last place one: each run of such vertices takes the run's smallest coordinate (in
+    place)."""
     o = np.lexsort((along, cut))
     v, c = along[o], cut[o]
     near = (c[1:] == c[:-1]) & (v[1:] - v[:-1] <= CUT_MERGE_ULPS * np.spacing(np.abs(v[1:])))
     if not near.any():
         return
     run = np.cumsum(np.r_[True, ~near]) - 1
-    v = v[np.flatnonzero(np.r_[True, ~near])][run]
-    along[o] = v
-    p[:, 0] = np.where(horizontal, along, p[:, 0])
-    p[:, 1] = np.where(horizontal, p[:, 1], along)
+    along[o] = v[np.flatnonzero(np.r_[True, ~near])][run]
 
 
 def _segments_by_tile(la: np.ndarray, lb: np.ndarray, grid: TileGrid, reach: float
