@@ -106,6 +106,7 @@ def check_tiles(tiles: Any) -> tuple[int, int] | str:
     InvalidParameterError
         If ``tiles`` is none of these.
     """
+    given = tiles
     if isinstance(tiles, str) and tiles != "auto":
         nums = tiles.lower().split("x")
         if len(nums) != 2 or not all(s.strip().isdigit() for s in nums):
@@ -121,7 +122,7 @@ def check_tiles(tiles: Any) -> tuple[int, int] | str:
         ok = False
     if not ok or nx < 1 or ny < 1 or nx * ny > MAX_TILES:
         raise InvalidParameterError(f"tiles must be 'auto' or two positive integers (nx, ny) "
-                                    f"with nx * ny <= {MAX_TILES}, got {tiles!r}")
+                                    f"with nx * ny <= {MAX_TILES}, got {given!r}")
     return nx, ny
 
 
