@@ -358,3 +358,4 @@ def register(add) -> None:
                     help="random lines scanned for changes of the exact structure, "
                     f"{LINES_RANGE[0]} to {LINES_RANGE[1]} (default {CHECK_LINES})")
     sp.add_argument("--json", action="store_true", help="print JSON")
+    _add_tile_options(sp)
