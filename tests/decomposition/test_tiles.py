@@ -321,3 +321,66 @@ def test_auto_tiles():
     nx, ny = auto_tiles(3_600_000, 20.0, 10.0)
     assert nx * ny >= 3_600_000 / 250_000 and nx > ny
     assert 1 <= np.prod(auto_tiles(10**9, 1.0, 1.0)) <= MAX_TILES
+
+
+# ---------------------------------------------------------------- the command line
+def test_cli_refuses_bad_tiles_in_one_line(capsys):
+    from tether.cli import main
+    from tether.examples import path as example_path
+
+    room = str(example_path("rectangle"))
+    assert main(["decompose", room, "--lss", "1", "--tiles", "9x9"]) == 2
+    assert main(["analyze", room, "--lss", "1", "--workers", "2", "--dask", "x:1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "tiles" in err[0] and "--workers or --dask" in err[1]
+
+
+@pytest.mark.slow
+def test_cli_analyze_in_tiles_on_processes_same_verdict(capsys):
+    import json
+
+    from tether.cli import main
+    from tether.examples import path as example_path
+
+    gallery = str(example_path("gallery"))
+    assert main(["analyze", gallery, "--lss", "1", "--json"]) == 0
+    whole = json.loads(capsys.readouterr().out)
+    assert main(["analyze", gallery, "--lss", "1", "--json", "--tiles", "3x2",
+                 "--workers", "2"]) == 0
+    tiled = json.loads(capsys.readouterr().out)
+    assert tiled["verdict"] == whole["verdict"] and tiled["verified"]
+    assert tiled["counts"] == whole["counts"]
+
+
+def test_a_tile_the_noder_fails_on_means_the_whole_noded(monkeypatch):
+    """GEOS's floating-point noder failing in one tile: the whole input is noded as without
+    tiles (never snap rounding on one tile), and the result is the untiled one."""
+    from shapely.errors import GEOSException
+
+    import tether.decomposition.tiles as tiles_mod
+
+    real = tiles_mod.node_floating
+    calls = []
+
+    def flaky(lines):
+        calls.append(len(lines))
+        if len(calls) == 2:
+            raise GEOSException("TopologyException: found non-noded intersection")
+        return real(lines)
+
+    monkeypatch.setattr(tiles_mod, "node_floating", flaky)
+    env = load_example("gallery")
+    log = {}
+    noder = tiles_mod.tiled_noder((2, 2), _Serial(), 1e-6 * env.internal.diameter, log=log)
+    from tether.curves import critical_curves
+    from tether.decomposition.arrangement import arrangement
+
+    inner = env.internal
+    lss = 1.0 * env.frame.scale
+    curves = critical_curves(inner, lss)
+    tol = 1e-6 * inner.diameter
+    tiled = arrangement(inner, curves, tol, noder)
+    assert log["fallback"] and log["tiles"] == (2, 2) and len(calls) == 4
+    whole = arrangement(inner, curves, tol)
+    assert len(tiled.parts) == len(whole.parts) and len(tiled.faces) == len(whole.faces)
+    assert shapely.equals_exact(tiled.parts, whole.parts, 0).all()
