@@ -60,7 +60,9 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         number of tiles (by ``MAX_TILES`` for ``"auto"``).
     executor : concurrent.futures.Executor, optional
         Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
-        threads); by default local processes, one per core, started and shut down here.
+        threads); by default local processes, one per core, started and shut down here
+        (spawned: a script calling this must guard its entry point with ``if __name__ ==
+        "__main__":``, as any ``multiprocessing`` code).
 
     Returns
     -------
