@@ -384,3 +384,28 @@ def test_a_tile_the_noder_fails_on_means_the_whole_noded(monkeypatch):
     whole = arrangement(inner, curves, tol)
     assert len(tiled.parts) == len(whole.parts) and len(tiled.faces) == len(whole.faces)
     assert shapely.equals_exact(tiled.parts, whole.parts, 0).all()
+
+
+@pytest.mark.parametrize("tiles", [(3, 3), (5, 4)])
+def test_cut_vertices_dissolved_parts_as_whole(tiles):
+    """The cut vertices no other line passes through are taken out: the tiled arrangement
+    has the whole noding's parts and faces (on the gallery, whose intersections are not
+    rounded differently on a segment's halves, the very same coordinates)."""
+    from tether.curves import critical_curves
+    from tether.decomposition.arrangement import arrangement
+    from tether.decomposition.tiles import tiled_noder
+
+    env = load_example("gallery")
+    inner, lss = env.internal, 1.0 * env.frame.scale
+    curves = critical_curves(inner, lss)
+    tol = 1e-6 * inner.diameter
+    whole = arrangement(inner, curves, tol)
+    log = {}
+    tiled = arrangement(inner, curves, tol, tiled_noder(tiles, _Serial(), tol, log=log))
+    assert log["tiles"] == tiles and not log["fallback"]
+    assert len(tiled.parts) == len(whole.parts) and len(tiled.faces) == len(whole.faces)
+    a = {tuple(p) for p in shapely.get_coordinates(whole.parts).tolist()}
+    b = {tuple(p) for p in shapely.get_coordinates(tiled.parts).tolist()}
+    assert a == b
+    assert sorted(shapely.area(tiled.faces).round(12).tolist()) == \
+        sorted(shapely.area(whole.faces).round(12).tolist())

@@ -41,7 +41,7 @@ import numpy as np
 import shapely
 from shapely.errors import GEOSException
 
-from tether._util.arrays import first_max_per_group, ragged_arange
+from tether._util.arrays import components, first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition.arrangement import SOURCE_BATCH
 from tether.decomposition.faces import part_ends, part_segments
@@ -50,7 +50,8 @@ from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
 __all__ = ["CUT_FRACTION", "CUT_MERGE_ULPS", "MAX_TILES", "TILE_SEGMENTS", "TileGrid",
-           "auto_tiles", "check_tiles", "clip_to_tiles", "cut_positions", "node_tile",
+           "auto_tiles", "check_tiles", "clip_to_tiles", "cut_positions", "dissolve_cut_vertices",
+           "node_tile",
            "process_executor", "tile_grid", "tiled_noder"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
@@ -377,7 +378,7 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
         log["fallback"] = any(r is None for r in got)
         if log["fallback"]:
             return None
-        return _stitched(got)
+        return dissolve_cut_vertices(*_stitched(got), grid)
 
     return noder
 
@@ -393,3 +394,68 @@ def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
                                                     zip(got, offsets, strict=True)])
     return parts, ptr, src.astype(np.int64)
+
+
+def dissolve_cut_vertices(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray, grid: TileGrid
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of all tiles with the cut vertices that no other line passes through taken
+    out: parts meeting end to end at a vertex lying exactly on a cut, where no other part
+    ends (the two halves of one input segment), are joined and that vertex dropped, so the
+    faces' rings have the vertices of the whole noding (a face's interior point, read from
+    its ring, is then the same). Each joined part's sources are the union of its halves'.
+    Returns ``(parts, ptr, src)`` as given, the joined parts after the others."""
+    coords, count, start, last, ends = part_ends(parts)
+    n = len(parts)
+    if n == 0 or grid.count == 1:
+        return parts, ptr, src
+    node_xy = np.empty((int(ends.max()) + 1, 2))
+    node_xy[ends] = np.take(coords, np.r_[start, last], axis=0)
+    on_cut = np.isin(node_xy[:, 0], grid.xcuts) | np.isin(node_xy[:, 1], grid.ycuts)
+    degree = np.bincount(ends, minlength=len(node_xy))
+    gone = on_cut & (degree == 2)
+    # a part closed on itself at such a vertex keeps it (its two ends are the vertex's two)
+    closed = ends[:n] == ends[n:]
+    gone[ends[:n][closed]] = False
+    if not gone.any():
+        return parts, ptr, src
+    end_part = np.tile(np.arange(n), 2)
+    at = np.flatnonzero(gone[ends])  # part ends at dissolved vertices, two per vertex
+    o = at[np.argsort(ends[at], kind="stable")]
+    u, v = end_part[o[0::2]], end_part[o[1::2]]
+    comp = components(n, u, v)
+    joined = np.zeros(n, bool)
+    joined[u] = joined[v] = True
+    keep = np.flatnonzero(~joined)
+    rows = np.flatnonzero(joined)
+    label = np.unique(comp[rows], return_inverse=True)[1].ravel()
+    o = np.argsort(label, kind="stable")  # each joined part's halves together
+    rows, label = rows[o], label[o]
+    merged = shapely.line_merge(shapely.multilinestrings(parts[rows], indices=label))
+    xy, idx = shapely.get_coordinates(merged, return_index=True)
+    gxy = node_xy[gone]
+    ids = row_ids(np.vstack((gxy, xy)))[0]
+    dissolved = np.isin(ids[len(gxy):], ids[:len(gxy)])
+    head = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
+    tail = np.r_[head[1:], len(idx)] - 1
+    # a closed line merged around a loop starts where line_merge chose: at a kept vertex
+    # instead (a dissolved one is never a part's end)
+    for h, t in zip(head.tolist(), tail.tolist(), strict=True):
+        if dissolved[h] and np.array_equal(xy[h], xy[t]) and not dissolved[h:t].all():
+            k = h + int(np.argmin(dissolved[h:t]))
+            ring = np.r_[np.arange(k, t), np.arange(h, k + 1)]
+            xy[h:t + 1], dissolved[h:t + 1] = xy[ring], dissolved[ring]
+    drop = dissolved.copy()
+    drop[head] = drop[tail] = False  # a line's ends stay
+    new = np.asarray(shapely.linestrings(xy[~drop], indices=idx[~drop]), dtype=object)
+    # sources: the union over each joined part's halves
+    nsrc = np.diff(ptr)
+    base = int(src.max(initial=0)) + 2
+    key = np.sort(np.repeat(label, nsrc[rows]).astype(np.int64) * base
+                  + src[ragged_arange(ptr[rows], nsrc[rows])] + 1)
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
+    grp, jsrc = np.divmod(key, base)
+    jptr = np.searchsorted(grp, np.arange(len(new) + 1))
+    ksrc = src[ragged_arange(ptr[keep], nsrc[keep])]
+    kptr = np.r_[0, np.cumsum(nsrc[keep])]
+    return (np.concatenate((parts[keep], new)), np.r_[kptr, kptr[-1] + jptr[1:]],
+            np.concatenate((ksrc, jsrc - 1)).astype(np.int64))
