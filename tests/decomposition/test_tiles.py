@@ -93,8 +93,15 @@ def _tiled(env, lss, tiles):
 
 
 # ---------------------------------------------------------------- equality on the maps
-@pytest.mark.parametrize("name", ["rectangle", "convex_corner", "nonconvex_corner", "gallery"])
-@pytest.mark.parametrize("tiles", [(3, 3), (5, 4)])
+_SLOW = pytest.mark.slow
+
+
+@pytest.mark.parametrize("name,tiles", [
+    ("rectangle", (3, 3)), pytest.param("rectangle", (5, 4), marks=_SLOW),
+    pytest.param("convex_corner", (3, 3), marks=_SLOW), ("convex_corner", (5, 4)),
+    pytest.param("nonconvex_corner", (3, 3), marks=_SLOW),
+    pytest.param("nonconvex_corner", (5, 4), marks=_SLOW),
+    pytest.param("gallery", (3, 3), marks=_SLOW), pytest.param("gallery", (5, 4), marks=_SLOW)])
 def test_bundled_examples_equal(name, tiles):
     env = load_example(name)
     lss = 0.3 * env.diameter if name != "gallery" else 1.0
@@ -103,6 +110,7 @@ def test_bundled_examples_equal(name, tiles):
     assert_equal_up_to_renumbering(a, b)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env", [L_SHAPE, SQUARE_HOLE, STAR_HOLE, GENERIC],
                          ids=lambda e: e.name)
 def test_test_maps_equal_and_checked(env):
@@ -133,7 +141,9 @@ def test_random_maps_equal(env, frac, nx, ny):
     assert_equal_up_to_renumbering(decompose(env, lss), _tiled(env, lss, (nx, ny)))
 
 
-@pytest.mark.parametrize("family", ["corridor", "pillars_lss", "pillars_half", "steps"])
+@pytest.mark.parametrize("family", [pytest.param("corridor", marks=_SLOW), "pillars_lss",
+                                    pytest.param("pillars_half", marks=_SLOW),
+                                    pytest.param("steps", marks=_SLOW)])
 def test_lattice_maps_equal(family):
     """Never in general position: walls ``lss`` and ``2 lss`` apart (straight critical curves
     on lattice lines, coinciding offsets), vertices aligned on common lines. A naive grid
@@ -213,6 +223,7 @@ def test_curve_vertex_limit_applies_per_tile(monkeypatch):
 
 
 # ---------------------------------------------------------------- the cuts' exact rules
+@pytest.mark.slow
 def test_cuts_avoid_every_coordinate_of_lattice_inputs():
     """On lattice maps the cuts fall strictly between input coordinates, never on one (the
     middle of a symmetric map's gap is avoided too: mirror-image curves cross there)."""
@@ -231,6 +242,7 @@ def test_cuts_avoid_every_coordinate_of_lattice_inputs():
 
 
 @given(st.lists(st.integers(-50, 50), min_size=2, max_size=40), st.integers(1, 8))
+@settings(max_examples=30, deadline=None)
 def test_cut_positions_strictly_between_values(values, n):
     v = np.asarray(values, float) * 0.05  # lattice values, as doubles
     cuts = cut_positions(v, n)
@@ -249,7 +261,7 @@ _COORD = st.floats(-10, 10).filter(lambda v: v == 0 or abs(v) > 1e-6)
 
 @given(st.lists(st.tuples(_COORD, _COORD), min_size=2, max_size=12), st.integers(1, 5),
        st.integers(1, 5))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=30, deadline=None)
 def test_clip_pieces_cover_the_line_within_their_tiles(coords, nx, ny):
     """The pieces of a line, end to end, are the line (its vertices plus the cut vertices, no
     other point moved), each piece in its tile's closed box, consecutive pieces sharing their
