@@ -53,13 +53,13 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
         strips = strip_cut(lines)
         if strips is not None:
             try:
-                right = in_background(node_floating, strips[1])
-                left = node_floating(strips[0])
+                right = in_background(_node_floating, strips[1])
+                left = _node_floating(strips[0])
                 return np.concatenate([left, right()]), 0.0
             except GEOSException:
                 pass  # the whole input, snap rounded below
     try:
-        return node_floating(lines), 0.0
+        return _node_floating(lines), 0.0
     except GEOSException:
         pass
     err = None
@@ -76,6 +76,12 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
 
 
 def node_floating(lines: np.ndarray) -> np.ndarray:
+    """GEOS's floating-point noding of ``lines`` (linestrings, map units): the noded parts,
+    no snap rounding (raises GEOSException: the tiles' noder, which then nodes the whole)."""
+    return _node_floating(lines)
+
+
+def _node_floating(lines: np.ndarray) -> np.ndarray:
     """GEOS's floating-point noding of ``lines``: the noded parts (raises GEOSException)."""
     return shapely.get_parts(shapely.node(shapely.multilinestrings(lines)))
 
