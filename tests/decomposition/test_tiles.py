@@ -98,7 +98,8 @@ _SLOW = pytest.mark.slow
 
 @pytest.mark.parametrize("name,tiles", [
     ("rectangle", (3, 3)), pytest.param("rectangle", (5, 4), marks=_SLOW),
-    pytest.param("convex_corner", (3, 3), marks=_SLOW), ("convex_corner", (5, 4)),
+    pytest.param("convex_corner", (3, 3), marks=_SLOW),
+    pytest.param("convex_corner", (5, 4), marks=_SLOW),
     pytest.param("nonconvex_corner", (3, 3), marks=_SLOW),
     pytest.param("nonconvex_corner", (5, 4), marks=_SLOW),
     pytest.param("gallery", (3, 3), marks=_SLOW), pytest.param("gallery", (5, 4), marks=_SLOW)])
@@ -170,6 +171,7 @@ def test_rasterized_lattice_maps_equal_and_checked(seed):
     assert check(b, 3, 0, 10).ok
 
 
+@pytest.mark.slow
 def test_user_frame_and_threads_equal():
     """A map in its own frame (not normalized) on a thread pool: equal, in the user's units."""
     env = load_example("gallery")
@@ -398,7 +400,7 @@ def test_a_tile_the_noder_fails_on_means_the_whole_noded(monkeypatch):
     assert shapely.equals_exact(tiled.parts, whole.parts, 0).all()
 
 
-@pytest.mark.parametrize("tiles", [(3, 3), (5, 4)])
+@pytest.mark.parametrize("tiles", [pytest.param((3, 3), marks=_SLOW), (5, 4)])
 def test_cut_vertices_dissolved_parts_as_whole(tiles):
     """The cut vertices no other line passes through are taken out: the tiled arrangement
     has the whole noding's parts and faces (on the gallery, whose intersections are not
