@@ -12,8 +12,10 @@ work: the input cut into tiles and noded by the workers, with the parts' sources
 the parts joined and the faces traced on them all; the rest of the decomposition: face
 structures, regions, pieces; G and the elimination; total), peak resident memory in MB of the
 main process and of the largest worker, counts (regions, cells, pieces), the verdict, and, for
-the sizes in ``--compare``, whether the untiled run (its curve vertex limit lifted) gives the
-same decomposition up to renumbering: the same counts, regions matched one to one by
+the sizes in ``--compare``, whether the untiled run (its curve vertex limit lifted; its input
+noded whole, or with ``--untiled strips`` in the two strips ``decompose`` uses from 100,000
+segments, :mod:`tether.decomposition.noding`) gives the same decomposition up to
+renumbering: the same counts, regions matched one to one by
 representative point with equal structures, the same pieces (regions, kind, features) and the
 same eliminations (cell, round) in that numbering. The untiled run is made after the tiled one
 in the same process (its memory is not in the tiled run's peak, but is in the ``main MB`` of
@@ -41,7 +43,8 @@ from tether.decomposition import decompose
 from tether.decomposition.tiles import process_executor
 from tether.analysis import analyze, build_graph
 
-n, workers, tiles, compare = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3], sys.argv[4] == "1"
+n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 marks = []
@@ -76,7 +79,10 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "verdict": "strategy" if v.strategy_exists else "none"}
 if compare:
     import tether.curves
+    import tether.decomposition.noding as noding
     tether.curves.MAX_CURVE_VERTICES = 10**12
+    if not strips:  # the whole input noded at once (no strip cut)
+        noding.STRIP_MIN_SEGMENTS = 10**15
     whole = decompose(env, lss)
     vw = analyze(whole, self_check=False, near_critical=False)
     j = dec.region_at(np.array([r.point for r in whole.regions]))
@@ -106,11 +112,11 @@ COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "stitch", "res
            "equal untiled", "untiled MB")
 
 
-def run(n: int, workers: int, tiles: str, compare: bool, src: str) -> dict:
+def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:
     env = dict(os.environ, PYTHONPATH=src)
     out = subprocess.run([sys.executable, "-c", CHILD, str(n), str(workers), tiles,
-                          "1" if compare else "0"], capture_output=True, text=True, env=env,
-                         check=False)
+                          "1" if compare else "0", untiled], capture_output=True, text=True,
+                         env=env, check=False)
     if out.returncode != 0:
         return {"vertices": n, "tiles": tiles, "workers": workers,
                 "verdict": "failed: " + (out.stderr.strip().splitlines() or ["?"])[-1]}
@@ -130,6 +136,9 @@ def main() -> None:
     ap.add_argument("--tiles", default="auto", help="NXxNY or auto")
     ap.add_argument("--compare", type=int, nargs="*", default=[1000, 2000],
                     help="sizes also decomposed untiled, for equality")
+    ap.add_argument("--untiled", choices=("whole", "strips"), default="whole",
+                    help="the untiled run compared with: the input noded whole (default), or "
+                    "as decompose does by default (two strips from 100,000 segments)")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
     args = ap.parse_args()
@@ -138,7 +147,7 @@ def main() -> None:
     print("  ".join(f"{c:>9}" for c in COLUMNS), flush=True)
     rows = []
     for n in args.sizes:
-        row = run(n, args.workers, args.tiles, n in args.compare, args.src)
+        row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src)
         rows.append(row)
         print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
     if args.doc:
