@@ -18,12 +18,12 @@ segments, :mod:`tether.decomposition.noding`) gives the same decomposition up to
 renumbering: the same counts, regions matched one to one by
 representative point with equal structures, the same pieces (regions, kind, features) and the
 same eliminations (cell, round) in that numbering. The untiled run is made after the tiled one
-in the same process (its memory is not in the tiled run's peak, but is in the ``main MB`` of
-a compared size: see the separate ``untiled MB`` column, the peak of the whole process).
+in the same process: ``main MB`` is read before it, ``untiled MB`` after it (the process's
+peak with both decompositions held).
 
-``--doc FILE`` also writes the rows as a Markdown table into ``FILE`` (``docs/scale.md``),
-between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``, with the
-command line and the machine.
+``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
+between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
+measured replaces its row, the others stay; each row says which command line made it.
 """
 
 from __future__ import annotations
@@ -158,16 +158,34 @@ BEGIN, END = "<!-- bench_scale: begin -->", "<!-- bench_scale: end -->"
 
 
 def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
-    """The rows as a Markdown table between :data:`BEGIN` and :data:`END` in ``path``."""
-    lines = [BEGIN, "",
-             f"`python benchmarks/bench_scale.py {argv}` ({os.cpu_count()} CPUs, load "
-             f"average {load:.1f} at the start: other sessions share the machine)", "",
-             "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
-    lines += ["| " + " | ".join(fmt(r.get(c)) for c in COLUMNS) + " |" for r in rows]
-    lines += ["", END]
+    """The rows as a Markdown table between :data:`BEGIN` and :data:`END` in ``path``: rows of
+    the sizes measured replace those of the same sizes, the others are kept, each row with
+    the command line and the load average of its run."""
     text = path.read_text()
     head, rest = text.split(BEGIN, 1)
-    path.write_text(head + "\n".join(lines) + rest.split(END, 1)[1])
+    block, tail = rest.split(END, 1)
+    cols = (*COLUMNS, "run")
+    old = {}
+    earlier = ""  # the command line of a table without the run column (written before it)
+    for ln in block.splitlines():
+        if ln.startswith("`python benchmarks/bench_scale.py"):
+            earlier = ln.split("`")[1].replace("python benchmarks/", "") + "` (untiled: strips)"
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) == len(COLUMNS) and cells[0].isdigit():
+            cells.append(f"`{earlier}")
+        if len(cells) == len(cols) and cells[0].isdigit():
+            old[int(cells[0])] = cells
+    run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
+    if "--untiled strips" not in argv:
+        run_note += " (untiled: whole)"
+    for r in rows:
+        old[int(r["vertices"])] = [fmt(r.get(c)) for c in COLUMNS] + [run_note]
+    lines = [BEGIN, "", f"Measured on {os.cpu_count()} CPUs shared with other sessions (the "
+             "load average at the start of each run is given: above 2, the times are "
+             "inflated).", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(old[k]) + " |" for k in sorted(old)]
+    lines += ["", ""]
+    path.write_text(head + "\n".join(lines) + END + tail)
 
 
 if __name__ == "__main__":
