@@ -166,6 +166,7 @@ def test_examples_equal_reference(name, frac):
 
 @pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5)],
                          ids=["square_hole", "generic", "star_hole"])
+@pytest.mark.slow
 def test_test_maps_equal_reference(env, lss):
     assert_same_as_reference(decompose(env, lss))
 
@@ -193,6 +194,7 @@ def random_graph(rng):
         for k in rng.choice(12, int(rng.integers(0, 4)), replace=False).tolist()])
 
 
+@pytest.mark.slow
 def test_abstract_fixed_point_equals_reference_on_random_graphs():
     rng = np.random.default_rng(1)
     for _ in range(600):

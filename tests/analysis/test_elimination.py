@@ -143,6 +143,7 @@ def test_paper_rectangle_needs_the_elimination():
     assert story[0].startswith("Round 1") and "No surveillance strategy" in story[-1]
 
 
+@pytest.mark.slow
 def test_corners_of_the_paper():
     """Figs. 7 and 8: a strategy exists; at the non-convex corner the corner-facing arc is the
     escapable cell (its arc closes when the target nears the corner)."""

@@ -97,6 +97,7 @@ def _rods(env, lss, m, rng):
     return np.vstack((p, q)), np.concatenate((a, b))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, seed", [(40, 1), (120, 2), (300, 3)])
 def test_rod_is_free_many_matches_reference(n, seed):
     env = floor_plan(n, seed=seed).internal

@@ -165,6 +165,7 @@ def test_decompose_json_is_lean_by_default(capsys):
     assert data["counts"]["regions"] == len(data["regions"]) == 19
 
 
+@pytest.mark.slow
 def test_cli_import_is_light():
     """The CLI's start-up does not import networkx or matplotlib (fresh interpreter)."""
     import subprocess

@@ -53,6 +53,7 @@ SIM = ["simulate", str(example_path("gallery")), "--lss", "1", "--vt", "0.6", "-
        "--start", "2", "2.5", "0.5", "--controller", "kernel", "--duration", "2", "--json"]
 
 
+@pytest.mark.slow
 def test_simulate_kernel_controller_with_saved_kernel(capsys, tmp_path):
     npz = tmp_path / "k.npz"
     assert main([*BASE, "--save", str(npz)]) == 0

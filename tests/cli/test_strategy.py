@@ -17,6 +17,7 @@ def run(capsys, *argv):
     return code, out, err
 
 
+@pytest.mark.slow
 def test_assess_json(capsys, tmp_path):
     code, out, _ = run(capsys, "assess", NC, "--lss", "2", "--vt", "0.5", "--vo", "1",
                        "--at", "5", "1", "1.57", "--json", "--plot", str(tmp_path / "a.png"))

@@ -35,6 +35,7 @@ def _families(env, rel):
 @pytest.mark.parametrize("env, rel", [(floor_plan(150, seed=2), 1 / 15),
                                       (floor_plan(60, seed=7), 1 / 6),
                                       (GENERIC, 0.3), (STAR_HOLE, 0.4)])
+@pytest.mark.slow
 def test_bisect_matches_reference(env, rel, monkeypatch):
     inner, fams = _families(env, rel)
     calls = []

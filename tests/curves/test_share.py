@@ -104,6 +104,7 @@ def assert_same(a, b):
 @pytest.mark.parametrize(("env", "lss"), [(SQUARE_HOLE, 2.0), (GENERIC, 2.5), (STAR_HOLE, 1.5),
                                           (floor_plan(150, seed=1), 1.0),
                                           (floor_plan(200, seed=4), 1.5)])
+@pytest.mark.slow
 def test_share_lines_equals_reference(env, lss, monkeypatch):
     curves, tol = unshared_curves(env, lss, monkeypatch)
     assert assert_same(S.share_lines(curves, tol), reference_share_lines(curves, tol)) >= 0

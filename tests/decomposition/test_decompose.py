@@ -53,6 +53,7 @@ def dec(request):
     return DECS[request.param]
 
 
+@pytest.mark.slow
 def test_sampled_points_have_their_regions_structure(dec):
     pts, owner = sample_in_regions(dec, 25, seed=1)
     assert len(pts) > 10 * len(dec.regions)
@@ -70,6 +71,7 @@ def test_regions_tile_the_free_space(dec):
     assert union.symmetric_difference(dec.env.polygon).area < 1e-9 * dec.env.area
 
 
+@pytest.mark.slow
 def test_region_names_and_cells_are_consistent(dec):
     assert [r.name for r in dec.regions] == [f"R{k}" for k in range(len(dec.regions))]
     assert len(dec.cells) == sum(len(r.cells) for r in dec.regions)
@@ -79,6 +81,7 @@ def test_region_names_and_cells_are_consistent(dec):
     assert dec.region_at([dec.regions[3].point])[0] == 3
 
 
+@pytest.mark.slow
 def test_cell_at_agrees_with_the_arcs(dec):
     rng = np.random.default_rng(4)
     pts = interior_points(dec.env, 400, seed=9)

@@ -92,6 +92,7 @@ def test_room_with_pillar_exactly_lss_from_the_walls(lss):
 @pytest.mark.parametrize("lss", _tiers([0.5, 1.0], (0.5,)))
 @pytest.mark.parametrize("name", _tiers(sorted(families(1.0)),
                                         set(families(1.0)) - {"pillars_half"}))
+@pytest.mark.slow
 def test_lattice_families_agree_with_the_exact_free_arcs(name, lss):
     dec = decompose(env_of(families(lss)[name], name), lss)
     _clean(dec)

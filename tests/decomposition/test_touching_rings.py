@@ -73,6 +73,7 @@ def test_touching_vertices_are_reflex_for_their_own_ring():
         assert env.reflex[env.touching].all(), name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", LSS_TIERS)
 @pytest.mark.parametrize("name", sorted(MAPS))
 def test_decomposition_checks_and_scans_clean(name, lss):
@@ -135,6 +136,7 @@ def test_rod_through_touching_point(name, p, free, lss):
     assert rod_is_free(env, p, a, lss) is free
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", LSS_TIERS)
 @pytest.mark.parametrize(("name", "p", "free"), THROUGH)
 def test_free_arcs_match_brute_force_near_the_point(name, p, free, lss):

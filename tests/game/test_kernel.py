@@ -153,6 +153,7 @@ def test_monotone_in_speed_ratio(room_kernels):
     assert k3.kernel_states > k6.kernel_states > 0
 
 
+@pytest.mark.slow
 def test_outer_scheme_contains_inner():
     env = env_of("nonconvex_corner")
     grid = build_grid(env, 1.0, 0.25, 72)
@@ -204,6 +205,7 @@ def test_continuations_pass_a_reflex_vertex():
         assert np.degrees(g.angles[end]).max() > 170
 
 
+@pytest.mark.slow
 def test_lookups_and_margin(room_kernels):
     k = room_kernels[0.6]
     g = k.grid

@@ -83,6 +83,7 @@ def _bag(tmp_path, version, storage, topics, **kw):
 
 @pytest.mark.parametrize("version, storage, msgtype", [
     (2, "mcap", MSGTYPES[1]), (1, None, MSGTYPES[3])])
+@pytest.mark.slow
 def test_one_message_type_in_each_bag(tmp_path, version, storage, msgtype):
     test_every_message_type_in_every_bag(tmp_path, version, storage, msgtype)
 

@@ -39,6 +39,7 @@ def test_animation_files(run, tmp_path, ext):
         assert out.read_bytes()[:3] == b"GIF"
 
 
+@pytest.mark.slow
 def test_mp4_needs_ffmpeg(run, tmp_path):
     w, r = run
     if shutil.which("ffmpeg") is None:
