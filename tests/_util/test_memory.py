@@ -171,7 +171,7 @@ def test_refusal_comes_before_any_curve(monkeypatch):
         decompose(GENERIC, 3.0)
     msg = str(info.value)
     assert "\n" not in msg and "10 MB" in msg and "--memory-limit" in msg
-    assert "tiles" in msg
+    assert "what would fit" in msg
 
 
 def test_refusal_names_an_lss_and_a_tolerance_that_fit(monkeypatch):

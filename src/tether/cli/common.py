@@ -14,7 +14,7 @@ from tether.examples import path as example_path  # noqa: F401 (tether.cli.examp
 __all__ = [
     "LSS_HELP", "MAP_HELP", "add_map_lss", "add_speeds", "check_plot_arg", "deg", "finite_arg",
     "float_arg", "float_range", "int_range", "load_map_lss", "print_json",
-    "MEMORY_LIMIT_HELP", "add_memory_limit", "size_arg",
+    "MEMORY_LIMIT_HELP", "add_memory_limit", "size_arg", "dask_executor",
 ]
 
 
@@ -175,3 +175,26 @@ def check_plot_arg(args: argparse.Namespace, attr: str = "plot") -> None:
     value = getattr(args, attr, None)
     if value is not None:
         check_output_path(value, IMAGE_KINDS)
+
+
+def dask_executor(address: str, timeout: float) -> tuple[object, Callable[[], None]]:
+    """The executor of the Dask cluster at ``address`` and a function that closes the client.
+
+    Raises
+    ------
+    TetherError
+        Without the ``cluster`` extra, or when the scheduler cannot be reached in ``timeout``
+        seconds (one line).
+    """
+    from tether.errors import TetherError
+
+    try:
+        from distributed import Client
+    except ImportError:
+        raise TetherError("--dask needs the cluster extra: pip install 'tether[cluster]'") \
+            from None
+    try:
+        client = Client(address, timeout=timeout)
+    except (OSError, TimeoutError) as exc:
+        raise TetherError(f"cannot reach the Dask scheduler at {address!r} ({exc})") from None
+    return client.get_executor(), client.close

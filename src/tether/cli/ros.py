@@ -11,12 +11,13 @@ from tether._util.files import IMAGE_KINDS
 from tether.cli.common import (
     MAP_HELP,
     add_memory_limit,
+    dask_executor,
     finite_arg,
     float_arg,
     int_range,
     print_json,
 )
-from tether.errors import InvalidParameterError, TetherError
+from tether.errors import InvalidParameterError
 from tether.io.polygon import text_of as map_text
 
 __all__ = ["cmd_convert", "cmd_sweep", "format_sweep", "register"]
@@ -109,17 +110,7 @@ def _executor(args: argparse.Namespace):
         ex = ProcessPoolExecutor(max_workers=args.workers, initializer=single_threaded)
         return ex, ex.shutdown
     if args.dask:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise TetherError("--dask needs the cluster extra: pip install 'tether[cluster]'") \
-                from None
-        try:
-            client = Client(args.dask, timeout=args.dask_timeout)
-        except (OSError, TimeoutError) as exc:
-            raise TetherError(f"cannot reach the Dask scheduler at {args.dask!r} ({exc})") \
-                from None
-        return client.get_executor(), client.close
+        return dask_executor(args.dask, args.dask_timeout)
     return None, lambda: None
 
 

@@ -112,8 +112,8 @@ def check_memory(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL) -
 
     The budget is :func:`tether._util.memory.memory_budget` (``--memory-limit``,
     ``TETHER_MEMORY_LIMIT``, else the machine's limits). The message gives the estimate, the
-    budget and what would fit: the largest ``lss``, the smallest curve tolerance (by the same
-    estimate), or tiles.
+    budget and what would fit: the largest ``lss`` and the smallest curve tolerance (by the same
+    estimate).
 
     Raises
     ------
@@ -141,8 +141,7 @@ def _refusal(env: Environment, est: MemoryEstimate, budget: MemoryBudget,
     if tol_min is not None:
         fits.append(f"a curve tolerance rel_tol >= {tol_min:.2g} (tether.decompose's "
                     f"rel_tol; default {REL_CURVE_TOL:g})")
-    fits.append("tiles (--tiles)")
-    fit = ", ".join(fits[:-1]) + f" or {fits[-1]}" if len(fits) > 1 else fits[0]
+    fit = " or ".join(fits) if fits else "nothing at this size (a smaller map)"
     return (f"map {env.name!r} at lss {est.lss:g} would need about {format_size(est.bytes)} "
             f"of memory (estimated from its {env.n:,} vertices and {est.pairs:,} vertex-wall "
             f"pairs within lss: about {est.cells:,.0f} cells, curves drawn in steps of "
@@ -220,7 +219,7 @@ def check_exact(env: Environment, lss: float, vertices: float) -> None:
             f"the critical curves of map {env.name!r} at lss {lss:g} (internal units) would "
             f"need about {vertices:,.0f} polyline vertices, and the decomposition about "
             f"{format_size(need)} of memory, more than the budget {budget.describe()}: use "
-            "a smaller lss, a coarser curve tolerance, tiles (--tiles), or raise the budget "
+            "a smaller lss, a coarser curve tolerance, or raise the budget "
             "with --memory-limit SIZE")
 
 

@@ -11,7 +11,10 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
-__all__ = ["TARGET_COLOUR", "OBSERVER_COLOUR", "ROD_COLOUR", "new_axes", "ensure_axes", "save"]
+__all__ = [
+    "TARGET_COLOUR", "OBSERVER_COLOUR", "ROD_COLOUR", "animation_path", "new_axes", "ensure_axes",
+    "save",
+]
 
 TARGET_COLOUR = "tab:blue"
 OBSERVER_COLOUR = "tab:orange"
@@ -37,3 +40,26 @@ def save(fig: Figure, path: str | Path, dpi: int = 120) -> None:
 
     with atomic_output(Path(path)) as tmp:
         fig.savefig(tmp, dpi=dpi)
+
+
+def animation_path(path: str | Path) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when tether can write an animation there
+    (``.gif``, ``.html``, or ``.mp4`` with ffmpeg installed).
+
+    Raises
+    ------
+    TetherError
+        Unknown extension, or ``.mp4`` without ffmpeg.
+    """
+    import shutil
+
+    from tether.errors import TetherError
+
+    path = Path(path)
+    kind = path.suffix.lower()
+    if kind not in (".gif", ".mp4", ".html"):
+        raise TetherError(f"{path}: animations are .gif, .mp4 or .html")
+    if kind == ".mp4" and shutil.which("ffmpeg") is None:
+        raise TetherError(f"{path}: writing MP4 needs ffmpeg, which is not installed; "
+                          "use .gif or .html")
+    return path

@@ -5,15 +5,13 @@ follower searched; an animation of the run.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from tether.errors import TetherError
-from tether.plot.axes import TARGET_COLOUR, ensure_axes, new_axes
+from tether.plot.axes import TARGET_COLOUR, animation_path, ensure_axes, new_axes
 from tether.plot.map import plot_map
 
 __all__ = ["STATUS_COLOURS", "animate_follow", "follow_figure", "plot_follow", "plot_search"]
@@ -127,13 +125,8 @@ def animate_follow(run: Any, env: Any, path: str | Path, fps: int = 10,
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
-    path = Path(path)
+    path = animation_path(path)
     kind = path.suffix.lower()
-    if kind not in (".gif", ".mp4", ".html"):
-        raise TetherError(f"{path}: animations are .gif, .mp4 or .html")
-    if kind == ".mp4" and shutil.which("ffmpeg") is None:
-        raise TetherError(f"{path}: writing MP4 needs ffmpeg, which is not installed; "
-                          "use .gif or .html")
     n = len(run.t)
     frames = np.unique(np.linspace(0, n - 1, min(max_frames, n)).astype(int))
     snap_t = np.array([s[0] for s in run.snapshots])

@@ -9,13 +9,12 @@ error) or HTML (a self-contained JavaScript player). :func:`draw_scene` and
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tether.errors import TetherError
+from tether.plot.axes import animation_path
 from tether.plot.map import plot_map
 from tether.sim.protocols import Mode, Outcome
 
@@ -108,13 +107,8 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
     import matplotlib.pyplot as plt
     from matplotlib import animation
 
-    path = Path(path)
+    path = animation_path(path)
     kind = path.suffix.lower()
-    if kind not in (".gif", ".mp4", ".html"):
-        raise TetherError(f"{path}: animations are .gif, .mp4 or .html")
-    if kind == ".mp4" and shutil.which("ffmpeg") is None:
-        raise TetherError(f"{path}: writing MP4 needs ffmpeg, which is not installed; "
-                          "use .gif or .html")
     tr = result.trace
     frames = np.unique(np.linspace(0, len(tr) - 1, min(max_frames, len(tr))).astype(int))
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
