@@ -272,7 +272,7 @@ def test_kernel_controller_holds_and_evader_wins_room():
     w = World(env, 1.0, 0.6, 1.0, decomposition=ver.dec, verdict=ver, extra={"kernel": k})
     failures = []
     for start in _starts(k, True, 3, 0):
-        for kind in sorted(TARGETS):
+        for kind in sorted(set(TARGETS) - {"track", "pedestrian"}):  # replays need a person
             opts = {"waypoints": [[9.5, 0.5], [0.5, 0.5], [0.5, 9.5]]} if kind == "path" else {}
             r = simulate(w, KernelController(), make_target(kind, w, **opts), start,
                          duration=15.0, dt=0.02, seed=1)

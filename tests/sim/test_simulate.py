@@ -132,7 +132,20 @@ def test_path_target_constant_speed():
 def test_targets_bounded_speed_and_seeded(kind):
     w = world()
     opts = {"waypoints": [[14, 2], [14, 10]]} if kind == "path" else {}
-    runs = [simulate(w, FollowController(w), make_target(kind, w, **opts), (2.0, 2.0, 0.5),
+    if kind == "track":  # a replay: from the start, along the wall's row at half vt
+        from tether.io.tracks import Track
+
+        opts = {"track": Track([0.0, 2.0, 4.0], [(2.0, 2.0), (2.5, 2.0), (2.5, 2.5)]),
+                "dt": 0.05}
+    start = (2.0, 2.0, 0.5)
+    if kind == "pedestrian":  # a simulated person starts where the crowd model puts them
+        pytest.importorskip("jupedsim")
+        from tether.sim.replay import free_rod_angle
+
+        opts = {"dt": 0.05, "seed": 3}
+        p0 = make_target(kind, w, **opts).start
+        start = (p0[0], p0[1], free_rod_angle(w, p0))
+    runs = [simulate(w, FollowController(w), make_target(kind, w, **opts), start,
                      duration=4.0, dt=0.05, seed=7) for _ in range(2)]
     assert np.array_equal(runs[0].trace.p, runs[1].trace.p)
     speeds = np.linalg.norm(np.diff(runs[0].trace.p, axis=0), axis=1) / 0.05
