@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 __all__ = [
     "TARGET_COLOUR", "OBSERVER_COLOUR", "ROD_COLOUR", "animation_path", "new_axes", "ensure_axes",
-    "save",
+    "save", "save_animation",
 ]
 
 TARGET_COLOUR = "tab:blue"
@@ -62,4 +62,24 @@ def animation_path(path: str | Path) -> Path:
     if kind == ".mp4" and shutil.which("ffmpeg") is None:
         raise TetherError(f"{path}: writing MP4 needs ffmpeg, which is not installed; "
                           "use .gif or .html")
+    return path
+
+
+def save_animation(anim: Any, fig: Figure, path: Path, fps: float) -> Path:
+    """Write a matplotlib animation to ``path`` (checked by :func:`animation_path`) whole or not
+    at all, then close its figure; ``fps`` frames per second."""
+    import matplotlib.pyplot as plt
+    from matplotlib import animation
+
+    from tether._util.files import atomic_output
+
+    kind = path.suffix.lower()
+    with atomic_output(path) as tmp:
+        if kind == ".gif":
+            anim.save(tmp, writer=animation.PillowWriter(fps=fps))
+        elif kind == ".mp4":
+            anim.save(tmp, writer=animation.FFMpegWriter(fps=fps))
+        else:
+            Path(tmp).write_text(anim.to_jshtml(fps=fps))
+    plt.close(fig)
     return path

@@ -11,7 +11,13 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from tether.plot.axes import TARGET_COLOUR, animation_path, ensure_axes, new_axes
+from tether.plot.axes import (
+    TARGET_COLOUR,
+    animation_path,
+    ensure_axes,
+    new_axes,
+    save_animation,
+)
 from tether.plot.map import plot_map
 
 __all__ = ["STATUS_COLOURS", "animate_follow", "follow_figure", "plot_follow", "plot_search"]
@@ -126,7 +132,6 @@ def animate_follow(run: Any, env: Any, path: str | Path, fps: int = 10,
     from matplotlib import animation
 
     path = animation_path(path)
-    kind = path.suffix.lower()
     n = len(run.t)
     frames = np.unique(np.linspace(0, n - 1, min(max_frames, n)).astype(int))
     snap_t = np.array([s[0] for s in run.snapshots])
@@ -162,14 +167,4 @@ def animate_follow(run: Any, env: Any, path: str | Path, fps: int = 10,
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
                                    blit=False)
-    from tether._util.files import atomic_output
-
-    with atomic_output(path) as tmp:
-        if kind == ".gif":
-            anim.save(tmp, writer=animation.PillowWriter(fps=fps))
-        elif kind == ".mp4":
-            anim.save(tmp, writer=animation.FFMpegWriter(fps=fps))
-        else:
-            Path(tmp).write_text(anim.to_jshtml(fps=fps))
-    plt.close(fig)
-    return path
+    return save_animation(anim, fig, path, fps)

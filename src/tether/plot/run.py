@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from tether.plot.axes import animation_path
+from tether.plot.axes import animation_path, save_animation
 from tether.plot.map import plot_map
 from tether.sim.protocols import Mode, Outcome
 
@@ -108,7 +108,6 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
     from matplotlib import animation
 
     path = animation_path(path)
-    kind = path.suffix.lower()
     tr = result.trace
     frames = np.unique(np.linspace(0, len(tr) - 1, min(max_frames, len(tr))).astype(int))
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
@@ -155,14 +154,4 @@ def animate_run(result: Any, world: Any, path: str | Path, fps: int = 20,
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000 / fps,
                                    blit=False)
-    from tether._util.files import atomic_output
-
-    with atomic_output(path) as tmp:
-        if kind == ".gif":
-            anim.save(tmp, writer=animation.PillowWriter(fps=fps))
-        elif kind == ".mp4":
-            anim.save(tmp, writer=animation.FFMpegWriter(fps=fps))
-        else:
-            Path(tmp).write_text(anim.to_jshtml(fps=fps))
-    plt.close(fig)
-    return path
+    return save_animation(anim, fig, path, fps)
