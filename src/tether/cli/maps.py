@@ -161,17 +161,7 @@ def _tile_executor(args: argparse.Namespace):
     if args.dask and args.workers:
         raise InvalidParameterError("give --workers or --dask, not both")
     if args.dask:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise TetherError("--dask needs the cluster extra: pip install 'tether[cluster]'") \
-                from None
-        try:
-            client = Client(args.dask, timeout=args.dask_timeout)
-        except (OSError, TimeoutError) as exc:
-            raise TetherError(f"cannot reach the Dask scheduler at {args.dask!r} ({exc})") \
-                from None
-        return client.get_executor(), client.close
+        return dask_executor(args.dask, args.dask_timeout)
     from tether.decomposition.tiles import process_executor
 
     ex = process_executor(args.workers)

@@ -1,31 +1,43 @@
 """One map's arrangement noded in tiles, the tiles processed by any executor.
 
 The plane is cut into a grid of ``nx x ny`` tiles by vertical and horizontal lines placed
-strictly between the coordinates of the input vertices (:func:`cut_positions`), so that no
-vertex of a ring or a curve polyline, no wall and no straight curve lies on a cut. Every input
-segment crossing a cut gets a vertex exactly on it (:func:`clip_to_tiles`; the vertical cuts
-first, then the horizontal ones): computed once, from the segment's lexicographically smaller
-end (a segment and its reverse get the same vertex), its other coordinate clamped to the
-segment's range, and used by the pieces on both sides, so the cut vertices of two neighbouring
-tiles are bit-identical. Each tile's pieces are noded on their own (GEOS's floating-point noder) and
-each noded part gets its source curves there (:func:`node_tile`); pieces of different tiles
-meet only at those shared vertices, so the parts of all tiles together are a noding of the
-whole input: the same lines and intersections, with one more degree-2 vertex where a line
-crosses a cut (as the two strips of :mod:`tether.decomposition.noding`). The faces are then
-traced on all the parts at once (:func:`tether.decomposition.arrangement.traced_arrangement`)
-and the regions, structures and pieces follow as for the whole: a tile's cut is no critical
-curve, so a face cut in two by it is one face again.
+strictly between the coordinates of the input vertices (:func:`cut_positions`). No input
+segment is split at a cut: splitting one moves the line a crossing is computed on by a few
+units in the last place, and where three curves meet at one point (an edge's offset, a
+vertex's arc and a corner curve, tangent at one point by construction) GEOS's noder makes a
+tiny cluster of nodes there whose shape follows those last bits, and a sliver face whose
+region, and so the pieces around it, changed with them.
 
-Two exact rules at the cuts. Cut vertices of one cut whose other coordinate differs by at most
-:data:`CUT_MERGE_ULPS` units in the last place are made one (the smallest): two lines crossing
-each other exactly on a cut, whose vertices there were rounded apart, meet at one node as in
-the whole noding. If GEOS's floating-point noder fails in any tile, the whole input is noded
-as without tiles (snap rounding then applies to the whole, never to one tile).
+Instead each tile's task gets, whole and as runs of consecutive segments of one line
+(:func:`runs_of`), every input segment whose bounding box meets the tile's box grown by twice
+the margin (:data:`TILE_MARGIN`): its *trust box* is the tile's box grown by the margin once.
+GEOS computes a crossing from the two whole input segments (exactly the same in either order),
+so a noded part lying in the trust box, which every segment that can cross it reaches, is the
+whole noding's part bit for bit: its ends, its vertices, its direction (a duplicate from
+another line is dropped as in the whole: the first line's copy is kept). Each part is delivered
+once, by the tile holding its *anchor* (its lexicographically smaller end,
+:meth:`TileGrid.tile_of`), with its sources found as the whole finds them. A part the tile
+cannot vouch for (longer than the margin, crossing out of the trust box) is retried: the parts
+at its ends in that tile are delivered by a task on the box around it grown by twice the
+margin, then four times, ... until each is trusted (:func:`tiled_noder`). The parts of all
+tasks are then exactly the whole noding's parts, with the same sources, in another order.
+The faces are traced on all the parts at once
+(:func:`tether.decomposition.arrangement.traced_arrangement`) and the regions, structures and
+pieces follow as for the whole.
 
-A tile's task gets only its pieces and the input segments within the sources' reach of it, and
-returns compact arrays (part coordinates and counts, part sources as CSR arrays): never the
-map's objects. Tiles run on any :class:`concurrent.futures.Executor` (local processes, a Dask
-cluster's ``Client.get_executor()``, or threads); the result does not depend on which.
+The exactness holds for GEOS's first noding pass. GEOS repeats the noding on its own output
+until no new crossing appears (new crossings arise only within a few units in the last place
+of clustered nodes); a later pass sees the parts of the whole input only within the margin of
+the part, so it could differ where a node-free stretch of a line longer than the margin runs
+through such a cluster near a tile's border. If GEOS's floating-point noder fails in any task,
+the whole input is noded as without tiles (snap rounding then applies to the whole, never to
+one tile); where the whole's floating-point noder would fail but every tile's succeeds, the
+tiled result is the floating-point noding and the untiled one snap rounded.
+
+A task gets only its runs and returns compact arrays (part coordinates and counts, part
+sources as CSR arrays, the anchors to retry): never the map's objects. Tasks run on any
+:class:`concurrent.futures.Executor` (local processes, a Dask cluster's
+``Client.get_executor()``, or threads); the result does not depend on which.
 """
 
 from __future__ import annotations
@@ -41,18 +53,18 @@ import numpy as np
 import shapely
 from shapely.errors import GEOSException
 
-from tether._util.arrays import components, first_max_per_group, ragged_arange, row_ids
+from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition.arrangement import SOURCE_BATCH
 from tether.decomposition.faces import part_ends, part_segments
-from tether.decomposition.noding import node_floating
+from tether.decomposition.noding import STRIP_MIN_SEGMENTS, node_floating, strip_cut
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["CUT_FRACTION", "CUT_MERGE_ULPS", "MAX_TILES", "TILE_SEGMENTS", "TileGrid",
-           "auto_tiles", "check_tiles", "clip_to_tiles", "cut_positions", "dissolve_cut_vertices",
-           "node_tile",
-           "process_executor", "tile_grid", "tiled_noder"]
+__all__ = ["CUT_FRACTION", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS", "TileGrid",
+           "auto_tiles", "check_tiles", "cut_positions", "grown", "node_tile", "part_sources",
+           "process_executor", "runs_of", "segments_in_box", "tile_box", "tile_grid",
+           "tiled_noder"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
@@ -65,9 +77,13 @@ MAX_TILES = 64
 #: gap from its lower end): not the middle, where a symmetric map's mirror-image curves cross.
 CUT_FRACTION = math.sqrt(2.0) - 1.0
 
-#: Cut vertices of one cut closer than this many units in the last place (of their other
-#: coordinate) are made one: the same crossing, rounded apart.
-CUT_MERGE_ULPS = 8
+#: The margin of a tile's trust box, as a fraction of the smaller of the mean tile width and
+#: height: a task nodes the input segments within twice the margin of its tile and delivers
+#: the parts within the margin (:func:`node_tile`).
+TILE_MARGIN = 0.125
+
+#: The most cells along a side of a retry's trust region (:class:`CellMask`).
+MASK_CELLS = 256
 
 #: The central fraction of a cut's share of the vertex ranks searched for the widest gap.
 _CUT_WINDOW = 0.25
@@ -168,101 +184,164 @@ def tile_grid(xy: np.ndarray, tiles: tuple[int, int]) -> TileGrid:
     return TileGrid(cut_positions(xy[:, 0], tiles[0]), cut_positions(xy[:, 1], tiles[1]))
 
 
-def clip_to_tiles(xy: np.ndarray, line: np.ndarray, grid: TileGrid
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The lines (vertices ``xy`` of lines ``line``, consecutive) cut into pieces, one tile
-    each: every segment crossing a cut gets a vertex exactly on it, shared by the pieces on
-    both sides (:func:`_cut_along`: the vertical cuts first, then the horizontal ones on the
-    segments so cut). Zero-length segments are dropped; each segment lies in its tile's
-    closed box. Returns the pieces' vertices, their
-    CSR pointer (piece ``p`` is ``pxy[ptr[p]:ptr[p + 1]]``) and each piece's tile."""
-    xy, line = _cut_along(xy, line, grid.xcuts, 0)
-    xy, line = _cut_along(xy, line, grid.ycuts, 1)
-    k = np.flatnonzero(line[1:] == line[:-1])  # segments k -> k + 1
-    k = k[np.any(xy[k] != xy[k + 1], axis=1)]  # zero-length segments dropped
-    if len(k) == 0:
-        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
-    # no cut strictly inside a segment's box now: the tile holding its lower left corner
-    # (above/right of a cut through it) is the one whose closed box holds the segment
-    tile = grid.tile_of(np.minimum(np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)))
-    brk = np.r_[True, (line[k[1:]] != line[k[:-1]]) | (tile[1:] != tile[:-1])]
-    piece = np.cumsum(brk) - 1
-    last = np.flatnonzero(np.r_[brk[1:], True])
-    pxy = np.empty((len(k) + len(last), 2))
-    pxy[np.arange(len(k)) + piece] = np.take(xy, k, axis=0)
-    pxy[last + piece[last] + 1] = np.take(xy, k[last] + 1, axis=0)
-    ptr = np.r_[0, np.cumsum(np.bincount(piece, minlength=len(last)) + 1)]
-    return pxy, ptr, tile[brk]
+def tile_box(grid: TileGrid, tile: int) -> np.ndarray:
+    """Tile ``tile``'s closed box ``(xmin, ymin, xmax, ymax)`` (map units; infinite at the
+    grid's outer edges): the points :meth:`TileGrid.tile_of` puts in it, and the cuts around
+    it."""
+    i, j = divmod(tile, grid.shape[1])
+    xs = np.r_[-np.inf, grid.xcuts, np.inf]
+    ys = np.r_[-np.inf, grid.ycuts, np.inf]
+    return np.array([xs[i], ys[j], xs[i + 1], ys[j + 1]])
 
 
-def _cut_along(xy: np.ndarray, line: np.ndarray, cuts: np.ndarray, axis: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """The lines with a vertex inserted where a segment crosses a cut ``cuts`` (increasing)
-    of coordinate ``axis`` (0: vertical cuts ``x = c``, 1: horizontal): its ``axis``
-    coordinate exactly the cut's, the other interpolated from the segment's lexicographically
-    smaller end (a segment and its reverse get the same vertex) and clamped to the segment's
-    range (never past its ends by rounding). Vertices of one cut whose other coordinates are
-    within :data:`CUT_MERGE_ULPS` are made one (:func:`_merge_cut_vertices`). Returns the new
-    vertices and their lines."""
-    if len(cuts) == 0:
-        return xy, line
-    k = np.flatnonzero(line[1:] == line[:-1])  # segments k -> k + 1
-    a, b = np.take(xy, k, axis=0), np.take(xy, k + 1, axis=0)
-    ca, cb = np.searchsorted(cuts, a[:, axis]), np.searchsorted(cuts, b[:, axis])
-    count = np.abs(cb - ca)
-    if not count.any():
-        return xy, line
-    s = np.repeat(np.arange(len(k)), count)
-    c = ragged_arange(np.minimum(ca, cb)[count > 0], count[count > 0])
-    a, b = a[s], b[s]
-    swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
-    lo, hi = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
-    cv = cuts[c]
-    other = 1 - axis
-    u = (cv - lo[:, axis]) / (hi[:, axis] - lo[:, axis])
-    p = np.empty((len(s), 2))
-    p[:, axis] = cv
-    p[:, other] = np.clip(lo[:, other] + u * (hi[:, other] - lo[:, other]),
-                          np.minimum(lo[:, other], hi[:, other]),
-                          np.maximum(lo[:, other], hi[:, other]))
-    _merge_cut_vertices(p[:, other], c)
-    t = (cv - a[:, axis]) / (b[:, axis] - a[:, axis])  # the order along the segment a -> b
-    o = np.lexsort((t, s))
-    at = k[s[o]] + 1
-    return np.insert(xy, at, p[o], axis=0), np.insert(line, at, line[at - 1])
+def grown(box: np.ndarray, margin: float) -> np.ndarray:
+    """The box ``(xmin, ymin, xmax, ymax)`` grown by ``margin`` (map units) on every side."""
+    return np.asarray(box, float) + np.array([-margin, -margin, margin, margin])
 
 
-def _merge_cut_vertices(along: np.ndarray, cut: np.ndarray) -> None:
-    """Make the cut vertices of each cut (ids ``cut``) whose coordinate along the cut
-    (``along``) differs from the previous one's by at most :data:`CUT_MERGE_ULPS` units in the
-    last place one: each run of such vertices takes the run's smallest coordinate (in
-    place)."""
-    o = np.lexsort((along, cut))
-    v, c = along[o], cut[o]
-    near = (c[1:] == c[:-1]) & (v[1:] - v[:-1] <= CUT_MERGE_ULPS * np.spacing(np.abs(v[1:])))
-    if not near.any():
-        return
-    run = np.cumsum(np.r_[True, ~near]) - 1
-    along[o] = v[np.flatnonzero(np.r_[True, ~near])][run]
+def segments_in_box(lo: np.ndarray, hi: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """The segments whose bounding boxes (lower left corners ``lo``, upper right ``hi``, (m,
+    2)) meet the closed ``box`` ``(xmin, ymin, xmax, ymax)``: their indices, increasing."""
+    return np.flatnonzero((hi[:, 0] >= box[0]) & (hi[:, 1] >= box[1])
+                          & (lo[:, 0] <= box[2]) & (lo[:, 1] <= box[3]))
 
 
-def _segments_by_tile(la: np.ndarray, lb: np.ndarray, grid: TileGrid, reach: float
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """The input segments ``la-lb`` whose bounding boxes, grown by ``reach``, meet each
-    tile's (closed) box: segment indices tile after tile, and the CSR pointer over tiles."""
+def segments_by_tile(lo: np.ndarray, hi: np.ndarray, grid: TileGrid, reach: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The input segments (bounding boxes ``lo``-``hi``, (m, 2)) whose boxes, grown by
+    ``reach`` (map units), meet each tile's closed box: segment indices tile after tile
+    (increasing within a tile), and the CSR pointer over tiles."""
     nx, ny = grid.shape
-    lo, hi = np.minimum(la, lb) - reach, np.maximum(la, lb) + reach
-    ix0, ix1 = np.searchsorted(grid.xcuts, lo[:, 0]), np.searchsorted(grid.xcuts, hi[:, 0],
-                                                                      "right")
-    iy0, iy1 = np.searchsorted(grid.ycuts, lo[:, 1]), np.searchsorted(grid.ycuts, hi[:, 1],
-                                                                      "right")
-    cols, rows = ix1 - ix0 + 1, iy1 - iy0 + 1
-    count = cols * rows
-    s = np.repeat(np.arange(len(la)), count)
-    j = ragged_arange(np.zeros(len(la), np.int64), count)
+    lo, hi = lo - reach, hi + reach
+    ix0 = np.searchsorted(grid.xcuts, lo[:, 0])
+    ix1 = np.searchsorted(grid.xcuts, hi[:, 0], "right")
+    iy0 = np.searchsorted(grid.ycuts, lo[:, 1])
+    iy1 = np.searchsorted(grid.ycuts, hi[:, 1], "right")
+    rows = iy1 - iy0 + 1
+    count = (ix1 - ix0 + 1) * rows
+    s = np.repeat(np.arange(len(lo)), count)
+    j = ragged_arange(np.zeros(len(lo), np.int64), count)
     tile = (ix0[s] + j // rows[s]) * ny + iy0[s] + j % rows[s]
     o = np.argsort(tile, kind="stable")
     return s[o], np.searchsorted(tile[o], np.arange(nx * ny + 1))
+
+
+@dataclass(frozen=True)
+class CellMask:
+    """A set of cells of a square grid (map units): cell ``(j, i)`` is the closed square
+    ``[x0 + i c, x0 + (i + 1) c] x [y0 + j c, y0 + (j + 1) c]`` (``origin = (x0, y0)``,
+    ``cell = c``), in the set where ``marked[j, i]``. A retry's trust region
+    (:func:`node_tile`): a box's cells are those its corners fall in (``floor``, the same
+    monotone arithmetic wherever it runs)."""
+
+    origin: np.ndarray
+    cell: float
+    marked: np.ndarray
+
+    def _ranges(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The cell ranges ``(i0, j0)``-``(i1, j1)`` (inclusive, as floats, clipped to one
+        cell outside the grid) of the boxes ``lo``-``hi``."""
+        rows, cols = self.marked.shape
+        top = np.array([cols, rows], float)
+        return (np.clip(np.floor((lo - self.origin) / self.cell), -1, top),
+                np.clip(np.floor((hi - self.origin) / self.cell), -1, top))
+
+    def _count(self, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
+        """The marked cells in the ranges ``c0``-``c1`` (inclusive, within the grid)."""
+        t = _summed(self.marked)
+        i0, j0 = c0[:, 0].astype(np.int64), c0[:, 1].astype(np.int64)
+        i1, j1 = c1[:, 0].astype(np.int64) + 1, c1[:, 1].astype(np.int64) + 1
+        return t[j1, i1] - t[j0, i1] - t[j1, i0] + t[j0, i0]
+
+    def holds(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether each box ``lo``-``hi`` ((m, 2) each) lies in marked cells only."""
+        c0, c1 = self._ranges(lo, hi)
+        rows, cols = self.marked.shape
+        inside = np.all(c0 >= 0, axis=1) & (c1[:, 0] < cols) & (c1[:, 1] < rows)
+        out = np.zeros(len(lo), bool)
+        k = np.flatnonzero(inside)
+        area = np.prod(c1[k] - c0[k] + 1, axis=1)
+        out[k] = self._count(c0[k], c1[k]) == area
+        return out
+
+    def meets(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether each box ``lo``-``hi`` ((m, 2) each) has a marked cell."""
+        c0, c1 = self._ranges(lo, hi)
+        rows, cols = self.marked.shape
+        c0 = np.maximum(c0, 0)
+        c1 = np.minimum(c1, np.array([cols - 1, rows - 1], float))
+        out = np.zeros(len(lo), bool)
+        k = np.flatnonzero(np.all(c0 <= c1, axis=1))
+        out[k] = self._count(c0[k], c1[k]) > 0
+        return out
+
+    def dilated(self, cells: int) -> CellMask:
+        """The cells within ``cells`` cells (in x and in y) of a marked one."""
+        rows, cols = self.marked.shape
+        t = _summed(self.marked)
+        j, i = np.arange(rows), np.arange(cols)
+        j0, j1 = np.clip(j - cells, 0, rows), np.clip(j + cells + 1, 0, rows)
+        i0, i1 = np.clip(i - cells, 0, cols), np.clip(i + cells + 1, 0, cols)
+        s = (t[np.ix_(j1, i1)] - t[np.ix_(j0, i1)] - t[np.ix_(j1, i0)] + t[np.ix_(j0, i0)])
+        return CellMask(self.origin, self.cell, s > 0)
+
+
+def _summed(marked: np.ndarray) -> np.ndarray:
+    """The summed-area table of ``marked`` (one row and column of zeros in front)."""
+    t = np.zeros((marked.shape[0] + 1, marked.shape[1] + 1), np.int64)
+    t[1:, 1:] = marked.cumsum(axis=0).cumsum(axis=1)
+    return t
+
+
+def mask_around(boxes: np.ndarray, pad: float, room: float) -> CellMask:
+    """The cells within ``pad`` (map units) of the boxes ``(xmin, ymin, xmax, ymax)`` (rows),
+    on a grid of at most :data:`MASK_CELLS` cells a side (cells at least ``pad / 2``) that
+    leaves ``room`` (map units) around them for :meth:`CellMask.dilated`."""
+    lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
+    size = float((hi - lo).max()) + 2 * (pad + room)
+    cell = max(pad / 2, size / MASK_CELLS)
+    origin = lo - pad - room - 2 * cell
+    shape = np.ceil((hi + pad + room + 2 * cell - origin) / cell).astype(np.int64) + 1
+    rows, cols = int(shape[1]), int(shape[0])
+    grid = CellMask(origin, cell, np.zeros((rows, cols), bool))
+    c0, c1 = grid._ranges(boxes[:, :2], boxes[:, 2:])
+    d = math.ceil(pad / cell)
+    c0 = np.maximum(c0 - d, 0).astype(np.int64)
+    c1 = np.minimum(c1 + d + 1, [cols, rows]).astype(np.int64)
+    diff = np.zeros((rows + 1, cols + 1), np.int64)
+    np.add.at(diff, (c0[:, 1], c0[:, 0]), 1)
+    np.add.at(diff, (c0[:, 1], c1[:, 0]), -1)
+    np.add.at(diff, (c1[:, 1], c0[:, 0]), -1)
+    np.add.at(diff, (c1[:, 1], c1[:, 0]), 1)
+    return CellMask(origin, cell, diff.cumsum(axis=0).cumsum(axis=1)[:rows, :cols] > 0)
+
+
+def _holds(region: np.ndarray | CellMask, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Whether each box ``lo``-``hi`` lies in ``region``: a closed box ``(xmin, ymin, xmax,
+    ymax)`` or a :class:`CellMask`."""
+    if isinstance(region, CellMask):
+        return region.holds(lo, hi)
+    return ((lo[:, 0] >= region[0]) & (lo[:, 1] >= region[1])
+            & (hi[:, 0] <= region[2]) & (hi[:, 1] <= region[3]))
+
+
+def runs_of(seg: np.ndarray, la: np.ndarray, lb: np.ndarray, lowner: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The segments ``seg`` (increasing indices into the input segments ``la-lb`` of the lines
+    ``lowner``, a line's segments consecutive) as runs: the longest sequences of consecutive
+    segments of one line, each a polyline of the input's own vertices (no segment split).
+    Returns the runs' vertices, their CSR pointer (run ``r`` is ``xy[ptr[r]:ptr[r + 1]]``)
+    and each run's line."""
+    if len(seg) == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    brk = np.r_[True, (np.diff(seg) != 1) | (lowner[seg[1:]] != lowner[seg[:-1]])]
+    run = np.cumsum(brk) - 1
+    last = np.flatnonzero(np.r_[brk[1:], True])
+    xy = np.empty((len(seg) + len(last), 2))
+    xy[np.arange(len(seg)) + run] = np.take(la, seg, axis=0)
+    xy[last + run[last] + 1] = np.take(lb, seg[last], axis=0)
+    ptr = np.r_[0, np.cumsum(np.bincount(run, minlength=len(last)) + 1)]
+    return xy, ptr, lowner[seg[brk]]
 
 
 def part_sources(mid: np.ndarray, la: np.ndarray, lb: np.ndarray, lsrc: np.ndarray,
@@ -283,32 +362,84 @@ def part_sources(mid: np.ndarray, la: np.ndarray, lb: np.ndarray, lsrc: np.ndarr
     return np.searchsorted(part_of, np.arange(len(mid) + 1)), src - 1
 
 
-def node_tile(pxy: np.ndarray, ptr: np.ndarray, la: np.ndarray, lb: np.ndarray,
-              lsrc: np.ndarray, reach: float
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int] | None:
-    """A tile's task: its pieces (vertices ``pxy``, CSR ``ptr``) noded by GEOS's
-    floating-point noder, and each part's sources among the input segments ``la-lb`` (source
-    ids ``lsrc``) within ``reach`` of the tile. Returns the parts' vertices and vertex counts,
-    their sources (CSR ``(ptr, src)``) and this process's peak resident memory (bytes, 0 where
+def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
+              trust: np.ndarray | CellMask, reach: float,
+              own: tuple[TileGrid, int] | np.ndarray,
+              done: tuple[np.ndarray | CellMask, ...] = (),
+              sources: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+              ) -> tuple | None:
+    """A tile's task: its runs (vertices ``xy``, CSR ``ptr``: every input segment whose box
+    meets the trust region grown by the margin, whole; each run's source curve ``run_src``,
+    -1 for a wall) noded by GEOS's floating-point noder, and the parts it owns and can vouch
+    for.
+
+    A part is vouched for (*trusted*) if its bounding box lies in ``trust`` (a closed box
+    ``(xmin, ymin, xmax, ymax)``, or a retry's :class:`CellMask`): every input segment that
+    can cross it is among the runs, so its ends and vertices are the whole noding's, bit for
+    bit. The task owns the parts *anchored* (lexicographically smaller end) in its tile
+    (``own = (grid, tile)``) or, in a retry, at one of the points ``own`` ((m, 2)), and in
+    none of the regions ``done`` (a retry's earlier trust regions, whose parts were
+    delivered there). Each part delivered gets its sources among the runs' segments (or the
+    segments ``sources = (a, b, source id)``) within ``reach`` of the middle of its longest
+    segment (:func:`part_sources`, as the whole does).
+
+    Returns the delivered parts' vertices and vertex counts, their sources (CSR ``(ptr,
+    src)``), the *missed* points (the ends, in the tile or among ``own``, of the parts not
+    trusted: anchors whose parts a retry in a larger region must deliver), those parts'
+    bounding boxes ((k, 4)) and this process's peak resident memory (bytes, 0 where
     unknown); None if the noder fails."""
     n = len(ptr) - 1
     if n == 0:
         empty = np.zeros(0, np.int64)
-        return np.zeros((0, 2)), empty, np.zeros(1, np.int64), empty, _peak_rss()
-    lines = shapely.linestrings(pxy, indices=np.repeat(np.arange(n), np.diff(ptr)))
+        return (np.zeros((0, 2)), empty, np.zeros(1, np.int64), empty, np.zeros((0, 2)),
+                np.zeros((0, 4)), _peak_rss())
+    lines = shapely.linestrings(xy, indices=np.repeat(np.arange(n), np.diff(ptr)))
     try:
         parts = node_floating(np.asarray(lines, dtype=object))
     except GEOSException:
         return None
     del lines
     parts = parts[shapely.length(parts) > 0]
-    ends = part_ends(parts)
-    pa, pb, powner = part_segments(ends)
+    coords, count, start, last = part_ends(parts)[:4]
+    a, b = np.take(coords, start, axis=0), np.take(coords, last, axis=0)
+    first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+    anchor = np.where(first[:, None], a, b)
+    box = shapely.bounds(parts)
+    blo, bhi = box[:, :2], box[:, 2:]
+    trusted = _holds(trust, blo, bhi)
+    mine_a, mine_b, owned = _owned((a, b, anchor), own)
+    for region in done:
+        owned &= ~_holds(region, blo, bhi)
+    missed = ~trusted & (mine_a | mine_b)
+    miss = np.unique(np.vstack((a[missed & mine_a], b[missed & mine_b])), axis=0)
+    keep = np.flatnonzero(trusted & owned)
+    kcount = count[keep]
+    kcoords = coords[ragged_arange(start[keep], kcount)]
+    del coords, parts
+    pa, pb, powner = part_segments((kcoords, kcount, np.cumsum(kcount) - kcount))
     longest = first_max_per_group(np.hypot(*(pb - pa).T), powner)
     mid = 0.5 * (np.take(pa, longest, axis=0) + np.take(pb, longest, axis=0))
     del pa, pb, powner
-    sptr, src = part_sources(mid, la, lb, lsrc, reach)
-    return ends[0], ends[1], sptr, src, _peak_rss()
+    if sources is None:
+        nseg = np.diff(ptr) - 1
+        rows = ragged_arange(ptr[:-1], nseg)  # each run's segments' first vertices
+        sources = (np.take(xy, rows, axis=0), np.take(xy, rows + 1, axis=0),
+                   np.repeat(run_src, nseg))
+    sptr, src = part_sources(mid, *sources, reach)
+    return kcoords, kcount, sptr, src, miss, box[missed], _peak_rss()
+
+
+def _owned(ends: tuple[np.ndarray, np.ndarray, np.ndarray],
+           own: tuple[TileGrid, int] | np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For parts of first points ``a``, last points ``b`` and anchors ``anchor`` (``ends``):
+    whether ``a``, ``b`` and ``anchor`` are this task's, as :func:`node_tile` reads ``own``."""
+    if isinstance(own, tuple):
+        grid, tile = own
+        return tuple(grid.tile_of(p) == tile for p in ends)
+    ids = row_ids(np.vstack((own,) + ends))[0]
+    mine = np.isin(ids[len(own):], ids[:len(own)]).reshape(3, -1)
+    return mine[0], mine[1], mine[2]
 
 
 def _peak_rss() -> int:
@@ -333,58 +464,142 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
                 progress: Callable[[str, float], Any] | None = None,
                 log: dict | None = None) -> Callable[..., Any]:
     """The ``noder`` of :func:`tether.decomposition.arrangement.arrangement` that nodes its
-    input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``.
-    ``tol``: the curve tolerance (map units; the sources' reach is ``1e-3 tol`` as for the
-    whole). ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as tiles finish, then
-    ``("stitch", 0.45)`` (the parts joined, the faces traced on them all); ``log``, if given, gets
-    ``tiles`` (the grid's shape), ``worker_peak_bytes`` (the largest peak resident memory a
-    tile's process reported) and ``fallback`` (True if the input was noded whole)."""
+    input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``: the
+    whole noding's parts, each delivered by the tile of its anchor (:func:`node_tile`),
+    retried in larger regions where a tile cannot vouch for it. An input the untiled noding
+    splits into two strips (:func:`tether.decomposition.noding.strip_cut`, from
+    :data:`tether.decomposition.noding.STRIP_MIN_SEGMENTS` segments) is split the same way
+    and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
+    reach is ``1e-3 tol`` as for the whole). ``progress`` gets ``("tiles (NXxNY)", overall
+    fraction)`` as tasks finish, then ``("stitch", 0.45)``; ``log``, if given, gets
+    ``tiles`` (the grid's shape, per strip), ``strips`` (1 or 2), ``margin`` (map units),
+    ``retries`` (tasks run again in a larger region), ``segments_sent`` (input segments sent
+    to the tasks, over the input's count), ``worker_peak_bytes`` (the largest peak resident
+    memory a task's process reported) and ``fallback`` (True if the input was noded
+    whole)."""
     report = progress or (lambda stage, frac: None)
     log = {} if log is None else log
 
     def noder(lines: np.ndarray, source: np.ndarray, segs: tuple) -> tuple | None:
         la, lb, lowner = segs
-        xy, line = shapely.get_coordinates(lines, return_index=True)
-        shape = tiles
-        if shape == "auto":
-            span = xy.max(axis=0) - xy.min(axis=0) if len(xy) else np.ones(2)
-            shape = auto_tiles(len(la), float(span[0]), float(span[1]))
-        grid = tile_grid(xy, shape)
-        log["tiles"] = grid.shape
-        pxy, pptr, ptile = clip_to_tiles(xy, line, grid)
-        del xy, line
-        reach = max(1e-3 * tol, 1e-12)
-        lsrc = source[lowner]
-        near, nptr = _segments_by_tile(la, lb, grid, reach)
-        order = np.argsort(ptile, kind="stable")  # pieces tile after tile
-        tptr = np.searchsorted(ptile[order], np.arange(grid.count + 1))
-        size = np.diff(pptr)
-        futures = []
-        for t in range(grid.count):
-            mine = order[tptr[t]:tptr[t + 1]]
-            rows = ragged_arange(pptr[mine], size[mine])
-            s = near[nptr[t]:nptr[t + 1]]
-            futures.append(executor.submit(node_tile, pxy[rows],
-                                           np.r_[0, np.cumsum(size[mine])], la[s], lb[s],
-                                           lsrc[s], reach))
-        del pxy, near
-        got = []
-        stage = f"tiles ({grid.shape[0]}x{grid.shape[1]})"
-        for i, f in enumerate(futures):
-            got.append(f.result())
-            report(stage, 0.3 + 0.15 * (i + 1) / len(futures))
-        report("stitch", 0.45)
-        log["worker_peak_bytes"] = max((r[4] for r in got if r is not None), default=0)
-        log["fallback"] = any(r is None for r in got)
-        if log["fallback"]:
+        if len(la) == 0:
             return None
-        return dissolve_cut_vertices(*_stitched(got), grid)
+        reach = max(1e-3 * tol, 1e-12)
+        log.update(retries=0, fallback=False, worker_peak_bytes=0, segments_sent=0.0,
+                   strips=1)
+        strips = strip_cut(lines) if len(la) >= STRIP_MIN_SEGMENTS else None
+        if strips is None:  # the input's own segments, each run's sources its line's
+            groups, ref = [(la, lb, lowner, source)], None
+        else:  # the strips' pieces; the sources among the input's own segments
+            groups = [_segments_of(np.asarray(p, dtype=object)) for p in strips]
+            ref = (la, lb, source[lowner])
+            log["strips"] = 2
+        del strips
+        got, sent = [], 0
+        for g in groups:
+            r = _node_in_tiles(g, ref, tiles, executor, reach, report, log)
+            if r is None:
+                log["fallback"] = True
+                return None
+            got.extend(r[0])
+            sent += r[1]
+        report("stitch", 0.45)
+        log["segments_sent"] = sent / len(la)
+        return _stitched(got)
 
     return noder
 
 
+def _segments_of(lines: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The segments of ``lines`` (linestrings) as ``(la, lb, lowner, line_source)`` (sources
+    unknown: zeros)."""
+    xy, idx = shapely.get_coordinates(lines, return_index=True)
+    k = np.flatnonzero(idx[1:] == idx[:-1])
+    return xy[k], xy[k + 1], idx[k], np.zeros(len(lines), np.int64)
+
+
+def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str,
+                   executor: Executor, reach: float, report: Callable, log: dict
+                   ) -> tuple[list, int] | None:
+    """One noding input (``group``: its segments ``(la, lb, lowner)`` and each line's source)
+    in tiles, with retries: the tasks' results and the number of input segments sent; None
+    if a task's noder failed. ``ref``: the segments ``(a, b, source)`` the sources are found
+    among (None: the input's own)."""
+    la, lb, lowner, source = group
+    if len(la) == 0:
+        return [], 0
+    lo, hi = np.minimum(la, lb), np.maximum(la, lb)
+    span = hi.max(axis=0) - lo.min(axis=0)
+    shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]))
+    grid = tile_grid(np.vstack((la, lb)), shape)
+    nx, ny = grid.shape
+    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach)
+    log["tiles"], log["margin"] = grid.shape, margin
+    rlo = rhi = None
+    if ref is not None:
+        rlo, rhi = np.minimum(ref[0], ref[1]), np.maximum(ref[0], ref[1])
+    sent = 0
+
+    def submit(seg: np.ndarray, rseg: np.ndarray | None, trust: Any, own: Any,
+               done: tuple) -> Any:
+        nonlocal sent
+        sent += len(seg)
+        xy, ptr, line = runs_of(seg, la, lb, lowner)
+        sources = None if rseg is None else tuple(np.take(c, rseg, axis=0) for c in ref)
+        return executor.submit(node_tile, xy, ptr, source[line], trust, reach, own, done,
+                               sources)
+
+    near, nptr = segments_by_tile(lo, hi, grid, 2 * margin)
+    rnear = rptr = None
+    if ref is not None:
+        rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
+    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
+    futures = {t: submit(np.sort(near[nptr[t]:nptr[t + 1]]),
+                         None if ref is None else np.sort(rnear[rptr[t]:rptr[t + 1]]),
+                         done[t][0], (grid, t), ())
+               for t in range(grid.count)}
+    del near, rnear
+    got, level, finished = [], 0, 0
+    stage = f"tiles ({nx}x{ny})"
+    while futures:
+        pending = {}
+        for t, f in futures.items():
+            r = f.result()
+            finished += 1
+            report(stage, 0.3 + 0.15 * finished / (finished + len(futures)))
+            if r is None:
+                return None
+            got.append(r)
+            log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
+            if len(r[4]):
+                pending[t] = r
+        level += 1
+        futures = {}
+        for t, r in pending.items():  # larger regions around the parts not vouched for
+            trust = mask_around(r[5], margin * 2.0 ** level, 2 * margin)
+            futures[t] = submit(_segments_near(trust, lo, hi, margin),
+                                None if ref is None else _segments_near(trust, rlo, rhi,
+                                                                        2 * reach),
+                                trust, r[4], done[t])
+            done[t] = (*done[t], trust)
+            log["retries"] += 1
+    return got, sent
+
+
+def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: float
+                   ) -> np.ndarray:
+    """The input segments (bounding boxes ``lo``-``hi``) meeting the cells within ``margin``
+    (map units, and one cell more) of the region ``trust``: increasing indices."""
+    region = trust.dilated(math.ceil(margin / trust.cell) + 1)
+    rows, cols = region.marked.shape
+    end = region.origin + trust.cell * np.array([cols, rows])
+    k = np.flatnonzero(np.all(hi >= region.origin, axis=1) & np.all(lo <= end, axis=1))
+    return k[region.meets(np.take(lo, k, axis=0), np.take(hi, k, axis=0))]
+
+
 def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The tiles' parts one after the other, as linestrings, and their sources (CSR)."""
+    """The tasks' delivered parts one after the other, as linestrings, and their sources
+    (CSR)."""
     coords = np.concatenate([r[0] for r in got])
     count = np.concatenate([r[1] for r in got])
     parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(np.arange(len(count)),
@@ -394,68 +609,3 @@ def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
                                                     zip(got, offsets, strict=True)])
     return parts, ptr, src.astype(np.int64)
-
-
-def dissolve_cut_vertices(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray, grid: TileGrid
-                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of all tiles with the cut vertices that no other line passes through taken
-    out: parts meeting end to end at a vertex lying exactly on a cut, where no other part
-    ends (the two halves of one input segment), are joined and that vertex dropped, so the
-    faces' rings have the vertices of the whole noding (a face's interior point, read from
-    its ring, is then the same). Each joined part's sources are the union of its halves'.
-    Returns ``(parts, ptr, src)`` as given, the joined parts after the others."""
-    coords, count, start, last, ends = part_ends(parts)
-    n = len(parts)
-    if n == 0 or grid.count == 1:
-        return parts, ptr, src
-    node_xy = np.empty((int(ends.max()) + 1, 2))
-    node_xy[ends] = np.take(coords, np.r_[start, last], axis=0)
-    on_cut = np.isin(node_xy[:, 0], grid.xcuts) | np.isin(node_xy[:, 1], grid.ycuts)
-    degree = np.bincount(ends, minlength=len(node_xy))
-    gone = on_cut & (degree == 2)
-    # a part closed on itself at such a vertex keeps it (its two ends are the vertex's two)
-    closed = ends[:n] == ends[n:]
-    gone[ends[:n][closed]] = False
-    if not gone.any():
-        return parts, ptr, src
-    end_part = np.tile(np.arange(n), 2)
-    at = np.flatnonzero(gone[ends])  # part ends at dissolved vertices, two per vertex
-    o = at[np.argsort(ends[at], kind="stable")]
-    u, v = end_part[o[0::2]], end_part[o[1::2]]
-    comp = components(n, u, v)
-    joined = np.zeros(n, bool)
-    joined[u] = joined[v] = True
-    keep = np.flatnonzero(~joined)
-    rows = np.flatnonzero(joined)
-    label = np.unique(comp[rows], return_inverse=True)[1].ravel()
-    o = np.argsort(label, kind="stable")  # each joined part's halves together
-    rows, label = rows[o], label[o]
-    merged = shapely.line_merge(shapely.multilinestrings(parts[rows], indices=label))
-    xy, idx = shapely.get_coordinates(merged, return_index=True)
-    gxy = node_xy[gone]
-    ids = row_ids(np.vstack((gxy, xy)))[0]
-    dissolved = np.isin(ids[len(gxy):], ids[:len(gxy)])
-    head = np.flatnonzero(np.r_[True, idx[1:] != idx[:-1]])
-    tail = np.r_[head[1:], len(idx)] - 1
-    # a closed line merged around a loop starts where line_merge chose: at a kept vertex
-    # instead (a dissolved one is never a part's end)
-    for h, t in zip(head.tolist(), tail.tolist(), strict=True):
-        if dissolved[h] and np.array_equal(xy[h], xy[t]) and not dissolved[h:t].all():
-            k = h + int(np.argmin(dissolved[h:t]))
-            ring = np.r_[np.arange(k, t), np.arange(h, k + 1)]
-            xy[h:t + 1], dissolved[h:t + 1] = xy[ring], dissolved[ring]
-    drop = dissolved.copy()
-    drop[head] = drop[tail] = False  # a line's ends stay
-    new = np.asarray(shapely.linestrings(xy[~drop], indices=idx[~drop]), dtype=object)
-    # sources: the union over each joined part's halves
-    nsrc = np.diff(ptr)
-    base = int(src.max(initial=0)) + 2
-    key = np.sort(np.repeat(label, nsrc[rows]).astype(np.int64) * base
-                  + src[ragged_arange(ptr[rows], nsrc[rows])] + 1)
-    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
-    grp, jsrc = np.divmod(key, base)
-    jptr = np.searchsorted(grp, np.arange(len(new) + 1))
-    ksrc = src[ragged_arange(ptr[keep], nsrc[keep])]
-    kptr = np.r_[0, np.cumsum(nsrc[keep])]
-    return (np.concatenate((parts[keep], new)), np.r_[kptr, kptr[-1] + jptr[1:]],
-            np.concatenate((ksrc, jsrc - 1)).astype(np.int64))
