@@ -11,19 +11,22 @@ Columns: vertices, tiles (``NXxNY``), workers, wall times in seconds (critical c
 work: the input cut into tiles and noded by the workers, with the parts' sources; stitching:
 the parts joined and the faces traced on them all; the rest of the decomposition: face
 structures, regions, pieces; G and the elimination; total), peak resident memory in MB of the
-main process and of the largest worker, counts (regions, cells, pieces), the verdict, and, for
-the sizes in ``--compare``, whether the untiled run (its curve vertex limit lifted; its input
-noded whole, or with ``--untiled strips`` in the two strips ``decompose`` uses from 100,000
-segments, :mod:`tether.decomposition.noding`) gives the same decomposition up to
-renumbering: the same counts, regions matched one to one by
-representative point with equal structures, the same pieces (regions, kind, features) and the
-same eliminations (cell, round) in that numbering. The untiled run is made after the tiled one
+main process and of the largest worker, the input segments sent to the tile tasks over the
+input's count and the number of retry tasks (:mod:`tether.decomposition.tiles`), counts
+(regions, cells, pieces), the verdict, and, for the sizes in ``--compare``, whether the
+untiled run (its curve vertex limit lifted; its input noded as ``decompose`` does, in two
+strips from 100,000 segments, :mod:`tether.decomposition.noding`, or with ``--untiled whole``
+without the strips, tiled and untiled) gives the same decomposition up to renumbering: the
+same counts, regions matched one to one by representative point with equal structures, the
+same pieces (regions, kind, features) and the same eliminations (cell, round) in that
+numbering. The untiled run is made after the tiled one
 in the same process: ``main MB`` is read before it, ``untiled MB`` after it (the process's
 peak with both decompositions held).
 
 ``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
 between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
-measured replaces its row, the others stay; each row says which command line made it.
+measured replaces its row, the others stay (if they have its columns); each row says which
+command line made it.
 """
 
 from __future__ import annotations
@@ -45,6 +48,16 @@ from tether.analysis import analyze, build_graph
 
 n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
+import tether.curves
+import tether.decomposition.noding as noding
+import tether.decomposition.pipeline as pipeline
+if not strips:  # the input noded without the strip cut, tiled and untiled
+    noding.STRIP_MIN_SEGMENTS = 10**15
+noder_log = {}
+_noder = pipeline.tiled_noder
+def _logged(tiles, executor, tol, progress=None, log=None):
+    return _noder(tiles, executor, tol, progress, noder_log)
+pipeline.tiled_noder = _logged
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 marks = []
@@ -68,6 +81,8 @@ for stage, t in marks:
     if key == "tiles":
         at["tiles_end"] = t
         shape = stage[stage.index("(") + 1:stage.index(")")]
+if noder_log.get("strips") == 2:
+    shape = "2 strips x " + shape
 row = {"vertices": n, "tiles": shape, "workers": workers,
        "curves": at["arrangement"] - w0,
        "tile work": at["tiles_end"] - at["arrangement"],
@@ -75,14 +90,11 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "rest": w1 - at["face structures"],
        "G+elim": w2 - w1, "total": w2 - w0,
        "main MB": main_mb, "worker MB": worker_mb,
+       "sent": noder_log["segments_sent"], "retries": noder_log["retries"],
        "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
        "verdict": "strategy" if v.strategy_exists else "none"}
 if compare:
-    import tether.curves
-    import tether.decomposition.noding as noding
     tether.curves.MAX_CURVE_VERTICES = 10**12
-    if not strips:  # the whole input noded at once (no strip cut)
-        noding.STRIP_MIN_SEGMENTS = 10**15
     whole = decompose(env, lss)
     vw = analyze(whole, self_check=False, near_critical=False)
     j = dec.region_at(np.array([r.point for r in whole.regions]))
@@ -108,8 +120,8 @@ print(json.dumps(row))
 """
 
 COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "stitch", "rest", "G+elim",
-           "total", "main MB", "worker MB", "regions", "cells", "pieces", "verdict",
-           "equal untiled", "untiled MB")
+           "total", "main MB", "worker MB", "sent", "retries", "regions", "cells", "pieces",
+           "verdict", "equal untiled", "untiled MB")
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:
@@ -136,9 +148,10 @@ def main() -> None:
     ap.add_argument("--tiles", default="auto", help="NXxNY or auto")
     ap.add_argument("--compare", type=int, nargs="*", default=[1000, 2000],
                     help="sizes also decomposed untiled, for equality")
-    ap.add_argument("--untiled", choices=("whole", "strips"), default="whole",
-                    help="the untiled run compared with: the input noded whole (default), or "
-                    "as decompose does by default (two strips from 100,000 segments)")
+    ap.add_argument("--untiled", choices=("whole", "strips"), default="strips",
+                    help="how the input is noded, tiled and untiled: as decompose does "
+                    "(default: two strips from 100,000 segments, each tiled on its own), or "
+                    "whole (no strip cut)")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
     args = ap.parse_args()
@@ -159,25 +172,21 @@ BEGIN, END = "<!-- bench_scale: begin -->", "<!-- bench_scale: end -->"
 
 def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     """The rows as a Markdown table between :data:`BEGIN` and :data:`END` in ``path``: rows of
-    the sizes measured replace those of the same sizes, the others are kept, each row with
-    the command line and the load average of its run."""
+    the sizes measured replace those of the same sizes, the others are kept (if they have
+    this table's columns), each row with the command line and the load average of its
+    run."""
     text = path.read_text()
     head, rest = text.split(BEGIN, 1)
     block, tail = rest.split(END, 1)
     cols = (*COLUMNS, "run")
-    old = {}
-    earlier = ""  # the command line of a table without the run column (written before it)
+    old = {}  # rows of other sizes in this table's columns (others were another noder's)
     for ln in block.splitlines():
-        if ln.startswith("`python benchmarks/bench_scale.py"):
-            earlier = ln.split("`")[1].replace("python benchmarks/", "") + "` (untiled: strips)"
         cells = [c.strip() for c in ln.strip().strip("|").split("|")]
-        if len(cells) == len(COLUMNS) and cells[0].isdigit():
-            cells.append(f"`{earlier}")
         if len(cells) == len(cols) and cells[0].isdigit():
             old[int(cells[0])] = cells
     run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
-    if "--untiled strips" not in argv:
-        run_note += " (untiled: whole)"
+    if "--untiled whole" in argv:
+        run_note += " (no strips)"
     for r in rows:
         old[int(r["vertices"])] = [fmt(r.get(c)) for c in COLUMNS] + [run_note]
     lines = [BEGIN, "", f"Measured on {os.cpu_count()} CPUs shared with other sessions (the "

@@ -353,6 +353,19 @@ def test_cli_refuses_bad_tiles_in_one_line(capsys):
 
 
 @pytest.mark.slow
+def test_cli_unreachable_dask_scheduler_one_line(capsys):
+    pytest.importorskip("distributed")
+    from tether.cli import main
+    from tether.examples import path as example_path
+
+    room = str(example_path("rectangle"))
+    assert main(["decompose", room, "--lss", "1", "--dask", "tcp://127.0.0.1:9",
+                 "--dask-timeout", "0.3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot reach the Dask scheduler" in err[0]
+
+
+@pytest.mark.slow
 def test_cli_analyze_in_tiles_on_processes_same_verdict(capsys):
     import json
 
@@ -521,10 +534,8 @@ def test_strips_followed(monkeypatch):
     segments' halves) is split the same way before tiling, each strip tiled on its own: the
     same parts bit for bit."""
     import tether.decomposition.noding as noding_mod
-    import tether.decomposition.tiles as tiles_mod
 
     monkeypatch.setattr(noding_mod, "STRIP_MIN_SEGMENTS", 100)
-    monkeypatch.setattr(tiles_mod, "STRIP_MIN_SEGMENTS", 100)
     env = load_example("gallery")
     whole, tiled, log = _arrangements(env, 1.0, (2, 2))
     assert log["strips"] == 2

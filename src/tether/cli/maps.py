@@ -11,6 +11,7 @@ from tether.cli.common import (
     add_map_lss,
     add_memory_limit,
     check_plot_arg,
+    dask_executor,
     deg,
     example_path,
     finite_arg,
@@ -19,7 +20,7 @@ from tether.cli.common import (
     load_map_lss,
     print_json,
 )
-from tether.errors import InvalidParameterError, TetherError
+from tether.errors import InvalidParameterError
 from tether.tolerances import CHECK_LINES, LINES_RANGE, SAMPLES_RANGE
 
 __all__ = [

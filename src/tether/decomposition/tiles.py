@@ -55,9 +55,10 @@ from shapely.errors import GEOSException
 
 from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
+from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
 from tether.decomposition.faces import part_ends, part_segments
-from tether.decomposition.noding import STRIP_MIN_SEGMENTS, node_floating, strip_cut
+from tether.decomposition.noding import node_floating
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
@@ -487,7 +488,7 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
         reach = max(1e-3 * tol, 1e-12)
         log.update(retries=0, fallback=False, worker_peak_bytes=0, segments_sent=0.0,
                    strips=1)
-        strips = strip_cut(lines) if len(la) >= STRIP_MIN_SEGMENTS else None
+        strips = noding.strip_cut(lines) if len(la) >= noding.STRIP_MIN_SEGMENTS else None
         if strips is None:  # the input's own segments, each run's sources its line's
             groups, ref = [(la, lb, lowner, source)], None
         else:  # the strips' pieces; the sources among the input's own segments
