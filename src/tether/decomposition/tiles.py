@@ -62,10 +62,10 @@ from tether.decomposition.noding import node_floating
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["CUT_FRACTION", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS", "TileGrid",
-           "auto_tiles", "check_tiles", "cut_positions", "grown", "node_tile", "part_sources",
-           "process_executor", "runs_of", "segments_in_box", "tile_box", "tile_grid",
-           "tiled_noder"]
+__all__ = ["CUT_FRACTION", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
+           "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
+           "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
+           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
@@ -198,13 +198,6 @@ def tile_box(grid: TileGrid, tile: int) -> np.ndarray:
 def grown(box: np.ndarray, margin: float) -> np.ndarray:
     """The box ``(xmin, ymin, xmax, ymax)`` grown by ``margin`` (map units) on every side."""
     return np.asarray(box, float) + np.array([-margin, -margin, margin, margin])
-
-
-def segments_in_box(lo: np.ndarray, hi: np.ndarray, box: np.ndarray) -> np.ndarray:
-    """The segments whose bounding boxes (lower left corners ``lo``, upper right ``hi``, (m,
-    2)) meet the closed ``box`` ``(xmin, ymin, xmax, ymax)``: their indices, increasing."""
-    return np.flatnonzero((hi[:, 0] >= box[0]) & (hi[:, 1] >= box[1])
-                          & (lo[:, 0] <= box[2]) & (lo[:, 1] <= box[3]))
 
 
 def segments_by_tile(lo: np.ndarray, hi: np.ndarray, grid: TileGrid, reach: float
