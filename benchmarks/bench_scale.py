@@ -25,8 +25,8 @@ peak with both decompositions held).
 
 ``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
 between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
-measured replaces its row, the others stay (if they have its columns); each row says which
-command line made it.
+measured with a number of workers replaces its row, the others stay (if they have its
+columns); each row says which command line made it.
 """
 
 from __future__ import annotations
@@ -172,9 +172,9 @@ BEGIN, END = "<!-- bench_scale: begin -->", "<!-- bench_scale: end -->"
 
 def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     """The rows as a Markdown table between :data:`BEGIN` and :data:`END` in ``path``: rows of
-    the sizes measured replace those of the same sizes, the others are kept (if they have
-    this table's columns), each row with the command line and the load average of its
-    run."""
+    the sizes and worker counts measured replace those of the same, the others are kept (if
+    they have this table's columns), each row with the command line and the load average of
+    its run."""
     text = path.read_text()
     head, rest = text.split(BEGIN, 1)
     block, tail = rest.split(END, 1)
@@ -183,12 +183,12 @@ def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     for ln in block.splitlines():
         cells = [c.strip() for c in ln.strip().strip("|").split("|")]
         if len(cells) == len(cols) and cells[0].isdigit():
-            old[int(cells[0])] = cells
+            old[int(cells[0]), int(cells[2])] = cells
     run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
     if "--untiled whole" in argv:
         run_note += " (no strips)"
     for r in rows:
-        old[int(r["vertices"])] = [fmt(r.get(c)) for c in COLUMNS] + [run_note]
+        old[int(r["vertices"]), int(r["workers"])] = [fmt(r.get(c)) for c in COLUMNS] + [run_note]
     lines = [BEGIN, "", f"Measured on {os.cpu_count()} CPUs shared with other sessions (the "
              "load average at the start of each run is given: above 2, the times are "
              "inflated).", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
