@@ -553,14 +553,15 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
                          done[t][0], (grid, t), ())
                for t in range(grid.count)}
     del near, rnear
-    got, level, finished = [], 0, 0
+    got, level, finished, total, shown = [], 0, 0, len(futures), 0.0
     stage = f"tiles ({nx}x{ny})"
     while futures:
         pending = {}
         for t, f in futures.items():
             r = f.result()
             finished += 1
-            report(stage, 0.3 + 0.15 * finished / (finished + len(futures)))
+            shown = max(shown, finished / total)  # retries add tasks: never backwards
+            report(stage, 0.3 + 0.15 * shown)
             if r is None:
                 return None
             got.append(r)
@@ -577,6 +578,7 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
                                 trust, r[4], done[t])
             done[t] = (*done[t], trust)
             log["retries"] += 1
+            total += 1
     return got, sent
 
 
