@@ -8,6 +8,7 @@ the trust regions and runs checked by brute force."""
 from __future__ import annotations
 
 import collections
+import math
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 
 import lattice_maps as lm
@@ -279,11 +280,11 @@ def test_cell_mask_holds_and_meets_by_brute_force(marked, queries, pad):
     """A retry's trust region: the marked cells cover every box grown by ``pad / 2``; a box
     ``holds`` iff each of its cells (its corners' ``floor``) is marked, ``meets`` iff one
     is, checked cell by cell; a dilation marks every cell within the count of a marked
-    one."""
+    one, and the dilation by the room asked for stays off the grid's edge."""
     boxes = _boxes(marked)
     mask = mask_around(boxes, pad, 0.5)
     rows, cols = mask.marked.shape
-    assert rows <= MASK_CELLS + 8 and cols <= MASK_CELLS + 8
+    assert rows <= MASK_CELLS + 12 and cols <= MASK_CELLS + 12
     grow = grown(boxes, 0.5 * pad)
     assert mask.holds(grow[:, :2], grow[:, 2:]).all()
     q = _boxes(queries)
@@ -297,6 +298,8 @@ def test_cell_mask_holds_and_meets_by_brute_force(marked, queries, pad):
         hit = [ok and mask.marked[j, i] for (j, i), ok in zip(cells, inside, strict=True)]
         assert mask.holds(lo[k:k + 1], hi[k:k + 1])[0] == all(hit)
         assert mask.meets(lo[k:k + 1], hi[k:k + 1])[0] == any(hit)
+    edge = mask.dilated(math.ceil(0.5 / mask.cell) + 1).marked  # the room asked for: inside
+    assert not (edge[0].any() or edge[-1].any() or edge[:, 0].any() or edge[:, -1].any())
     wide = mask.dilated(2)
     j, i = np.nonzero(mask.marked)
     for dj in range(-2, 3):

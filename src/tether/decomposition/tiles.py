@@ -289,13 +289,15 @@ def _summed(marked: np.ndarray) -> np.ndarray:
 
 def mask_around(boxes: np.ndarray, pad: float, room: float) -> CellMask:
     """The cells within ``pad`` (map units) of the boxes ``(xmin, ymin, xmax, ymax)`` (rows),
-    on a grid of at most :data:`MASK_CELLS` cells a side (cells at least ``pad / 2``) that
-    leaves ``room`` (map units) around them for :meth:`CellMask.dilated`."""
+    on a grid of about :data:`MASK_CELLS` cells a side at most (cells at least ``pad / 2``)
+    that leaves ``room`` (map units) and 4 cells around them, so that a dilation by
+    ``ceil(room / cell) + 1`` cells (:meth:`CellMask.dilated`) stays off the grid's edge."""
     lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
     size = float((hi - lo).max()) + 2 * (pad + room)
     cell = max(pad / 2, size / MASK_CELLS)
-    origin = lo - pad - room - 2 * cell
-    shape = np.ceil((hi + pad + room + 2 * cell - origin) / cell).astype(np.int64) + 1
+    # room for a dilation by ceil(room / cell) + 1 cells, and a cell for floor's rounding
+    origin = lo - pad - room - 4 * cell
+    shape = np.ceil((hi + pad + room + 4 * cell - origin) / cell).astype(np.int64) + 1
     rows, cols = int(shape[1]), int(shape[0])
     grid = CellMask(origin, cell, np.zeros((rows, cols), bool))
     c0, c1 = grid._ranges(boxes[:, :2], boxes[:, 2:])
@@ -571,7 +573,7 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         level += 1
         futures = {}
         for t, r in pending.items():  # larger regions around the parts not vouched for
-            trust = mask_around(r[5], margin * 2.0 ** level, 2 * margin)
+            trust = mask_around(r[5], margin * 2.0 ** level, margin)
             futures[t] = submit(_segments_near(trust, lo, hi, margin),
                                 None if ref is None else _segments_near(trust, rlo, rhi,
                                                                         2 * reach),
