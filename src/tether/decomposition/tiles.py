@@ -550,8 +550,8 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     if ref is not None:
         rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
     done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
-    futures = {t: submit(np.sort(near[nptr[t]:nptr[t + 1]]),
-                         None if ref is None else np.sort(rnear[rptr[t]:rptr[t + 1]]),
+    futures = {t: submit(near[nptr[t]:nptr[t + 1]],
+                         None if ref is None else rnear[rptr[t]:rptr[t + 1]],
                          done[t][0], (grid, t), ())
                for t in range(grid.count)}
     del near, rnear
