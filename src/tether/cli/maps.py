@@ -11,6 +11,7 @@ from tether.cli.common import (
     add_map_lss,
     add_memory_limit,
     check_plot_arg,
+    dask_executor,
     deg,
     example_path,
     finite_arg,
@@ -139,7 +140,47 @@ def _decompose(args: argparse.Namespace):
     from tether.decomposition import decompose
 
     env = load_map_lss(args)
-    return decompose(env, args.lss, progress=Progress("decompose"))
+    tiles = getattr(args, "tiles", None)
+    if tiles is None and (getattr(args, "workers", None) or getattr(args, "dask", None)):
+        tiles = "auto"
+    if tiles is None:
+        return decompose(env, args.lss, progress=Progress("decompose"))
+    from tether.decomposition.tiles import check_tiles
+
+    tiles = check_tiles(tiles)  # refused before any worker starts
+    executor, close = _tile_executor(args)
+    try:
+        return decompose(env, args.lss, progress=Progress("decompose"), tiles=tiles,
+                         executor=executor)
+    finally:
+        close()
+
+
+def _tile_executor(args: argparse.Namespace):
+    """The executor of the tiles (local processes, ``--workers`` of them, by default one per
+    core; or a Dask cluster's, ``--dask``) and a function to shut it down."""
+    if args.dask and args.workers:
+        raise InvalidParameterError("give --workers or --dask, not both")
+    if args.dask:
+        return dask_executor(args.dask, args.dask_timeout)
+    from tether.decomposition.tiles import process_executor
+
+    ex = process_executor(args.workers)
+    return ex, ex.shutdown
+
+
+def _add_tile_options(sp: argparse.ArgumentParser) -> None:
+    """``--tiles``, ``--workers`` and ``--dask``: the decomposition in tiles (docs/scale.md)."""
+    sp.add_argument("--tiles", metavar="NXxNY",
+                    help="node the arrangement in NX x NY tiles (or 'auto'), each a task of "
+                    "a worker process; the same result up to numbering (docs/scale.md)")
+    sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
+                    help="worker processes for the tiles (default: one per core; implies "
+                    "--tiles auto)")
+    sp.add_argument("--dask", metavar="ADDRESS",
+                    help="run the tiles on a Dask scheduler (implies --tiles auto; needs the "
+                    "cluster extra)")
+    sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
@@ -319,6 +360,7 @@ def register(add) -> None:
     sp.add_argument("--out", metavar="DIR",
                     help="also write the decomposition to the folder DIR as columns "
                     "(docs/store.md), for 'tether analyze --from DIR'")
+    _add_tile_options(sp)
 
     sp = add("analyze", cmd_analyze, "graph G, escapable cells and the existence verdict")
     sp.add_argument("map", nargs="?", help=MAP_HELP + " (or --from DIR)")
@@ -329,6 +371,7 @@ def register(add) -> None:
                     "DIR' (instead of MAP --lss L)")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the verdict figure to an image file")
+    _add_tile_options(sp)
 
     sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")
     add_map_lss(sp)
@@ -342,3 +385,4 @@ def register(add) -> None:
                     help="random lines scanned for changes of the exact structure, "
                     f"{LINES_RANGE[0]} to {LINES_RANGE[1]} (default {CHECK_LINES})")
     sp.add_argument("--json", action="store_true", help="print JSON")
+    _add_tile_options(sp)

@@ -5,7 +5,9 @@ parts that separate two regions (:class:`Chains`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -27,7 +29,7 @@ from tether.decomposition.noding import node_lines
 from tether.environment import Environment
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["Arrangement", "Chains", "SOURCE_BATCH", "arrangement"]
+__all__ = ["Arrangement", "Chains", "SOURCE_BATCH", "arrangement", "traced_arrangement"]
 
 
 @dataclass
@@ -178,9 +180,20 @@ def _with_wall_stubs(env: Environment, xy: np.ndarray, idx: np.ndarray, source: 
             np.concatenate((source, new_src)))
 
 
-def arrangement(env: Environment, curves: list[Curve], tol: float) -> Arrangement:
-    """Node the critical curves and the map's rings into parts and trace the faces they bound."""
+def arrangement(env: Environment, curves: list[Curve], tol: float,
+                noder: Callable[..., Any] | None = None) -> Arrangement:
+    """Node the critical curves and the map's rings into parts and trace the faces they bound.
+
+    ``noder``, if given, nodes the input tile by tile
+    (:func:`tether.decomposition.tiles.tiled_noder`): called as ``noder(lines, source,
+    (la, lb, lowner))`` with the input lines, each line's source curve (-1: a ring) and the
+    lines' segments, it returns the parts and their sources as CSR arrays ``(parts, ptr,
+    src)``, or None to node the input whole (as without it)."""
     lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
+    if noder is not None:
+        got = noder(lines, np.asarray(source, dtype=np.int64), (la, lb, lowner))
+        if got is not None:
+            return traced_arrangement(*got)
     # the sources' segment grid built while GEOS nodes (it releases the GIL); for the reach
     # of floating-point noding (snap rounding's wider reach builds its own blocks)
     tree = SegmentGrid(la, lb)
@@ -190,14 +203,7 @@ def arrangement(env: Environment, curves: list[Curve], tol: float) -> Arrangemen
     release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
     parts = parts[shapely.length(parts) > 0]
     ends = part_ends(parts)
-    pa, pb, powner = part_segments(ends)
-    seg_len = np.hypot(*(pb - pa).T)
-    longest = first_max_per_group(seg_len, powner)  # the longest segment of each part
-    traced = trace_faces(parts, ends)
-    if traced is not None:
-        faces, part_faces = traced
-    else:
-        faces, part_faces = polygonize_faces(parts, pa, pb, powner, longest)
+    faces, part_faces, (pa, pb, powner), longest = _faces(parts, ends)
     # which input lines each part came from: input segments near the middle of its longest
     # segment (a segment grid: distances to whole long polylines would dominate the time)
     mid = 0.5 * (np.take(pa, longest, axis=0) + np.take(pb, longest, axis=0))
@@ -217,6 +223,33 @@ def arrangement(env: Environment, curves: list[Curve], tol: float) -> Arrangemen
     arr = Arrangement(parts, part_faces, ptr, src - 1, faces, grid)
     arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
     arr.memo["part_segments"] = (pa, pb, powner)  # for segments(): not made again
+    return arr
+
+
+def _faces(parts: np.ndarray, ends: tuple) -> tuple[np.ndarray, np.ndarray, tuple, np.ndarray]:
+    """The faces of the noded ``parts`` (of :func:`part_ends` ``ends``) and the faces on both
+    sides of each part (traced, polygonized if the tracing cannot decide), the parts'
+    segments ``(pa, pb, powner)`` and the index of each part's longest segment there."""
+    pa, pb, powner = part_segments(ends)
+    seg_len = np.hypot(*(pb - pa).T)
+    longest = first_max_per_group(seg_len, powner)  # the longest segment of each part
+    traced = trace_faces(parts, ends)
+    if traced is not None:
+        faces, part_faces = traced
+    else:
+        faces, part_faces = polygonize_faces(parts, pa, pb, powner, longest)
+    return faces, part_faces, (pa, pb, powner), longest
+
+
+def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray) -> Arrangement:
+    """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
+    grid 0), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing,
+    -1 = wall): its faces traced as :func:`arrangement` traces them."""
+    ends = part_ends(parts)
+    faces, part_faces, segs, _ = _faces(parts, ends)
+    arr = Arrangement(parts, part_faces, ptr, src, faces, 0.0)
+    arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
+    arr.memo["part_segments"] = segs  # for segments(): not made again
     return arr
 
 

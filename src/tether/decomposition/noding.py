@@ -22,7 +22,7 @@ from tether._util.threads import in_background
 from tether.errors import ArrangementError
 
 __all__ = ["CUT_WINDOW", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "cut_position", "geos_message",
-           "node_lines", "strip_cut"]
+           "node_floating", "node_lines", "strip_cut"]
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
 #: tolerance: coarser grids only if a finer one fails too.
@@ -73,6 +73,12 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
     raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
                            f"on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the curve "
                            f"tolerance {tol:.2g}): {geos_message(err)}")
+
+
+def node_floating(lines: np.ndarray) -> np.ndarray:
+    """GEOS's floating-point noding of ``lines`` (linestrings, map units): the noded parts,
+    no snap rounding (raises GEOSException: the tiles' noder, which then nodes the whole)."""
+    return _node_floating(lines)
 
 
 def _node_floating(lines: np.ndarray) -> np.ndarray:

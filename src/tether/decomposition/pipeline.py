@@ -4,6 +4,7 @@ in the map's frame (:mod:`tether.decomposition.frame`)."""
 
 from __future__ import annotations
 
+from concurrent.futures import Executor
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ from tether.decomposition.noding import geos_message
 from tether.decomposition.pieces import longest_unresolved, make_pieces
 from tether.decomposition.regions import face_regions, make_regions
 from tether.decomposition.structure import structure_ids
+from tether.decomposition.tiles import check_tiles, process_executor, tiled_noder
 from tether.decomposition.views import Pieces
 from tether.environment import Environment
 from tether.errors import ArrangementError
@@ -30,8 +32,13 @@ __all__ = ["decompose"]
 
 
 def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
-              progress: Any = None) -> Decomposition:
+              progress: Any = None, tiles: tuple[int, int] | str | None = None,
+              executor: Executor | None = None) -> Decomposition:
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
+
+    With ``tiles``, the arrangement is noded tile by tile (:mod:`tether.decomposition.tiles`,
+    ``docs/scale.md``): the result is equal to the untiled one up to the numbering of its
+    regions and pieces (the same regions, structures, pieces and verdict).
 
     Parameters
     ----------
@@ -42,6 +49,17 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         Curve approximation tolerance relative to the map diameter.
     progress : callable, optional
         Called as ``progress(stage_name, fraction_done)``.
+    tiles : (int, int) or str, optional
+        ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
+        or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
+        per tile); None (default): untiled. Only the noding is tiled: the curves, faces,
+        regions and pieces are made whole, so the memory check (``docs/memory.md``) and
+        :data:`tether.curves.MAX_CURVE_VERTICES` apply to the whole map.
+    executor : concurrent.futures.Executor, optional
+        Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
+        threads); by default local processes, one per core, started and shut down here
+        (spawned: a script calling this must guard its entry point with ``if __name__ ==
+        "__main__":``, as any ``multiprocessing`` code).
 
     Returns
     -------
@@ -51,7 +69,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     ------
     InvalidParameterError
         If ``lss`` is not a finite positive number within the range of
-        :func:`tether.arcs.check_lss` relative to the map's diameter.
+        :func:`tether.arcs.check_lss` relative to the map's diameter, or ``tiles`` is not
+        valid (:func:`tether.decomposition.tiles.check_tiles`).
     ArrangementError
         If the geometry engine fails even with snap rounding (one line, no traceback).
 
@@ -68,31 +87,39 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     """
     lss = check_lss(lss, env)
     check_memory(env, lss, rel_tol)  # issue 25: refused in milliseconds if it cannot fit
+    shape = None if tiles is None else check_tiles(tiles)
+    own = process_executor() if shape is not None and executor is None else None
+    tiling = None if shape is None else (shape, executor or own)
     out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         out = UserFrame(env, lss)
         inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused():
-            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{geos_message(exc)}") from exc
+    finally:
+        if own is not None:
+            own.shutdown()
     if out is not None:
         release_memory()  # the arrangement and the internal frame's geometries, freed
     return dec
 
 
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
-               out: UserFrame | None = None) -> Decomposition:
+               out: UserFrame | None = None, tiling: tuple | None = None) -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
-    reported as is, or in the user's frame of ``out`` (the result objects made once)."""
+    reported as is, or in the user's frame of ``out`` (the result objects made once);
+    ``tiling``: ``(tiles, executor)`` to node the arrangement in tiles."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
-    curves = critical_curves(env, lss, rel_tol)
+    curves = critical_curves(env, lss, rel_tol)  # whole: tiles node them, nothing earlier
     report("arrangement", 0.3)
-    arr = arrangement(env, curves, tol)
+    noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report)
+    arr = arrangement(env, curves, tol, noder)
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     pts, clear = face_points(arr.faces, tol, arr.grid)
@@ -143,6 +170,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                             Pieces(pieces), tol / out.scale, unresolved_pieces, longest,
                             _crossing_arcs=out.crossing_arcs(arcs), _cell_codes=codes)
     return dec
+
 
 
 #: Directions in which a face's point is moved off an edge's supporting line (tried in

@@ -1,0 +1,201 @@
+"""Benchmark: one floor plan decomposed in tiles on worker processes, then analyzed.
+
+Run: ``python benchmarks/bench_scale.py [--sizes 1000 2000 4000] [--workers 2] [--tiles auto]
+[--compare 1000 2000] [--doc docs/scale.md]``. Each size runs in a fresh process:
+``floor_plan(n, seed=0)``, ``lss = width / 15`` (the rule of ``bench_decompose.py``),
+``decompose(env, lss, tiles=..., executor=process_executor(workers))``, then G and the
+elimination. The workers are spawned processes: their peak resident memory is the parent's
+``RUSAGE_CHILDREN`` ``ru_maxrss`` once they are shut down (the largest worker's).
+
+Columns: vertices, tiles (``NXxNY``), workers, wall times in seconds (critical curves; tile
+work: the input cut into tiles and noded by the workers, with the parts' sources; stitching:
+the parts joined and the faces traced on them all; the rest of the decomposition: face
+structures, regions, pieces; G and the elimination; total), peak resident memory in MB of the
+main process and of the largest worker, the input segments sent to the tile tasks over the
+input's count and the number of retry tasks (:mod:`tether.decomposition.tiles`), counts
+(regions, cells, pieces), the verdict, and, for the sizes in ``--compare``, whether the
+untiled run (its curve vertex limit lifted; its input noded as ``decompose`` does, in two
+strips from 100,000 segments, :mod:`tether.decomposition.noding`, or with ``--untiled whole``
+without the strips, tiled and untiled) gives the same decomposition up to renumbering: the
+same counts, regions matched one to one by representative point with equal structures, the
+same pieces (regions, kind, features) and the same eliminations (cell, round) in that
+numbering. The untiled run is made after the tiled one
+in the same process: ``main MB`` is read before it, ``untiled MB`` after it (the process's
+peak with both decompositions held).
+
+``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
+between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
+measured with a number of workers replaces its row, the others stay (if they have its
+columns); each row says which command line made it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+CHILD = r"""
+import collections, json, resource, sys, time
+import numpy as np
+from tether.examples.floorplan import floor_plan
+from tether.decomposition import decompose
+from tether.decomposition.tiles import process_executor
+from tether.analysis import analyze, build_graph
+
+n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
+import tether.curves
+import tether.decomposition.noding as noding
+import tether.decomposition.pipeline as pipeline
+if not strips:  # the input noded without the strip cut, tiled and untiled
+    noding.STRIP_MIN_SEGMENTS = 10**15
+noder_log = {}
+_noder = pipeline.tiled_noder
+def _logged(tiles, executor, tol, progress=None, log=None):
+    return _noder(tiles, executor, tol, progress, noder_log)
+pipeline.tiled_noder = _logged
+env = floor_plan(n, seed=0)
+lss = (env.bounds[2] - env.bounds[0]) / 15
+marks = []
+def progress(stage, frac):
+    marks.append((stage, time.perf_counter()))
+
+ex = process_executor(workers)
+w0 = time.perf_counter()
+dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex)
+w1 = time.perf_counter()
+ex.shutdown()
+g = build_graph(dec)
+v = analyze(dec, g, self_check=False, near_critical=False)
+w2 = time.perf_counter()
+main_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+at = {}
+for stage, t in marks:
+    key = "tiles" if stage.startswith("tiles") else stage
+    at.setdefault(key, t)
+    if key == "tiles":
+        at["tiles_end"] = t
+        shape = stage[stage.index("(") + 1:stage.index(")")]
+if noder_log.get("strips") == 2:
+    shape = "2 strips x " + shape
+row = {"vertices": n, "tiles": shape, "workers": workers,
+       "curves": at["arrangement"] - w0,
+       "tile work": at["tiles_end"] - at["arrangement"],
+       "stitch": at["face structures"] - at["stitch"],
+       "rest": w1 - at["face structures"],
+       "G+elim": w2 - w1, "total": w2 - w0,
+       "main MB": main_mb, "worker MB": worker_mb,
+       "sent": noder_log["segments_sent"], "retries": noder_log["retries"],
+       "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
+       "verdict": "strategy" if v.strategy_exists else "none"}
+if compare:
+    tether.curves.MAX_CURVE_VERTICES = 10**12
+    whole = decompose(env, lss)
+    vw = analyze(whole, self_check=False, near_critical=False)
+    j = dec.region_at(np.array([r.point for r in whole.regions]))
+    inv = np.empty_like(j)
+    inv[j] = np.arange(len(j))
+    ident = np.arange(len(j))
+    def pieces(d, ren):
+        return collections.Counter((tuple(sorted(int(ren[r]) for r in p.regions)), p.kind,
+                                    p.features) for p in d.pieces)
+    def elims(d, vv, ren):
+        c = d.cells
+        return sorted((int(ren[c[i].region]), c[i].start_feature, c[i].end_feature, r)
+                      for i, r in zip(vv.eliminated.cell.tolist(), vv.eliminated.round.tolist()))
+    same = (whole.counts == dec.counts and sorted(j.tolist()) == list(range(len(j)))
+            and all(r.structure == dec.regions[k].structure
+                    for r, k in zip(whole.regions, j.tolist()))
+            and pieces(whole, ident) == pieces(dec, inv)
+            and elims(whole, vw, ident) == elims(dec, v, inv)
+            and vw.strategy_exists == v.strategy_exists)
+    row["equal untiled"] = "yes" if same else "NO"
+    row["untiled MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(row))
+"""
+
+COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "stitch", "rest", "G+elim",
+           "total", "main MB", "worker MB", "sent", "retries", "regions", "cells", "pieces",
+           "verdict", "equal untiled", "untiled MB")
+
+
+def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:
+    env = dict(os.environ, PYTHONPATH=src)
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n), str(workers), tiles,
+                          "1" if compare else "0", untiled], capture_output=True, text=True,
+                         env=env, check=False)
+    if out.returncode != 0:
+        return {"vertices": n, "tiles": tiles, "workers": workers,
+                "verdict": "failed: " + (out.stderr.strip().splitlines() or ["?"])[-1]}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.0f}" if v >= 100 else f"{v:.1f}"
+    return str(v) if v is not None else "-"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 2000, 4000])
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--tiles", default="auto", help="NXxNY or auto")
+    ap.add_argument("--compare", type=int, nargs="*", default=[1000, 2000],
+                    help="sizes also decomposed untiled, for equality")
+    ap.add_argument("--untiled", choices=("whole", "strips"), default="strips",
+                    help="how the input is noded, tiled and untiled: as decompose does "
+                    "(default: two strips from 100,000 segments, each tiled on its own), or "
+                    "whole (no strip cut)")
+    ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
+    ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
+    args = ap.parse_args()
+    load = os.getloadavg()[0]
+    print(f"cpus {os.cpu_count()}, load average {load:.1f} at start", flush=True)
+    print("  ".join(f"{c:>9}" for c in COLUMNS), flush=True)
+    rows = []
+    for n in args.sizes:
+        row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src)
+        rows.append(row)
+        print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
+    if args.doc:
+        write_doc(Path(args.doc), rows, " ".join(sys.argv[1:]), load)
+
+
+BEGIN, END = "<!-- bench_scale: begin -->", "<!-- bench_scale: end -->"
+
+
+def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
+    """The rows as a Markdown table between :data:`BEGIN` and :data:`END` in ``path``: rows of
+    the sizes and worker counts measured replace those of the same, the others are kept (if
+    they have this table's columns), each row with the command line and the load average of
+    its run."""
+    text = path.read_text()
+    head, rest = text.split(BEGIN, 1)
+    block, tail = rest.split(END, 1)
+    cols = (*COLUMNS, "run")
+    old = {}  # rows of other sizes in this table's columns (others were another noder's)
+    for ln in block.splitlines():
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) == len(cols) and cells[0].isdigit():
+            old[int(cells[0]), int(cells[2])] = cells
+    run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
+    if "--untiled whole" in argv:
+        run_note += " (no strips)"
+    for r in rows:
+        old[int(r["vertices"]), int(r["workers"])] = [fmt(r.get(c)) for c in COLUMNS] + [run_note]
+    lines = [BEGIN, "", f"Measured on {os.cpu_count()} CPUs shared with other sessions (the "
+             "load average at the start of each run is given: above 2, the times are "
+             "inflated).", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(old[k]) + " |" for k in sorted(old)]
+    lines += ["", ""]
+    path.write_text(head + "\n".join(lines) + END + tail)
+
+
+if __name__ == "__main__":
+    main()

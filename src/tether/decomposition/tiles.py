@@ -1,0 +1,609 @@
+"""One map's arrangement noded in tiles, the tiles processed by any executor.
+
+The plane is cut into a grid of ``nx x ny`` tiles by vertical and horizontal lines placed
+strictly between the coordinates of the input vertices (:func:`cut_positions`). No input
+segment is split at a cut: splitting one moves the line a crossing is computed on by a few
+units in the last place, and where three curves meet at one point (an edge's offset, a
+vertex's arc and a corner curve, tangent at one point by construction) GEOS's noder makes a
+tiny cluster of nodes there whose shape follows those last bits, and a sliver face whose
+region, and so the pieces around it, changed with them.
+
+Instead each tile's task gets, whole and as runs of consecutive segments of one line
+(:func:`runs_of`), every input segment whose bounding box meets the tile's box grown by twice
+the margin (:data:`TILE_MARGIN`): its *trust box* is the tile's box grown by the margin once.
+GEOS computes a crossing from the two whole input segments (exactly the same in either order),
+so a noded part lying in the trust box, which every segment that can cross it reaches, is the
+whole noding's part bit for bit: its ends, its vertices, its direction (a duplicate from
+another line is dropped as in the whole: the first line's copy is kept). Each part is delivered
+once, by the tile holding its *anchor* (its lexicographically smaller end,
+:meth:`TileGrid.tile_of`), with its sources found as the whole finds them. A part the tile
+cannot vouch for (longer than the margin, crossing out of the trust box) is retried: the parts
+at its ends in that tile are delivered by a task on the box around it grown by twice the
+margin, then four times, ... until each is trusted (:func:`tiled_noder`). The parts of all
+tasks are then exactly the whole noding's parts, with the same sources, in another order.
+The faces are traced on all the parts at once
+(:func:`tether.decomposition.arrangement.traced_arrangement`) and the regions, structures and
+pieces follow as for the whole.
+
+The exactness holds for GEOS's first noding pass. GEOS repeats the noding on its own output
+until no new crossing appears (new crossings arise only within a few units in the last place
+of clustered nodes); a later pass sees the parts of the whole input only within the margin of
+the part, so it could differ where a node-free stretch of a line longer than the margin runs
+through such a cluster near a tile's border. If GEOS's floating-point noder fails in any task,
+the whole input is noded as without tiles (snap rounding then applies to the whole, never to
+one tile); where the whole's floating-point noder would fail but every tile's succeeds, the
+tiled result is the floating-point noding and the untiled one snap rounded.
+
+A task gets only its runs and returns compact arrays (part coordinates and counts, part
+sources as CSR arrays, the anchors to retry): never the map's objects. Tasks run on any
+:class:`concurrent.futures.Executor` (local processes, a Dask cluster's
+``Client.get_executor()``, or threads); the result does not depend on which.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+from collections.abc import Callable
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.errors import GEOSException
+
+from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
+from tether._util.threads import single_threaded, thread_count
+from tether.decomposition import noding
+from tether.decomposition.arrangement import SOURCE_BATCH
+from tether.decomposition.faces import part_ends, part_segments
+from tether.decomposition.noding import node_floating
+from tether.errors import InvalidParameterError
+from tether.spatial import SegmentGrid, segments_near
+
+__all__ = ["CUT_FRACTION", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
+           "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
+           "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
+           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder"]
+
+#: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
+#: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
+TILE_SEGMENTS = 250_000
+
+#: The most tiles chosen automatically, and the most a grid may have (``nx * ny``).
+MAX_TILES = 64
+
+#: Where a cut lies in the widest gap between two vertex coordinates (as a fraction of the
+#: gap from its lower end): not the middle, where a symmetric map's mirror-image curves cross.
+CUT_FRACTION = math.sqrt(2.0) - 1.0
+
+#: The margin of a tile's trust box, as a fraction of the smaller of the mean tile width and
+#: height: a task nodes the input segments within twice the margin of its tile and delivers
+#: the parts within the margin (:func:`node_tile`).
+TILE_MARGIN = 0.125
+
+#: The most cells along a side of a retry's trust region (:class:`CellMask`).
+MASK_CELLS = 256
+
+#: The central fraction of a cut's share of the vertex ranks searched for the widest gap.
+_CUT_WINDOW = 0.25
+
+
+@dataclass(frozen=True)
+class TileGrid:
+    """The cuts of a grid of tiles (map units, increasing): tile ``(i, j)`` is column ``i``
+    (between ``xcuts[i - 1]`` and ``xcuts[i]``, unbounded at the ends) and row ``j``, and has
+    the id ``i * ny + j``."""
+
+    xcuts: np.ndarray
+    ycuts: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(nx, ny)``: columns and rows."""
+        return len(self.xcuts) + 1, len(self.ycuts) + 1
+
+    @property
+    def count(self) -> int:
+        """Number of tiles."""
+        return self.shape[0] * self.shape[1]
+
+    def tile_of(self, pts: np.ndarray) -> np.ndarray:
+        """The tile id of each point (m, 2); a point on a cut goes above/right of it."""
+        return (np.searchsorted(self.xcuts, pts[:, 0], "right") * self.shape[1]
+                + np.searchsorted(self.ycuts, pts[:, 1], "right"))
+
+
+def check_tiles(tiles: Any) -> tuple[int, int] | str:
+    """``tiles`` validated: ``"auto"`` or a pair of positive integers ``(nx, ny)`` with at most
+    :data:`MAX_TILES` tiles; an ``"NXxNY"`` string is read as the pair.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``tiles`` is none of these.
+    """
+    given = tiles
+    if isinstance(tiles, str) and tiles != "auto":
+        nums = tiles.lower().split("x")
+        if len(nums) != 2 or not all(s.strip().isdigit() for s in nums):
+            raise InvalidParameterError(f"tiles must be 'auto' or NXxNY (e.g. 3x2), got "
+                                        f"{tiles!r}")
+        tiles = (int(nums[0]), int(nums[1]))
+    if tiles == "auto":
+        return "auto"
+    try:
+        nx, ny = (int(v) for v in tiles)
+        ok = (nx, ny) == tuple(tiles)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or nx < 1 or ny < 1 or nx * ny > MAX_TILES:
+        raise InvalidParameterError(f"tiles must be 'auto' or two positive integers (nx, ny) "
+                                    f"with nx * ny <= {MAX_TILES}, got {given!r}")
+    return nx, ny
+
+
+def auto_tiles(segments: int, width: float, height: float) -> tuple[int, int]:
+    """The grid for ``segments`` input segments over a ``width x height`` box: about
+    :data:`TILE_SEGMENTS` segments per tile (at most :data:`MAX_TILES` tiles), the tiles about
+    square. Depends on the input's size only, never on the number of workers."""
+    n = min(max(math.ceil(segments / TILE_SEGMENTS), 1), MAX_TILES)
+    aspect = width / height if width > 0 and height > 0 else 1.0
+    nx = min(max(round(math.sqrt(n * aspect)), 1), n)
+    ny = math.ceil(n / nx)
+    while nx * ny > MAX_TILES:
+        ny -= 1
+    return nx, ny
+
+
+def cut_positions(values: np.ndarray, n: int) -> np.ndarray:
+    """Up to ``n - 1`` increasing cuts, each strictly between two of ``values`` (map units):
+    cut ``k`` in the widest gap between consecutive distinct values ranked within
+    :data:`_CUT_WINDOW` of ``k / n`` of them (tiles of about equal vertex counts), at
+    :data:`CUT_FRACTION` of that gap. Fewer if there are too few distinct values."""
+    u = np.unique(values)
+    m = len(u) - 1  # gaps
+    cuts = []
+    for k in range(1, n):
+        lo = max(int(math.floor((k - _CUT_WINDOW) / n * m)), 0)
+        hi = min(int(math.ceil((k + _CUT_WINDOW) / n * m)), m)
+        if hi <= lo:
+            continue
+        i = lo + int(np.argmax(np.diff(u[lo:hi + 1])))
+        c = u[i] + CUT_FRACTION * (u[i + 1] - u[i])
+        if not u[i] < c < u[i + 1]:
+            c = 0.5 * (u[i] + u[i + 1])
+        if u[i] < c < u[i + 1]:
+            cuts.append(c)
+    return np.unique(np.asarray(cuts, dtype=float))
+
+
+def tile_grid(xy: np.ndarray, tiles: tuple[int, int]) -> TileGrid:
+    """The grid of ``tiles = (nx, ny)`` over the vertices ``xy`` (:func:`cut_positions` in x
+    and in y): no vertex on a cut."""
+    return TileGrid(cut_positions(xy[:, 0], tiles[0]), cut_positions(xy[:, 1], tiles[1]))
+
+
+def tile_box(grid: TileGrid, tile: int) -> np.ndarray:
+    """Tile ``tile``'s closed box ``(xmin, ymin, xmax, ymax)`` (map units; infinite at the
+    grid's outer edges): the points :meth:`TileGrid.tile_of` puts in it, and the cuts around
+    it."""
+    i, j = divmod(tile, grid.shape[1])
+    xs = np.r_[-np.inf, grid.xcuts, np.inf]
+    ys = np.r_[-np.inf, grid.ycuts, np.inf]
+    return np.array([xs[i], ys[j], xs[i + 1], ys[j + 1]])
+
+
+def grown(box: np.ndarray, margin: float) -> np.ndarray:
+    """The box ``(xmin, ymin, xmax, ymax)`` grown by ``margin`` (map units) on every side."""
+    return np.asarray(box, float) + np.array([-margin, -margin, margin, margin])
+
+
+def segments_by_tile(lo: np.ndarray, hi: np.ndarray, grid: TileGrid, reach: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The input segments (bounding boxes ``lo``-``hi``, (m, 2)) whose boxes, grown by
+    ``reach`` (map units), meet each tile's closed box: segment indices tile after tile
+    (increasing within a tile), and the CSR pointer over tiles."""
+    nx, ny = grid.shape
+    lo, hi = lo - reach, hi + reach
+    ix0 = np.searchsorted(grid.xcuts, lo[:, 0])
+    ix1 = np.searchsorted(grid.xcuts, hi[:, 0], "right")
+    iy0 = np.searchsorted(grid.ycuts, lo[:, 1])
+    iy1 = np.searchsorted(grid.ycuts, hi[:, 1], "right")
+    rows = iy1 - iy0 + 1
+    count = (ix1 - ix0 + 1) * rows
+    s = np.repeat(np.arange(len(lo)), count)
+    j = ragged_arange(np.zeros(len(lo), np.int64), count)
+    tile = (ix0[s] + j // rows[s]) * ny + iy0[s] + j % rows[s]
+    o = np.argsort(tile, kind="stable")
+    return s[o], np.searchsorted(tile[o], np.arange(nx * ny + 1))
+
+
+@dataclass(frozen=True)
+class CellMask:
+    """A set of cells of a square grid (map units): cell ``(j, i)`` is the closed square
+    ``[x0 + i c, x0 + (i + 1) c] x [y0 + j c, y0 + (j + 1) c]`` (``origin = (x0, y0)``,
+    ``cell = c``), in the set where ``marked[j, i]``. A retry's trust region
+    (:func:`node_tile`): a box's cells are those its corners fall in (``floor``, the same
+    monotone arithmetic wherever it runs)."""
+
+    origin: np.ndarray
+    cell: float
+    marked: np.ndarray
+
+    def _ranges(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The cell ranges ``(i0, j0)``-``(i1, j1)`` (inclusive, as floats, clipped to one
+        cell outside the grid) of the boxes ``lo``-``hi``."""
+        rows, cols = self.marked.shape
+        top = np.array([cols, rows], float)
+        return (np.clip(np.floor((lo - self.origin) / self.cell), -1, top),
+                np.clip(np.floor((hi - self.origin) / self.cell), -1, top))
+
+    def _count(self, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
+        """The marked cells in the ranges ``c0``-``c1`` (inclusive, within the grid)."""
+        t = _summed(self.marked)
+        i0, j0 = c0[:, 0].astype(np.int64), c0[:, 1].astype(np.int64)
+        i1, j1 = c1[:, 0].astype(np.int64) + 1, c1[:, 1].astype(np.int64) + 1
+        return t[j1, i1] - t[j0, i1] - t[j1, i0] + t[j0, i0]
+
+    def holds(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether each box ``lo``-``hi`` ((m, 2) each) lies in marked cells only."""
+        c0, c1 = self._ranges(lo, hi)
+        rows, cols = self.marked.shape
+        inside = np.all(c0 >= 0, axis=1) & (c1[:, 0] < cols) & (c1[:, 1] < rows)
+        out = np.zeros(len(lo), bool)
+        k = np.flatnonzero(inside)
+        area = np.prod(c1[k] - c0[k] + 1, axis=1)
+        out[k] = self._count(c0[k], c1[k]) == area
+        return out
+
+    def meets(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether each box ``lo``-``hi`` ((m, 2) each) has a marked cell."""
+        c0, c1 = self._ranges(lo, hi)
+        rows, cols = self.marked.shape
+        c0 = np.maximum(c0, 0)
+        c1 = np.minimum(c1, np.array([cols - 1, rows - 1], float))
+        out = np.zeros(len(lo), bool)
+        k = np.flatnonzero(np.all(c0 <= c1, axis=1))
+        out[k] = self._count(c0[k], c1[k]) > 0
+        return out
+
+    def dilated(self, cells: int) -> CellMask:
+        """The cells within ``cells`` cells (in x and in y) of a marked one."""
+        rows, cols = self.marked.shape
+        t = _summed(self.marked)
+        j, i = np.arange(rows), np.arange(cols)
+        j0, j1 = np.clip(j - cells, 0, rows), np.clip(j + cells + 1, 0, rows)
+        i0, i1 = np.clip(i - cells, 0, cols), np.clip(i + cells + 1, 0, cols)
+        s = (t[np.ix_(j1, i1)] - t[np.ix_(j0, i1)] - t[np.ix_(j1, i0)] + t[np.ix_(j0, i0)])
+        return CellMask(self.origin, self.cell, s > 0)
+
+
+def _summed(marked: np.ndarray) -> np.ndarray:
+    """The summed-area table of ``marked`` (one row and column of zeros in front)."""
+    t = np.zeros((marked.shape[0] + 1, marked.shape[1] + 1), np.int64)
+    t[1:, 1:] = marked.cumsum(axis=0).cumsum(axis=1)
+    return t
+
+
+def mask_around(boxes: np.ndarray, pad: float, room: float) -> CellMask:
+    """The cells within ``pad`` (map units) of the boxes ``(xmin, ymin, xmax, ymax)`` (rows),
+    on a grid of about :data:`MASK_CELLS` cells a side at most (cells at least ``pad / 2``)
+    that leaves ``room`` (map units) and 4 cells around them, so that a dilation by
+    ``ceil(room / cell) + 1`` cells (:meth:`CellMask.dilated`) stays off the grid's edge."""
+    lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
+    size = float((hi - lo).max()) + 2 * (pad + room)
+    cell = max(pad / 2, size / MASK_CELLS)
+    # room for a dilation by ceil(room / cell) + 1 cells, and a cell for floor's rounding
+    origin = lo - pad - room - 4 * cell
+    shape = np.ceil((hi + pad + room + 4 * cell - origin) / cell).astype(np.int64) + 1
+    rows, cols = int(shape[1]), int(shape[0])
+    grid = CellMask(origin, cell, np.zeros((rows, cols), bool))
+    c0, c1 = grid._ranges(boxes[:, :2], boxes[:, 2:])
+    d = math.ceil(pad / cell)
+    c0 = np.maximum(c0 - d, 0).astype(np.int64)
+    c1 = np.minimum(c1 + d + 1, [cols, rows]).astype(np.int64)
+    diff = np.zeros((rows + 1, cols + 1), np.int64)
+    np.add.at(diff, (c0[:, 1], c0[:, 0]), 1)
+    np.add.at(diff, (c0[:, 1], c1[:, 0]), -1)
+    np.add.at(diff, (c1[:, 1], c0[:, 0]), -1)
+    np.add.at(diff, (c1[:, 1], c1[:, 0]), 1)
+    return CellMask(origin, cell, diff.cumsum(axis=0).cumsum(axis=1)[:rows, :cols] > 0)
+
+
+def _holds(region: np.ndarray | CellMask, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Whether each box ``lo``-``hi`` lies in ``region``: a closed box ``(xmin, ymin, xmax,
+    ymax)`` or a :class:`CellMask`."""
+    if isinstance(region, CellMask):
+        return region.holds(lo, hi)
+    return ((lo[:, 0] >= region[0]) & (lo[:, 1] >= region[1])
+            & (hi[:, 0] <= region[2]) & (hi[:, 1] <= region[3]))
+
+
+def runs_of(seg: np.ndarray, la: np.ndarray, lb: np.ndarray, lowner: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The segments ``seg`` (increasing indices into the input segments ``la-lb`` of the lines
+    ``lowner``, a line's segments consecutive) as runs: the longest sequences of consecutive
+    segments of one line, each a polyline of the input's own vertices (no segment split).
+    Returns the runs' vertices, their CSR pointer (run ``r`` is ``xy[ptr[r]:ptr[r + 1]]``)
+    and each run's line."""
+    if len(seg) == 0:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    brk = np.r_[True, (np.diff(seg) != 1) | (lowner[seg[1:]] != lowner[seg[:-1]])]
+    run = np.cumsum(brk) - 1
+    last = np.flatnonzero(np.r_[brk[1:], True])
+    xy = np.empty((len(seg) + len(last), 2))
+    xy[np.arange(len(seg)) + run] = np.take(la, seg, axis=0)
+    xy[last + run[last] + 1] = np.take(lb, seg[last], axis=0)
+    ptr = np.r_[0, np.cumsum(np.bincount(run, minlength=len(last)) + 1)]
+    return xy, ptr, lowner[seg[brk]]
+
+
+def part_sources(mid: np.ndarray, la: np.ndarray, lb: np.ndarray, lsrc: np.ndarray,
+                 reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sources of parts (``mid``: a point of each part, the middle of its longest
+    segment): the source ids ``lsrc`` (-1 = wall) of the input segments ``la-lb`` within
+    ``reach`` (map units) of it, as :func:`tether.decomposition.arrangement.arrangement`
+    finds them; CSR arrays ``(ptr, src)`` (each part's increasing, distinct)."""
+    base = int(lsrc.max(initial=0)) + 2  # sources are -1 (wall) .. max
+    tree = SegmentGrid(la, lb)
+    keys = []
+    for lo in range(0, len(mid), SOURCE_BATCH):  # bounded candidate pairs
+        qi, si, _ = segments_near(mid[lo:lo + SOURCE_BATCH], la, lb, reach, tree)
+        keys.append((qi + lo).astype(np.int64) * base + lsrc[si] + 1)
+    key = np.sort(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key
+    part_of, src = np.divmod(key, base)
+    return np.searchsorted(part_of, np.arange(len(mid) + 1)), src - 1
+
+
+def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
+              trust: np.ndarray | CellMask, reach: float,
+              own: tuple[TileGrid, int] | np.ndarray,
+              done: tuple[np.ndarray | CellMask, ...] = (),
+              sources: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+              ) -> tuple | None:
+    """A tile's task: its runs (vertices ``xy``, CSR ``ptr``: every input segment whose box
+    meets the trust region grown by the margin, whole; each run's source curve ``run_src``,
+    -1 for a wall) noded by GEOS's floating-point noder, and the parts it owns and can vouch
+    for.
+
+    A part is vouched for (*trusted*) if its bounding box lies in ``trust`` (a closed box
+    ``(xmin, ymin, xmax, ymax)``, or a retry's :class:`CellMask`): every input segment that
+    can cross it is among the runs, so its ends and vertices are the whole noding's, bit for
+    bit. The task owns the parts *anchored* (lexicographically smaller end) in its tile
+    (``own = (grid, tile)``) or, in a retry, at one of the points ``own`` ((m, 2)), and in
+    none of the regions ``done`` (a retry's earlier trust regions, whose parts were
+    delivered there). Each part delivered gets its sources among the runs' segments (or the
+    segments ``sources = (a, b, source id)``) within ``reach`` of the middle of its longest
+    segment (:func:`part_sources`, as the whole does).
+
+    Returns the delivered parts' vertices and vertex counts, their sources (CSR ``(ptr,
+    src)``), the *missed* points (the ends, in the tile or among ``own``, of the parts not
+    trusted: anchors whose parts a retry in a larger region must deliver), those parts'
+    bounding boxes ((k, 4)) and this process's peak resident memory (bytes, 0 where
+    unknown); None if the noder fails."""
+    n = len(ptr) - 1
+    if n == 0:
+        empty = np.zeros(0, np.int64)
+        return (np.zeros((0, 2)), empty, np.zeros(1, np.int64), empty, np.zeros((0, 2)),
+                np.zeros((0, 4)), _peak_rss())
+    lines = shapely.linestrings(xy, indices=np.repeat(np.arange(n), np.diff(ptr)))
+    try:
+        parts = node_floating(np.asarray(lines, dtype=object))
+    except GEOSException:
+        return None
+    del lines
+    parts = parts[shapely.length(parts) > 0]
+    coords, count, start, last = part_ends(parts)[:4]
+    a, b = np.take(coords, start, axis=0), np.take(coords, last, axis=0)
+    first = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+    anchor = np.where(first[:, None], a, b)
+    box = shapely.bounds(parts)
+    blo, bhi = box[:, :2], box[:, 2:]
+    trusted = _holds(trust, blo, bhi)
+    mine_a, mine_b, owned = _owned((a, b, anchor), own)
+    for region in done:
+        owned &= ~_holds(region, blo, bhi)
+    missed = ~trusted & (mine_a | mine_b)
+    miss = np.unique(np.vstack((a[missed & mine_a], b[missed & mine_b])), axis=0)
+    keep = np.flatnonzero(trusted & owned)
+    kcount = count[keep]
+    kcoords = coords[ragged_arange(start[keep], kcount)]
+    del coords, parts
+    pa, pb, powner = part_segments((kcoords, kcount, np.cumsum(kcount) - kcount))
+    longest = first_max_per_group(np.hypot(*(pb - pa).T), powner)
+    mid = 0.5 * (np.take(pa, longest, axis=0) + np.take(pb, longest, axis=0))
+    del pa, pb, powner
+    if sources is None:
+        nseg = np.diff(ptr) - 1
+        rows = ragged_arange(ptr[:-1], nseg)  # each run's segments' first vertices
+        sources = (np.take(xy, rows, axis=0), np.take(xy, rows + 1, axis=0),
+                   np.repeat(run_src, nseg))
+    sptr, src = part_sources(mid, *sources, reach)
+    return kcoords, kcount, sptr, src, miss, box[missed], _peak_rss()
+
+
+def _owned(ends: tuple[np.ndarray, np.ndarray, np.ndarray],
+           own: tuple[TileGrid, int] | np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For parts of first points ``a``, last points ``b`` and anchors ``anchor`` (``ends``):
+    whether ``a``, ``b`` and ``anchor`` are this task's, as :func:`node_tile` reads ``own``."""
+    if isinstance(own, tuple):
+        grid, tile = own
+        return tuple(grid.tile_of(p) == tile for p in ends)
+    ids = row_ids(np.vstack((own,) + ends))[0]
+    mine = np.isin(ids[len(own):], ids[:len(own)]).reshape(3, -1)
+    return mine[0], mine[1], mine[2]
+
+
+def _peak_rss() -> int:
+    """The peak resident memory of the calling process, bytes (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:  # not on Unix
+        return 0
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+
+
+def process_executor(workers: int | None = None) -> ProcessPoolExecutor:
+    """Local worker processes for the tiles (``workers``: by default the cores this process
+    may use), started fresh (``spawn``: nothing of this process's memory inherited), each
+    computing in one thread."""
+    return ProcessPoolExecutor(max_workers=workers or thread_count(),
+                               mp_context=multiprocessing.get_context("spawn"),
+                               initializer=single_threaded)
+
+
+def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
+                progress: Callable[[str, float], Any] | None = None,
+                log: dict | None = None) -> Callable[..., Any]:
+    """The ``noder`` of :func:`tether.decomposition.arrangement.arrangement` that nodes its
+    input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``: the
+    whole noding's parts, each delivered by the tile of its anchor (:func:`node_tile`),
+    retried in larger regions where a tile cannot vouch for it. An input the untiled noding
+    splits into two strips (:func:`tether.decomposition.noding.strip_cut`, from
+    :data:`tether.decomposition.noding.STRIP_MIN_SEGMENTS` segments) is split the same way
+    and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
+    reach is ``1e-3 tol`` as for the whole). ``progress`` gets ``("tiles (NXxNY)", overall
+    fraction)`` as tasks finish, then ``("stitch", 0.45)``; ``log``, if given, gets
+    ``tiles`` (the grid's shape, per strip), ``strips`` (1 or 2), ``margin`` (map units),
+    ``retries`` (tasks run again in a larger region), ``segments_sent`` (input segments sent
+    to the tasks, over the input's count), ``worker_peak_bytes`` (the largest peak resident
+    memory a task's process reported) and ``fallback`` (True if the input was noded
+    whole)."""
+    report = progress or (lambda stage, frac: None)
+    log = {} if log is None else log
+
+    def noder(lines: np.ndarray, source: np.ndarray, segs: tuple) -> tuple | None:
+        la, lb, lowner = segs
+        if len(la) == 0:
+            return None
+        reach = max(1e-3 * tol, 1e-12)
+        log.update(retries=0, fallback=False, worker_peak_bytes=0, segments_sent=0.0,
+                   strips=1)
+        strips = noding.strip_cut(lines) if len(la) >= noding.STRIP_MIN_SEGMENTS else None
+        if strips is None:  # the input's own segments, each run's sources its line's
+            groups, ref = [(la, lb, lowner, source)], None
+        else:  # the strips' pieces; the sources among the input's own segments
+            groups = [_segments_of(np.asarray(p, dtype=object)) for p in strips]
+            ref = (la, lb, source[lowner])
+            log["strips"] = 2
+        del strips
+        got, sent = [], 0
+        for g in groups:
+            r = _node_in_tiles(g, ref, tiles, executor, reach, report, log)
+            if r is None:
+                log["fallback"] = True
+                return None
+            got.extend(r[0])
+            sent += r[1]
+        report("stitch", 0.45)
+        log["segments_sent"] = sent / len(la)
+        return _stitched(got)
+
+    return noder
+
+
+def _segments_of(lines: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The segments of ``lines`` (linestrings) as ``(la, lb, lowner, line_source)`` (sources
+    unknown: zeros)."""
+    xy, idx = shapely.get_coordinates(lines, return_index=True)
+    k = np.flatnonzero(idx[1:] == idx[:-1])
+    return xy[k], xy[k + 1], idx[k], np.zeros(len(lines), np.int64)
+
+
+def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str,
+                   executor: Executor, reach: float, report: Callable, log: dict
+                   ) -> tuple[list, int] | None:
+    """One noding input (``group``: its segments ``(la, lb, lowner)`` and each line's source)
+    in tiles, with retries: the tasks' results and the number of input segments sent; None
+    if a task's noder failed. ``ref``: the segments ``(a, b, source)`` the sources are found
+    among (None: the input's own)."""
+    la, lb, lowner, source = group
+    if len(la) == 0:
+        return [], 0
+    lo, hi = np.minimum(la, lb), np.maximum(la, lb)
+    span = hi.max(axis=0) - lo.min(axis=0)
+    shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]))
+    grid = tile_grid(np.vstack((la, lb)), shape)
+    nx, ny = grid.shape
+    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach)
+    log["tiles"], log["margin"] = grid.shape, margin
+    rlo = rhi = None
+    if ref is not None:
+        rlo, rhi = np.minimum(ref[0], ref[1]), np.maximum(ref[0], ref[1])
+    sent = 0
+
+    def submit(seg: np.ndarray, rseg: np.ndarray | None, trust: Any, own: Any,
+               done: tuple) -> Any:
+        nonlocal sent
+        sent += len(seg)
+        xy, ptr, line = runs_of(seg, la, lb, lowner)
+        sources = None if rseg is None else tuple(np.take(c, rseg, axis=0) for c in ref)
+        return executor.submit(node_tile, xy, ptr, source[line], trust, reach, own, done,
+                               sources)
+
+    near, nptr = segments_by_tile(lo, hi, grid, 2 * margin)
+    rnear = rptr = None
+    if ref is not None:
+        rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
+    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
+    futures = {t: submit(near[nptr[t]:nptr[t + 1]],
+                         None if ref is None else rnear[rptr[t]:rptr[t + 1]],
+                         done[t][0], (grid, t), ())
+               for t in range(grid.count)}
+    del near, rnear
+    got, level, finished, total, shown = [], 0, 0, len(futures), 0.0
+    stage = f"tiles ({nx}x{ny})"
+    while futures:
+        pending = {}
+        for t, f in futures.items():
+            r = f.result()
+            finished += 1
+            shown = max(shown, finished / total)  # retries add tasks: never backwards
+            report(stage, 0.3 + 0.15 * shown)
+            if r is None:
+                return None
+            got.append(r)
+            log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
+            if len(r[4]):
+                pending[t] = r
+        level += 1
+        futures = {}
+        for t, r in pending.items():  # larger regions around the parts not vouched for
+            trust = mask_around(r[5], margin * 2.0 ** level, margin)
+            futures[t] = submit(_segments_near(trust, lo, hi, margin),
+                                None if ref is None else _segments_near(trust, rlo, rhi,
+                                                                        2 * reach),
+                                trust, r[4], done[t])
+            done[t] = (*done[t], trust)
+            log["retries"] += 1
+            total += 1
+    return got, sent
+
+
+def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: float
+                   ) -> np.ndarray:
+    """The input segments (bounding boxes ``lo``-``hi``) meeting the cells within ``margin``
+    (map units, and one cell more) of the region ``trust``: increasing indices."""
+    region = trust.dilated(math.ceil(margin / trust.cell) + 1)
+    rows, cols = region.marked.shape
+    end = region.origin + trust.cell * np.array([cols, rows])
+    k = np.flatnonzero(np.all(hi >= region.origin, axis=1) & np.all(lo <= end, axis=1))
+    return k[region.meets(np.take(lo, k, axis=0), np.take(hi, k, axis=0))]
+
+
+def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tasks' delivered parts one after the other, as linestrings, and their sources
+    (CSR)."""
+    coords = np.concatenate([r[0] for r in got])
+    count = np.concatenate([r[1] for r in got])
+    parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(np.arange(len(count)),
+                                                                     count)), dtype=object)
+    src = np.concatenate([r[3] for r in got])
+    offsets = np.cumsum([0] + [len(r[3]) for r in got[:-1]])
+    ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
+                                                    zip(got, offsets, strict=True)])
+    return parts, ptr, src.astype(np.int64)
