@@ -57,7 +57,7 @@ from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
-from tether.decomposition.faces import part_ends, part_segments
+from tether.decomposition.faces import local_faces, part_ends, part_segments
 from tether.decomposition.noding import node_floating
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
@@ -65,7 +65,7 @@ from tether.spatial import SegmentGrid, segments_near
 __all__ = ["CUT_FRACTION", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
-           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder"]
+           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
@@ -501,7 +501,12 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
             sent += r[1]
         report("stitch", 0.45)
         log["segments_sent"] = sent / len(la)
-        return _stitched(got)
+        coords, count, ptr, src = _stitched(got)
+        del got
+        parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(
+            np.arange(len(count)), count)), dtype=object)
+        traced = _faces_in_tiles(coords, count, tiles, executor, report, log)
+        return parts, ptr, src, traced
 
     return noder
 
@@ -595,15 +600,136 @@ def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: floa
     return k[region.meets(np.take(lo, k, axis=0), np.take(hi, k, axis=0))]
 
 
-def _stitched(got: list[tuple]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The tasks' delivered parts one after the other, as linestrings, and their sources
-    (CSR)."""
+def _stitched(got: list[tuple]) -> tuple[np.ndarray, ...]:
+    """The tasks' delivered parts one after the other: their coordinates and point counts,
+    and their sources (CSR ``(ptr, src)``)."""
     coords = np.concatenate([r[0] for r in got])
     count = np.concatenate([r[1] for r in got])
-    parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(np.arange(len(count)),
-                                                                     count)), dtype=object)
     src = np.concatenate([r[3] for r in got])
     offsets = np.cumsum([0] + [len(r[3]) for r in got[:-1]])
     ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
                                                     zip(got, offsets, strict=True)])
-    return parts, ptr, src.astype(np.int64)
+    return coords, count, ptr, src.astype(np.int64)
+
+
+def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMask,
+               complete: np.ndarray | CellMask, own: tuple[TileGrid, int] | np.ndarray,
+               done: tuple[np.ndarray | CellMask, ...] = ()) -> tuple | None:
+    """A tile's task tracing faces (:func:`tether.decomposition.faces.local_faces`): the
+    parts (coordinates ``coords``, point counts ``count``: every part of the arrangement
+    whose box meets the region ``complete`` grown by a little, so that a node in
+    ``complete`` has all its parts here), the trust region ``trust`` (a box ``(xmin, ymin,
+    xmax, ymax)`` or a :class:`CellMask`), the anchors owned (``own = (grid, tile)``: those
+    in the tile; or points (m, 2)) and the earlier trust regions of this tile (``done``:
+    their faces were delivered there).
+
+    Returns the faces delivered as ragged arrays (``shapely.to_ragged_array``: coordinates
+    and offsets), the half-edges on their rings (``2k`` along part ``k``, ``2k + 1``
+    against it) and each one's face, the anchors to retry ((m, 2)) and this process's peak
+    resident memory (bytes); None if the tracing cannot decide (the whole is traced then)."""
+    if isinstance(own, tuple):
+        grid, tile = own
+
+        def owned(pts: np.ndarray) -> np.ndarray:
+            return grid.tile_of(pts) == tile
+    else:
+        def owned(pts: np.ndarray) -> np.ndarray:
+            ids = row_ids(np.vstack((own, pts)))[0]
+            return np.isin(ids[len(own):], ids[:len(own)])
+
+    def earlier(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        out = np.zeros(len(lo), bool)
+        for region in done:
+            out |= _holds(region, lo, hi)
+        return out
+
+    got = local_faces(coords, count, lambda lo, hi: _holds(trust, lo, hi),
+                      lambda p: _holds(complete, p, p), owned, earlier)
+    if got is None:
+        return None
+    faces, he, face, retry = got
+    if len(faces):
+        _, xy, offsets = shapely.to_ragged_array(faces)
+    else:
+        xy, offsets = np.zeros((0, 2)), (np.zeros(1, np.int64), np.zeros(1, np.int64))
+    return xy, offsets, he, face, retry, _peak_rss()
+
+
+def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int] | str,
+                    executor: Executor, report: Callable, log: dict
+                    ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The faces of the parts (coordinates ``coords``, point counts ``count``) and the faces
+    on the two sides of each part, as :func:`tether.decomposition.faces.trace_faces` gives
+    them, traced in ``tiles`` on ``executor`` (:func:`trace_tile`): each face delivered by
+    the tile holding its anchor, retried in larger regions around the anchors a tile could
+    not vouch for. None where a task cannot decide (the caller traces the whole)."""
+    n = len(count)
+    if n == 0:
+        return None
+    start = np.cumsum(count) - count
+    plo, phi = np.minimum.reduceat(coords, start), np.maximum.reduceat(coords, start)
+    span = phi.max(axis=0) - plo.min(axis=0)
+    shape = tiles if tiles != "auto" else auto_tiles(len(coords) - n, float(span[0]),
+                                                     float(span[1]))
+    grid = tile_grid(coords, shape)
+    nx, ny = grid.shape
+    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)),
+                 1e-9 * float(span.max()))
+    log.update(face_tiles=grid.shape, face_margin=margin, face_retries=0,
+               face_parts_sent=0.0, face_fallback=False)
+    sent = 0
+
+    def submit(sel: np.ndarray, trust: Any, complete: Any, own: Any, done: tuple) -> Any:
+        nonlocal sent
+        sent += len(sel)
+        xy = coords[ragged_arange(start[sel], count[sel])]
+        return sel, executor.submit(trace_tile, xy, count[sel], trust, complete, own, done)
+
+    near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
+    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
+    futures = {t: submit(near[nptr[t]:nptr[t + 1]], done[t][0],
+                         grown(tile_box(grid, t), 1.5 * margin), (grid, t), ())
+               for t in range(grid.count)}
+    del near
+    side = np.full(2 * n, -1, np.int64)
+    polys, nfaces, level, finished, total, shown = [], 0, 0, 0, len(futures), 0.0
+    stage = f"face tiles ({nx}x{ny})"
+    while futures:
+        pending = {}
+        for t, (sel, f) in futures.items():
+            r = f.result()
+            finished += 1
+            shown = max(shown, finished / total)
+            report(stage, 0.45 + 0.04 * shown)
+            if r is None:
+                log["face_fallback"] = True
+                return None
+            xy, offsets, he, face, retry, peak = r
+            log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
+            ghe = 2 * sel[he // 2] + he % 2
+            if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
+                log["face_fallback"] = True
+                return None
+            side[ghe] = face + nfaces
+            got = shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy, offsets) \
+                if len(xy) else np.zeros(0, dtype=object)
+            polys.append(np.asarray(got, dtype=object))
+            nfaces += len(got)
+            if len(retry):
+                pending[t] = retry
+        level += 1
+        futures = {}
+        for t, pts in pending.items():  # larger regions around the anchors not vouched for
+            trust = mask_around(np.hstack((pts, pts)), margin * 2.0 ** level, margin)
+            complete = trust.dilated(math.ceil(margin / trust.cell))
+            futures[t] = submit(_segments_near(trust, plo, phi, margin), trust, complete,
+                                pts, done[t])
+            done[t] = (*done[t], trust)
+            log["face_retries"] += 1
+            total += 1
+    log["face_parts_sent"] = sent / n
+    pf = np.sort(side.reshape(n, 2), axis=1)
+    one = pf[:, 0] < 0  # -1 (none) goes second, as trace_faces gives them
+    pf[one] = pf[one][:, ::-1]
+    pf[pf[:, 0] == pf[:, 1]] = -1
+    return np.concatenate(polys), pf
