@@ -483,7 +483,7 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     rings sees every half-edge between it and the next one, both sides on the walk), and it
     is delivered if its *anchor* (the lexicographically smallest point of its shell) is
     ``owned(points)`` and its raw walks' box is not held by an earlier region of the task
-    (``earlier(lo, hi)``: delivered there).
+    (``earlier(lo, hi)``, None for none: delivered there).
 
     A face anchored at an owned point but not vouched for here is reported: the raw walk
     through its anchor on its side is not held, and the anchor is the smallest point of that
@@ -494,15 +494,16 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     retried forever; a smallest point of a stretch of it elsewhere stops being one as the
     region grows.
 
-    Returns the delivered faces (polygons), the half-edges on their rings (``2k`` along part
-    ``k``, ``2k + 1`` against it) and each one's face there, and the points to retry ((m,
-    2)); None where the tracing cannot decide (two half-edges leaving a node in exactly the
-    same direction, or a ring with no point of its own: :func:`trace_faces` polygonizes the
+    Returns the delivered faces as ragged arrays (their rings' coordinates, face after face,
+    its shell then its holes, and the offsets of rings and of faces, as
+    ``shapely.from_ragged_array`` reads them), the half-edges on their rings (``2k`` along
+    part ``k``, ``2k + 1`` against it) and each one's face there, and the points to retry
+    ((m, 2)); None where the tracing cannot decide (two half-edges leaving a node in exactly
+    the same direction, or a ring with no point of its own: :func:`trace_faces` polygonizes the
     whole then)."""
     n = len(count)
     if n == 0:
-        return (np.zeros(0, dtype=object), np.zeros(0, np.int64), np.zeros(0, np.int64),
-                np.zeros((0, 2)))
+        return _no_faces(np.zeros((0, 2)))
     start = np.cumsum(count) - count
     last = start + count - 1
     ends = _point_ids(np.take(coords, np.r_[start, last], axis=0))
@@ -512,21 +513,21 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     if raw_next is None:
         return None
     raw, raw_off = _cycle_labels(raw_next, every)
+    rseq = _cycles_laid_out(raw, raw_off, every)  # the raw walks, each in order
+    wstart = np.flatnonzero(np.r_[True, raw[rseq][1:] != raw[rseq][:-1]])
     plo, phi = np.minimum.reduceat(coords, start), np.maximum.reduceat(coords, start)
-    he_part = np.arange(2 * n) // 2
-    wlo = np.full((2 * n, 2), np.inf)
-    whi = np.full((2 * n, 2), -np.inf)
-    np.minimum.at(wlo, raw, plo[he_part])
-    np.maximum.at(whi, raw, phi[he_part])
-    walk = np.flatnonzero(raw == np.arange(2 * n))  # each raw walk's least half-edge
-    held_walk = np.zeros(2 * n, bool)
-    held_walk[walk] = held(wlo[walk], whi[walk])
-    on_held = held_walk[raw]  # each half-edge's raw walk is held
+    wlo = np.minimum.reduceat(plo[rseq // 2], wstart)  # each walk's box
+    whi = np.maximum.reduceat(phi[rseq // 2], wstart)
+    wsize = np.diff(np.r_[wstart, 2 * n])
+    walk_of = np.empty(2 * n, np.int64)  # each half-edge's walk (in rseq order)
+    walk_of[rseq] = np.repeat(np.arange(len(wstart)), wsize)
+    on_held = held(wlo, whi)[walk_of]  # each half-edge's raw walk is held
     alive = np.repeat(raw[0::2] != raw[1::2], 2)
-    retry = _retry_points(coords, count, start, last, origin, raw, raw_off, ~on_held,
+    open_seq = rseq[~on_held[rseq]]
+    retry = _retry_points(coords, count, start, last, origin, open_seq, raw[open_seq],
                           complete, owned)
     if not alive.any():  # no part bounds a face here
-        return np.zeros(0, dtype=object), np.zeros(0, np.int64), np.zeros(0, np.int64), retry
+        return _no_faces(retry)
     nxt = _next_half_edges(origin, angle, alive)
     label, off = _cycle_labels(nxt, alive)
     seq = _cycles_laid_out(label, off, alive)
@@ -536,42 +537,64 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     faces, side, ring_of, face_of_ring, xy, ring_ptr, ccw = rings
     nring, nf = len(ring_ptr) - 1, len(faces)
     bad = np.bincount(ring_of, weights=~on_held[seq], minlength=nring) > 0
-    face_bad = np.zeros(nf, bool)
-    np.logical_or.at(face_bad, face_of_ring[face_of_ring >= 0], bad[face_of_ring >= 0])
+    in_face = np.flatnonzero(face_of_ring >= 0)
+    face_bad = np.bincount(face_of_ring[in_face], weights=bad[in_face], minlength=nf) > 0
     shell = np.flatnonzero(ccw)  # face i's shell is ring shell[i]
-    anchor = np.take(xy, _lexmin_rows(xy, ring_ptr)[shell], axis=0)
-    flo = np.full((nf, 2), np.inf)
-    fhi = np.full((nf, 2), -np.inf)
+    take = np.flatnonzero(~face_bad)
+    anchor = np.take(xy, _lexmin_rows(xy, ring_ptr)[shell[take]], axis=0)
+    take = take[owned(anchor)]
     on = np.flatnonzero(side >= 0)
-    np.minimum.at(flo, side[on], wlo[raw[on]])
-    np.maximum.at(fhi, side[on], whi[raw[on]])
-    take = ~face_bad
-    take[take] &= owned(anchor[take])
-    take[take] &= ~earlier(flo[take], fhi[take])
-    new = np.cumsum(take) - 1
-    he = on[take[side[on]]]
-    return faces[take], he, new[side[he]], retry
+    if earlier is not None and len(take):  # the faces' walks' boxes, held earlier or not
+        mine = np.zeros(nf, bool)
+        mine[take] = True
+        on_t = on[mine[side[on]]]
+        flo = np.full((nf, 2), np.inf)
+        fhi = np.full((nf, 2), -np.inf)
+        np.minimum.at(flo, side[on_t], wlo[walk_of[on_t]])
+        np.maximum.at(fhi, side[on_t], whi[walk_of[on_t]])
+        take = take[~earlier(flo[take], fhi[take])]
+    new = np.full(nf + 1, -1)
+    new[take] = np.arange(len(take))
+    he = on[new[side[on]] >= 0]
+    # the faces' rings as ragged arrays: face after face, its shell then its holes
+    r = in_face[new[face_of_ring[in_face]] >= 0]
+    r = r[np.lexsort((r, ~ccw[r], new[face_of_ring[r]]))]
+    size = ring_ptr[r + 1] - ring_ptr[r]
+    ring_xy = np.take(xy, ragged_arange(ring_ptr[r], size), axis=0)
+    per_face = np.bincount(new[face_of_ring[r]], minlength=len(take))
+    return (ring_xy, (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_face)]), he,
+            new[side[he]], retry)
+
+
+def _no_faces(retry: np.ndarray) -> tuple:
+    """:func:`local_faces`'s answer with no face delivered, the points ``retry`` to retry."""
+    empty = np.zeros(0, np.int64)
+    return np.zeros((0, 2)), (np.zeros(1, np.int64), np.zeros(1, np.int64)), empty, empty, \
+        retry
 
 
 def _lexmin_rows(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
     """The row of the lexicographically smallest point ``(x, y)`` of each group
-    ``xy[ptr[g]:ptr[g + 1]]`` (groups non-empty)."""
-    group = np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))
-    order = np.lexsort((xy[:, 1], xy[:, 0], group))
-    return order[ptr[:-1]]
+    ``xy[ptr[g]:ptr[g + 1]]`` (groups non-empty; the first such row), without a sort."""
+    starts = ptr[:-1]
+    group = np.repeat(np.arange(len(starts)), np.diff(ptr))
+    x, y = xy[:, 0], xy[:, 1]
+    at_min = x == np.minimum.reduceat(x, starts)[group]
+    yy = np.where(at_min, y, np.inf)
+    hit = np.flatnonzero(at_min & (yy == np.minimum.reduceat(yy, starts)[group]))
+    g = group[hit]
+    return hit[np.r_[True, g[1:] != g[:-1]]]
 
 
 def _retry_points(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last: np.ndarray,
-                  origin: np.ndarray, raw: np.ndarray, raw_off: np.ndarray,
-                  open_he: np.ndarray, complete: Callable, owned: Callable) -> np.ndarray:
+                  origin: np.ndarray, seq: np.ndarray, lab: np.ndarray, complete: Callable,
+                  owned: Callable) -> np.ndarray:
     """The owned points that may anchor a face not vouched for (:func:`local_faces`): on the
-    raw walks not held (``open_he``: their half-edges; ``raw``, ``raw_off``: the walks'
-    labels), each stretch's smallest point where the walk turns left there."""
+    raw walks not held (``seq``: their half-edges, walk after walk, each in order; ``lab``:
+    each one's walk), each stretch's smallest point where the walk turns left there."""
     n = len(count)
-    seq = _cycles_laid_out(raw, raw_off, open_he)  # open walks, each in order
     if len(seq) == 0:
         return np.zeros((0, 2))
-    lab = raw[seq]
     first = np.r_[True, lab[1:] != lab[:-1]]
     wid = np.cumsum(first) - 1  # walk of each position
     wstart = np.flatnonzero(first)

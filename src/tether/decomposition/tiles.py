@@ -21,9 +21,19 @@ cannot vouch for (longer than the margin, crossing out of the trust box) is retr
 at its ends in that tile are delivered by a task on the box around it grown by twice the
 margin, then four times, ... until each is trusted (:func:`tiled_noder`). The parts of all
 tasks are then exactly the whole noding's parts, with the same sources, in another order.
-The faces are traced on all the parts at once
-(:func:`tether.decomposition.arrangement.traced_arrangement`) and the regions, structures and
-pieces follow as for the whole.
+
+The faces are traced in tiles as well (:func:`trace_tile`, a second round of tasks on a grid
+of the parts): a task gets the parts whose boxes meet its tile grown by twice a margin, and
+delivers the faces it can vouch for whose *anchor* (the lexicographically smallest point of
+the face's shell) lies in its tile. The boundary walks of the planar map of all the
+half-edges (dangles and cut edges included: *raw walks*) are local, the step at a node seeing
+only the parts ending there; a raw walk inside the tile grown by the margin is the whole's,
+and a face all of whose rings lie on such walks is the whole's face, ring for ring
+(:func:`tether.decomposition.faces.local_faces`). The anchors of the faces a task cannot vouch
+for are retried in larger regions around them, as the noding's parts are; the faces and the
+faces on the two sides of every part are then the whole's, in another order, and the regions,
+structures and pieces follow as for the whole
+(:func:`tether.decomposition.arrangement.traced_arrangement`).
 
 The exactness holds for GEOS's first noding pass. GEOS repeats the noding on its own output
 until no new crossing appears (new crossings arise only within a few units in the last place
@@ -466,13 +476,18 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     splits into two strips (:func:`tether.decomposition.noding.strip_cut`, from
     :data:`tether.decomposition.noding.STRIP_MIN_SEGMENTS` segments) is split the same way
     and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
-    reach is ``1e-3 tol`` as for the whole). ``progress`` gets ``("tiles (NXxNY)", overall
-    fraction)`` as tasks finish, then ``("stitch", 0.45)``; ``log``, if given, gets
-    ``tiles`` (the grid's shape, per strip), ``strips`` (1 or 2), ``margin`` (map units),
-    ``retries`` (tasks run again in a larger region), ``segments_sent`` (input segments sent
-    to the tasks, over the input's count), ``worker_peak_bytes`` (the largest peak resident
-    memory a task's process reported) and ``fallback`` (True if the input was noded
-    whole)."""
+    reach is ``1e-3 tol`` as for the whole). The parts' faces are then traced in tiles too
+    (:func:`trace_tile`, on a grid of the parts chosen alike), and the noder returns ``(parts,
+    ptr, src, traced)`` (``traced``: the faces and the parts' faces, None to trace them
+    whole). ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
+    then ``("stitch", 0.45)``, then ``("face tiles (NXxNY)", fraction)`` as face tasks
+    finish; ``log``, if given, gets ``tiles`` (the grid's shape, per strip), ``strips`` (1 or
+    2), ``margin`` (map units), ``retries`` (tasks run again in a larger region),
+    ``segments_sent`` (input segments sent to the tasks, over the input's count),
+    ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
+    ``fallback`` (True if the input was noded whole), and for the faces ``face_tiles``,
+    ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
+    count) and ``face_fallback`` (True if they were traced whole)."""
     report = progress or (lambda stage, frac: None)
     log = {} if log is None else log
 
@@ -623,10 +638,11 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     in the tile; or points (m, 2)) and the earlier trust regions of this tile (``done``:
     their faces were delivered there).
 
-    Returns the faces delivered as ragged arrays (``shapely.to_ragged_array``: coordinates
-    and offsets), the half-edges on their rings (``2k`` along part ``k``, ``2k + 1``
-    against it) and each one's face, the anchors to retry ((m, 2)) and this process's peak
-    resident memory (bytes); None if the tracing cannot decide (the whole is traced then)."""
+    Returns the faces delivered as ragged arrays (coordinates, and the offsets of rings and
+    of polygons, as ``shapely.from_ragged_array`` reads them), the half-edges on their rings
+    (``2k`` along part ``k``, ``2k + 1`` against it) and each one's face, the anchors to
+    retry ((m, 2)) and this process's peak resident memory (bytes); None if the tracing
+    cannot decide (the whole is traced then)."""
     if isinstance(own, tuple):
         grid, tile = own
 
@@ -644,15 +660,8 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
         return out
 
     got = local_faces(coords, count, lambda lo, hi: _holds(trust, lo, hi),
-                      lambda p: _holds(complete, p, p), owned, earlier)
-    if got is None:
-        return None
-    faces, he, face, retry = got
-    if len(faces):
-        _, xy, offsets = shapely.to_ragged_array(faces)
-    else:
-        xy, offsets = np.zeros((0, 2)), (np.zeros(1, np.int64), np.zeros(1, np.int64))
-    return xy, offsets, he, face, retry, _peak_rss()
+                      lambda p: _holds(complete, p, p), owned, earlier if done else None)
+    return None if got is None else (*got, _peak_rss())
 
 
 def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int] | str,
