@@ -79,7 +79,7 @@ def _traced(whole, tiles, log=None):
     log = {} if log is None else log
     got = tiles_mod._faces_in_tiles(coords, count, tiles, _Serial(), lambda s, f: None, log)
     assert got is not None and not log["face_fallback"]
-    return got
+    return got[:2]
 
 
 @pytest.mark.parametrize("env,tiles", [
@@ -184,10 +184,45 @@ def test_any_region_delivers_faces_of_the_whole(seed):
     got = trace_tile(xy, count[sel], trust, grown(trust, 1.5 * margin),
                      np.unique(coords, axis=0), ())
     assert got is not None
-    xy_f, offsets, he, face, _, _ = got
+    xy_f, offsets, he, face = got[:4]
     faces = shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy_f, offsets) \
         if len(xy_f) else np.zeros(0, dtype=object)
     index = {k: i for i, k in enumerate(_face_keys(whole.faces))}
     m = np.array([index[k] for k in _face_keys(faces)], dtype=np.int64)  # KeyError: not one
     ghe = 2 * sel[he // 2] + he % 2
     assert np.isin(m[face], whole.part_faces[ghe // 2]).all()
+
+
+def test_face_tasks_free_arcs_same_structures():
+    """With the map and lss, the face tasks also compute their faces' points and free arcs
+    (``FaceArcs``): the same faces in the free space, resolved alike, with the same
+    structures as ``face_arcs`` on the whole's faces."""
+    from tether.decomposition.structure import face_arcs, structure_ids_of
+
+    env, lss = L_SHAPE, 1.0
+    whole = _whole(env, lss)
+    inner = env.internal
+    lss_in = check_lss(lss * env.frame.scale, inner)
+    tol = REL_CURVE_TOL * inner.diameter
+    coords, count = part_ends(whole.parts)[:2]
+    log = {}
+    faces, pf, fa = tiles_mod._faces_in_tiles(coords, count, (4, 3), _Serial(),
+                                              lambda s, f: None, log, (inner, lss_in, tol))
+    assert_same_faces(whole, faces, pf)
+    wa = face_arcs(inner, whole.faces, tol, whole.grid, lss_in)
+
+    def by_face(a, nfaces):
+        ok = a.keep[a.resolved]
+        sid, structs = structure_ids_of(inner.n, a.full, a.point, a.start_code, a.end_code,
+                                        len(ok))
+        out = np.full(nfaces, -2, dtype=object)  # -2: not in the free space
+        out[a.keep] = -1  # not resolved
+        out[ok] = [tuple(structs.pairs[structs.ptr[i]:structs.ptr[i + 1]].tolist())
+                   if i >= 2 else i for i in sid.tolist()]
+        return out
+
+    index = {k: i for i, k in enumerate(_face_keys(whole.faces))}
+    m = np.array([index[k] for k in _face_keys(faces)], dtype=np.int64)
+    want = by_face(wa, len(whole.faces))
+    got = by_face(fa, len(faces))
+    assert list(got) == list(want[m])

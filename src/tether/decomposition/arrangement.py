@@ -243,20 +243,25 @@ def _faces(parts: np.ndarray, ends: tuple) -> tuple[np.ndarray, np.ndarray, tupl
 
 
 def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
-                       traced: tuple[np.ndarray, np.ndarray] | None = None) -> Arrangement:
+                       traced: tuple | None = None) -> Arrangement:
     """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
     grid 0), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing,
     -1 = wall): its faces traced as :func:`arrangement` traces them, or ``traced`` (the
     faces and the faces on the two sides of each part, traced tile by tile:
-    :func:`tether.decomposition.tiles.trace_tile`)."""
+    :func:`tether.decomposition.tiles.trace_tile`, and the faces' points and free arcs,
+    :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the memo as
+    ``"face_arcs"`` for the decomposition)."""
     ends = part_ends(parts)
+    fa = None
     if traced is None:
         faces, part_faces, segs, _ = _faces(parts, ends)
     else:
-        (faces, part_faces), segs = traced, part_segments(ends)
+        (faces, part_faces, fa), segs = traced, part_segments(ends)
     arr = Arrangement(parts, part_faces, ptr, src, faces, 0.0)
     arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
     arr.memo["part_segments"] = segs  # for segments(): not made again
+    if fa is not None:
+        arr.memo["face_arcs"] = fa
     return arr
 
 

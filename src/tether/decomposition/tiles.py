@@ -69,6 +69,7 @@ from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
 from tether.decomposition.faces import local_faces, part_ends, part_segments
 from tether.decomposition.noding import node_floating
+from tether.decomposition.structure import FaceArcs, face_arcs
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
@@ -468,7 +469,7 @@ def process_executor(workers: int | None = None) -> ProcessPoolExecutor:
 
 def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
                 progress: Callable[[str, float], Any] | None = None,
-                log: dict | None = None) -> Callable[..., Any]:
+                log: dict | None = None, arcs: tuple | None = None) -> Callable[..., Any]:
     """The ``noder`` of :func:`tether.decomposition.arrangement.arrangement` that nodes its
     input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``: the
     whole noding's parts, each delivered by the tile of its anchor (:func:`node_tile`),
@@ -487,7 +488,11 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
     ``fallback`` (True if the input was noded whole), and for the faces ``face_tiles``,
     ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
-    count) and ``face_fallback`` (True if they were traced whole)."""
+    count) and ``face_fallback`` (True if they were traced whole). With ``arcs = (env,
+    lss)`` (the internal map and rod length), the face tasks also compute their faces'
+    points and free arcs (:func:`tether.decomposition.structure.face_arcs`), and
+    ``traced`` carries them (:class:`tether.decomposition.structure.FaceArcs`) after the
+    faces and the parts' faces."""
     report = progress or (lambda stage, frac: None)
     log = {} if log is None else log
 
@@ -520,7 +525,8 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
         del got
         parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(
             np.arange(len(count)), count)), dtype=object)
-        traced = _faces_in_tiles(coords, count, tiles, executor, report, log)
+        traced = _faces_in_tiles(coords, count, tiles, executor, report, log,
+                                 None if arcs is None else (*arcs, tol))
         return parts, ptr, src, traced
 
     return noder
@@ -629,20 +635,24 @@ def _stitched(got: list[tuple]) -> tuple[np.ndarray, ...]:
 
 def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMask,
                complete: np.ndarray | CellMask, own: tuple[TileGrid, int] | np.ndarray,
-               done: tuple[np.ndarray | CellMask, ...] = ()) -> tuple | None:
+               done: tuple[np.ndarray | CellMask, ...] = (), arcs: tuple | None = None
+               ) -> tuple | None:
     """A tile's task tracing faces (:func:`tether.decomposition.faces.local_faces`): the
     parts (coordinates ``coords``, point counts ``count``: every part of the arrangement
     whose box meets the region ``complete`` grown by a little, so that a node in
     ``complete`` has all its parts here), the trust region ``trust`` (a box ``(xmin, ymin,
     xmax, ymax)`` or a :class:`CellMask`), the anchors owned (``own = (grid, tile)``: those
     in the tile; or points (m, 2)) and the earlier trust regions of this tile (``done``:
-    their faces were delivered there).
+    their faces were delivered there). With ``arcs = (env, lss, tol)`` (the internal map,
+    the rod length and the curve tolerance), the faces' points and free arcs too
+    (:func:`tether.decomposition.structure.face_arcs`, noding grid 0).
 
     Returns the faces delivered as ragged arrays (coordinates, and the offsets of rings and
     of polygons, as ``shapely.from_ragged_array`` reads them), the half-edges on their rings
     (``2k`` along part ``k``, ``2k + 1`` against it) and each one's face, the anchors to
-    retry ((m, 2)) and this process's peak resident memory (bytes); None if the tracing
-    cannot decide (the whole is traced then)."""
+    retry ((m, 2)), this process's peak resident memory (bytes) and the faces'
+    :class:`tether.decomposition.structure.FaceArcs` (None without ``arcs``); None if the
+    tracing cannot decide (the whole is traced then)."""
     if isinstance(own, tuple):
         grid, tile = own
 
@@ -661,17 +671,40 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
 
     got = local_faces(coords, count, lambda lo, hi: _holds(trust, lo, hi),
                       lambda p: _holds(complete, p, p), owned, earlier if done else None)
-    return None if got is None else (*got, _peak_rss())
+    if got is None:
+        return None
+    fa = None
+    if arcs is not None:
+        env, lss, tol = arcs
+        polys = _polygons(got[0], got[1])
+        fa = face_arcs(env, polys, tol, 0.0, lss) if len(polys) else _no_arcs()
+    return (*got, _peak_rss(), fa)
+
+
+def _no_arcs() -> FaceArcs:
+    """The :class:`FaceArcs` of no face."""
+    i, f = np.zeros(0, np.int64), np.zeros(0)
+    return FaceArcs(np.zeros((0, 2)), f, i, np.zeros(0, bool), np.zeros(0, bool), i, i, i)
+
+
+def _polygons(xy: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Polygons from ragged arrays (coordinates, offsets of rings and of polygons)."""
+    if len(xy) == 0:
+        return np.zeros(0, dtype=object)
+    return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy, offsets),
+                      dtype=object)
 
 
 def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int] | str,
-                    executor: Executor, report: Callable, log: dict
-                    ) -> tuple[np.ndarray, np.ndarray] | None:
+                    executor: Executor, report: Callable, log: dict,
+                    arcs: tuple | None = None) -> tuple | None:
     """The faces of the parts (coordinates ``coords``, point counts ``count``) and the faces
     on the two sides of each part, as :func:`tether.decomposition.faces.trace_faces` gives
     them, traced in ``tiles`` on ``executor`` (:func:`trace_tile`): each face delivered by
     the tile holding its anchor, retried in larger regions around the anchors a tile could
-    not vouch for. None where a task cannot decide (the caller traces the whole)."""
+    not vouch for, and with ``arcs`` (:func:`trace_tile`) their points and free arcs
+    (:class:`tether.decomposition.structure.FaceArcs`, else None). None where a task cannot
+    decide (the caller traces the whole)."""
     n = len(count)
     if n == 0:
         return None
@@ -680,7 +713,8 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     span = phi.max(axis=0) - plo.min(axis=0)
     shape = tiles if tiles != "auto" else auto_tiles(len(coords) - n, float(span[0]),
                                                      float(span[1]))
-    grid = tile_grid(coords, shape)
+    # the cuts only decide which tile owns an anchor: placed among the parts' ends
+    grid = tile_grid(np.take(coords, np.r_[start, start + count - 1], axis=0), shape)
     nx, ny = grid.shape
     margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)),
                  1e-9 * float(span.max()))
@@ -692,7 +726,8 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
         nonlocal sent
         sent += len(sel)
         xy = coords[ragged_arange(start[sel], count[sel])]
-        return sel, executor.submit(trace_tile, xy, count[sel], trust, complete, own, done)
+        return sel, executor.submit(trace_tile, xy, count[sel], trust, complete, own, done,
+                                    arcs)
 
     near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
     done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
@@ -701,7 +736,8 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
                for t in range(grid.count)}
     del near
     side = np.full(2 * n, -1, np.int64)
-    polys, nfaces, level, finished, total, shown = [], 0, 0, 0, len(futures), 0.0
+    polys, arc_parts = [], []
+    nfaces, level, finished, total, shown = 0, 0, 0, len(futures), 0.0
     stage = f"face tiles ({nx}x{ny})"
     while futures:
         pending = {}
@@ -713,16 +749,17 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
             if r is None:
                 log["face_fallback"] = True
                 return None
-            xy, offsets, he, face, retry, peak = r
+            xy, offsets, he, face, retry, peak, fa = r
             log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
             ghe = 2 * sel[he // 2] + he % 2
             if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
                 log["face_fallback"] = True
                 return None
             side[ghe] = face + nfaces
-            got = shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy, offsets) \
-                if len(xy) else np.zeros(0, dtype=object)
-            polys.append(np.asarray(got, dtype=object))
+            got = _polygons(xy, offsets)
+            polys.append(got)
+            if fa is not None:
+                arc_parts.append((fa, nfaces))
             nfaces += len(got)
             if len(retry):
                 pending[t] = retry
@@ -741,4 +778,20 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     one = pf[:, 0] < 0  # -1 (none) goes second, as trace_faces gives them
     pf[one] = pf[one][:, ::-1]
     pf[pf[:, 0] == pf[:, 1]] = -1
-    return np.concatenate(polys), pf
+    return np.concatenate(polys), pf, None if arcs is None else _joined_arcs(arc_parts)
+
+
+def _joined_arcs(got: list[tuple[FaceArcs, int]]) -> FaceArcs:
+    """The face tasks' :class:`FaceArcs` (each with its first face's number) joined in face
+    order: faces and arcs' points renumbered."""
+    if not got:
+        return _no_arcs()
+    oks = np.cumsum([0] + [len(fa.full) for fa, _ in got[:-1]])
+    return FaceArcs(np.concatenate([fa.pts for fa, _ in got]),
+                    np.concatenate([fa.clear for fa, _ in got]),
+                    np.concatenate([fa.keep + first for fa, first in got]),
+                    np.concatenate([fa.resolved for fa, _ in got]),
+                    np.concatenate([fa.full for fa, _ in got]),
+                    np.concatenate([fa.point + o for (fa, _), o in zip(got, oks, strict=True)]),
+                    np.concatenate([fa.start_code for fa, _ in got]),
+                    np.concatenate([fa.end_code for fa, _ in got]))
