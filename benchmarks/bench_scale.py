@@ -58,8 +58,8 @@ if not strips:  # the input noded without the strip cut, tiled and untiled
     noding.STRIP_MIN_SEGMENTS = 10**15
 noder_log = {}
 _noder = pipeline.tiled_noder
-def _logged(tiles, executor, tol, progress=None, log=None):
-    return _noder(tiles, executor, tol, progress, noder_log)
+def _logged(tiles, executor, tol, progress=None, log=None, **kw):
+    return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15

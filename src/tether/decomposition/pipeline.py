@@ -35,10 +35,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
               executor: Executor | None = None) -> Decomposition:
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
 
-    With ``tiles``, the arrangement is noded and its faces traced tile by tile
-    (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal to the
-    untiled one up to the numbering of its regions and pieces (the same regions, structures,
-    pieces and verdict).
+    With ``tiles``, the arrangement is noded, its faces traced and their free arcs computed
+    tile by tile (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal
+    to the untiled one up to the numbering of its regions and pieces (the same regions,
+    structures, pieces and verdict).
 
     Parameters
     ----------
@@ -52,10 +52,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     tiles : (int, int) or str, optional
         ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
         or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
-        per tile); None (default): untiled. Only the noding and the face tracing are
-        tiled: the curves, face structures, regions and pieces are made whole, so the memory
-        check (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply to the
-        whole map.
+        per tile); None (default): untiled. Only the noding, the face tracing and the
+        faces' free arcs are tiled: the curves, regions and pieces are made whole, so the
+        memory check (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply
+        to the whole map.
     executor : concurrent.futures.Executor, optional
         Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
         threads); by default local processes, one per core, started and shut down here
