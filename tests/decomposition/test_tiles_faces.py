@@ -119,7 +119,7 @@ def test_outer_cavity_not_retried_without_end():
 
 @pytest.mark.slow
 def test_small_margin_many_retries(monkeypatch):
-    monkeypatch.setattr(tiles_mod, "TILE_MARGIN", 0.004)
+    monkeypatch.setattr(tiles_mod, "FACE_MARGIN", 0.004)
     whole = _whole(load_example("gallery"), 1.0)
     log = {}
     assert_same_faces(whole, *_traced(whole, (3, 3), log))

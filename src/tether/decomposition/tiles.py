@@ -73,7 +73,7 @@ from tether.decomposition.structure import FaceArcs, face_arcs
 from tether.errors import InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["CUT_FRACTION", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
+__all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
            "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile"]
@@ -93,6 +93,12 @@ CUT_FRACTION = math.sqrt(2.0) - 1.0
 #: height: a task nodes the input segments within twice the margin of its tile and delivers
 #: the parts within the margin (:func:`node_tile`).
 TILE_MARGIN = 0.125
+
+#: The margin of a face task's trust box (:func:`trace_tile`), as a fraction of the smaller
+#: of the mean tile width and height: a face task gets the parts within twice the margin of
+#: its tile (so about ``(1 + 4 FACE_MARGIN)²`` of its share) and vouches for the faces within
+#: the margin; larger faces are retried around their anchors.
+FACE_MARGIN = 0.125
 
 #: The most cells along a side of a retry's trust region (:class:`CellMask`).
 MASK_CELLS = 256
@@ -716,7 +722,7 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     # the cuts only decide which tile owns an anchor: placed among the parts' ends
     grid = tile_grid(np.take(coords, np.r_[start, start + count - 1], axis=0), shape)
     nx, ny = grid.shape
-    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)),
+    margin = max(FACE_MARGIN * float(min(span[0] / nx, span[1] / ny)),
                  1e-9 * float(span.max()))
     log.update(face_tiles=grid.shape, face_margin=margin, face_retries=0,
                face_parts_sent=0.0, face_fallback=False)
