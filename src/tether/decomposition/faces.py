@@ -478,8 +478,9 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     complete node is the whole's. A raw walk whose bounding box is held by the *trust*
     region (``held(lo, hi)``) passes complete nodes only, so it is one of the whole's. A part
     bounds faces (is not a dangle or a cut edge, as :func:`trace_faces` drops them) iff its
-    two sides lie on different raw walks, so the faces are traced on those parts; a face all
-    of whose rings' half-edges lie on held raw walks is the whole's face (each step along its
+    two sides lie on different raw walks, so the faces are traced on those parts, on the
+    cycles all of whose half-edges lie on held raw walks; a face all of whose rings'
+    half-edges lie on held raw walks is the whole's face (each step along its
     rings sees every half-edge between it and the next one, both sides on the walk), and it
     is delivered if its *anchor* (the lexicographically smallest point of its shell) is
     ``owned(points)`` and its raw walks' box is not held by an earlier region of the task
@@ -497,13 +498,13 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     Returns the delivered faces as ragged arrays (their rings' coordinates, face after face,
     its shell then its holes, and the offsets of rings and of faces, as
     ``shapely.from_ragged_array`` reads them), the half-edges on their rings (``2k`` along
-    part ``k``, ``2k + 1`` against it) and each one's face there, and the points to retry
-    ((m, 2)); None where the tracing cannot decide (two half-edges leaving a node in exactly
-    the same direction, or a ring with no point of its own: :func:`trace_faces` polygonizes the
-    whole then)."""
+    part ``k``, ``2k + 1`` against it) and each one's face there, the points to retry ((m,
+    2)) and the boxes of the walks' stretches seen at each ((m, 4)); None where the tracing
+    cannot decide (two half-edges leaving a node in exactly the same direction, or a ring
+    with no point of its own: :func:`trace_faces` polygonizes the whole then)."""
     n = len(count)
     if n == 0:
-        return _no_faces(np.zeros((0, 2)))
+        return _no_faces((np.zeros((0, 2)), np.zeros((0, 4))))
     start = np.cumsum(count) - count
     last = start + count - 1
     ends = _point_ids(np.take(coords, np.r_[start, last], axis=0))
@@ -525,12 +526,19 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     alive = np.repeat(raw[0::2] != raw[1::2], 2)
     open_seq = rseq[~on_held[rseq]]
     retry = _retry_points(coords, count, start, last, origin, open_seq, raw[open_seq],
-                          complete, owned)
+                          (plo, phi), complete, owned)
     if not alive.any():  # no part bounds a face here
         return _no_faces(retry)
     nxt = _next_half_edges(origin, angle, alive)
     label, off = _cycle_labels(nxt, alive)
     seq = _cycles_laid_out(label, off, alive)
+    # only the cycles all of whose half-edges lie on held raw walks: the whole's cycles (a
+    # face's rings are among them, and a shell's holes too, inside it); the others may be
+    # pieces of several that no ring of the whole is made of
+    open_cycle = np.bincount(label[seq], weights=~on_held[seq], minlength=2 * n) > 0
+    seq = seq[~open_cycle[label[seq]]]
+    if len(seq) == 0:
+        return _no_faces(retry)
     rings = _rings(coords, count, start, last, origin, seq, label[seq])
     if rings is None:
         return None
@@ -563,14 +571,15 @@ def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete:
     ring_xy = np.take(xy, ragged_arange(ring_ptr[r], size), axis=0)
     per_face = np.bincount(new[face_of_ring[r]], minlength=len(take))
     return (ring_xy, (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_face)]), he,
-            new[side[he]], retry)
+            new[side[he]], *retry)
 
 
-def _no_faces(retry: np.ndarray) -> tuple:
-    """:func:`local_faces`'s answer with no face delivered, the points ``retry`` to retry."""
+def _no_faces(retry: tuple[np.ndarray, np.ndarray]) -> tuple:
+    """:func:`local_faces`'s answer with no face delivered, the points to retry and their
+    boxes ``retry``."""
     empty = np.zeros(0, np.int64)
     return np.zeros((0, 2)), (np.zeros(1, np.int64), np.zeros(1, np.int64)), empty, empty, \
-        retry
+        *retry
 
 
 def _lexmin_rows(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
@@ -587,14 +596,17 @@ def _lexmin_rows(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
 
 
 def _retry_points(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last: np.ndarray,
-                  origin: np.ndarray, seq: np.ndarray, lab: np.ndarray, complete: Callable,
-                  owned: Callable) -> np.ndarray:
+                  origin: np.ndarray, seq: np.ndarray, lab: np.ndarray, boxes: tuple,
+                  complete: Callable, owned: Callable) -> tuple[np.ndarray, np.ndarray]:
     """The owned points that may anchor a face not vouched for (:func:`local_faces`): on the
     raw walks not held (``seq``: their half-edges, walk after walk, each in order; ``lab``:
-    each one's walk), each stretch's smallest point where the walk turns left there."""
+    each one's walk), each stretch's smallest point where the walk turns left there; and
+    for each point, the box of its stretches (``boxes``: the parts' boxes ``(lo, hi)``),
+    ``(xmin, ymin, xmax, ymax)``: the part of its face's walk seen here."""
     n = len(count)
+    none = np.zeros((0, 2)), np.zeros((0, 4))
     if len(seq) == 0:
-        return np.zeros((0, 2))
+        return none
     first = np.r_[True, lab[1:] != lab[:-1]]
     wid = np.cumsum(first) - 1  # walk of each position
     wstart = np.flatnonzero(first)
@@ -633,11 +645,21 @@ def _retry_points(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last
     h_out = coords[np.where(fwd, start[kk] + 1, last[kk] - 1)] - coords[j]
     turn_at = _cross(g_in, h_out)
     left = np.where(inside, turn_in > 0, at_origin & (turn_at > 0))
-    pts = p[occ[left]]
-    if len(pts) == 0:
-        return np.zeros((0, 2))
-    pts = pts[owned(pts)]
-    return np.unique(pts, axis=0) if len(pts) else np.zeros((0, 2))
+    cand = occ[left]
+    cand = cand[owned(p[cand])] if len(cand) else cand
+    if len(cand) == 0:
+        return none
+    slo = np.full((ns, 2), np.inf)
+    shi = np.full((ns, 2), -np.inf)
+    np.minimum.at(slo, stretch, boxes[0][k])
+    np.maximum.at(shi, stretch, boxes[1][k])
+    # each point once, with the union of its stretches' boxes
+    pts, st = p[cand], stretch[cand]
+    o = np.lexsort((pts[:, 1], pts[:, 0]))
+    pts, st = pts[o], st[o]
+    head = np.flatnonzero(np.r_[True, np.any(pts[1:] != pts[:-1], axis=1)])
+    return pts[head], np.hstack((np.minimum.reduceat(slo[st], head),
+                                 np.maximum.reduceat(shi[st], head)))
 
 
 def _walk_last(first: np.ndarray) -> np.ndarray:
