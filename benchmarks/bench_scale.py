@@ -8,11 +8,14 @@ elimination. The workers are spawned processes: their peak resident memory is th
 ``RUSAGE_CHILDREN`` ``ru_maxrss`` once they are shut down (the largest worker's).
 
 Columns: vertices, tiles (``NXxNY``), workers, wall times in seconds (critical curves; tile
-work: the input cut into tiles and noded by the workers, with the parts' sources; stitching:
-the parts joined and the faces traced on them all; the rest of the decomposition: face
-structures, regions, pieces; G and the elimination; total), peak resident memory in MB of the
-main process and of the largest worker, the input segments sent to the tile tasks over the
-input's count and the number of retry tasks (:mod:`tether.decomposition.tiles`), counts
+work: the input cut into tiles and noded by the workers, with the parts' sources; face tiles:
+the parts joined, sent to the face tasks and their faces traced by the workers, retries
+included; stitching: the faces and the parts' faces joined, the arrangement made; the rest of
+the decomposition: face structures, regions, pieces; G and the elimination; total), peak
+resident memory in MB of the main process and of the largest worker, the input segments sent
+to the noding tasks over the input's count and the number of retry tasks, the parts sent to
+the face tasks over the parts' count and the face retry tasks
+(:mod:`tether.decomposition.tiles`), counts
 (regions, cells, pieces), the verdict, and, for the sizes in ``--compare``, whether the
 untiled run (its curve vertex limit lifted; its input noded as ``decompose`` does, in two
 strips from 100,000 segments, :mod:`tether.decomposition.noding`, or with ``--untiled whole``
@@ -55,8 +58,8 @@ if not strips:  # the input noded without the strip cut, tiled and untiled
     noding.STRIP_MIN_SEGMENTS = 10**15
 noder_log = {}
 _noder = pipeline.tiled_noder
-def _logged(tiles, executor, tol, progress=None, log=None):
-    return _noder(tiles, executor, tol, progress, noder_log)
+def _logged(tiles, executor, tol, progress=None, log=None, **kw):
+    return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
@@ -76,21 +79,26 @@ main_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 at = {}
 for stage, t in marks:
-    key = "tiles" if stage.startswith("tiles") else stage
+    key = ("tiles" if stage.startswith("tiles") else
+           "face tiles" if stage.startswith("face tiles") else stage)
     at.setdefault(key, t)
     if key == "tiles":
         at["tiles_end"] = t
         shape = stage[stage.index("(") + 1:stage.index(")")]
+    if key == "face tiles":
+        at["face_tiles_end"] = t
 if noder_log.get("strips") == 2:
     shape = "2 strips x " + shape
 row = {"vertices": n, "tiles": shape, "workers": workers,
        "curves": at["arrangement"] - w0,
        "tile work": at["tiles_end"] - at["arrangement"],
-       "stitch": at["face structures"] - at["stitch"],
+       "face tiles": at["face_tiles_end"] - at["stitch"],
+       "stitch": at["face structures"] - at["face_tiles_end"],
        "rest": w1 - at["face structures"],
        "G+elim": w2 - w1, "total": w2 - w0,
        "main MB": main_mb, "worker MB": worker_mb,
        "sent": noder_log["segments_sent"], "retries": noder_log["retries"],
+       "face sent": noder_log["face_parts_sent"], "face retries": noder_log["face_retries"],
        "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
        "verdict": "strategy" if v.strategy_exists else "none"}
 if compare:
@@ -119,9 +127,10 @@ if compare:
 print(json.dumps(row))
 """
 
-COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "stitch", "rest", "G+elim",
-           "total", "main MB", "worker MB", "sent", "retries", "regions", "cells", "pieces",
-           "verdict", "equal untiled", "untiled MB")
+COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", "stitch",
+           "rest", "G+elim", "total", "main MB", "worker MB", "sent", "retries", "face sent",
+           "face retries", "regions", "cells", "pieces", "verdict", "equal untiled",
+           "untiled MB")
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:

@@ -172,8 +172,9 @@ def _tile_executor(args: argparse.Namespace):
 def _add_tile_options(sp: argparse.ArgumentParser) -> None:
     """``--tiles``, ``--workers`` and ``--dask``: the decomposition in tiles (docs/scale.md)."""
     sp.add_argument("--tiles", metavar="NXxNY",
-                    help="node the arrangement in NX x NY tiles (or 'auto'), each a task of "
-                    "a worker process; the same result up to numbering (docs/scale.md)")
+                    help="node the arrangement and trace its faces in NX x NY tiles (or "
+                    "'auto'), each a task of a worker process; the same result up to "
+                    "numbering (docs/scale.md)")
     sp.add_argument("--workers", type=int_range(1, 1024), metavar="N",
                     help="worker processes for the tiles (default: one per core; implies "
                     "--tiles auto)")

@@ -187,8 +187,9 @@ def arrangement(env: Environment, curves: list[Curve], tol: float,
     ``noder``, if given, nodes the input tile by tile
     (:func:`tether.decomposition.tiles.tiled_noder`): called as ``noder(lines, source,
     (la, lb, lowner))`` with the input lines, each line's source curve (-1: a ring) and the
-    lines' segments, it returns the parts and their sources as CSR arrays ``(parts, ptr,
-    src)``, or None to node the input whole (as without it)."""
+    lines' segments, it returns the parts, their sources as CSR arrays and the faces traced
+    tile by tile ``(parts, ptr, src, traced)`` (``traced``: None to trace them here), or None
+    to node the input whole (as without it)."""
     lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
     if noder is not None:
         got = noder(lines, np.asarray(source, dtype=np.int64), (la, lb, lowner))
@@ -241,15 +242,26 @@ def _faces(parts: np.ndarray, ends: tuple) -> tuple[np.ndarray, np.ndarray, tupl
     return faces, part_faces, (pa, pb, powner), longest
 
 
-def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray) -> Arrangement:
+def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
+                       traced: tuple | None = None) -> Arrangement:
     """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
     grid 0), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing,
-    -1 = wall): its faces traced as :func:`arrangement` traces them."""
+    -1 = wall): its faces traced as :func:`arrangement` traces them, or ``traced`` (the
+    faces and the faces on the two sides of each part, traced tile by tile:
+    :func:`tether.decomposition.tiles.trace_tile`, and the faces' points and free arcs,
+    :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the memo as
+    ``"face_arcs"`` for the decomposition)."""
     ends = part_ends(parts)
-    faces, part_faces, segs, _ = _faces(parts, ends)
+    fa = None
+    if traced is None:
+        faces, part_faces, segs, _ = _faces(parts, ends)
+    else:
+        (faces, part_faces, fa), segs = traced, part_segments(ends)
     arr = Arrangement(parts, part_faces, ptr, src, faces, 0.0)
     arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
     arr.memo["part_segments"] = segs  # for segments(): not made again
+    if fa is not None:
+        arr.memo["face_arcs"] = fa
     return arr
 
 

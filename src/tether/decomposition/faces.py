@@ -4,14 +4,16 @@ well inside each face with its clearance (inscribed circles where it matters).""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import shapely
 
 from tether._util.arrays import ragged_arange, row_ids
 from tether._util.threads import map_chunks
 
-__all__ = ["MIC_MIN_BOUND", "face_points", "part_ends", "part_segments", "polygonize_faces",
-           "ring_segments", "trace_faces"]
+__all__ = ["MIC_MIN_BOUND", "face_points", "local_faces", "part_ends", "part_segments",
+           "polygonize_faces", "ring_segments", "trace_faces"]
 
 
 def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -95,21 +97,9 @@ def trace_faces(parts: np.ndarray, ends: tuple | None = None
     polygonizes then. ``ends``: :func:`part_ends` of the parts, if already computed."""
     n = len(parts)
     coords, count, start, last, ends = ends if ends is not None else part_ends(parts)
-    origin = np.empty(2 * n, np.int64)  # half-edge 2k runs along part k, 2k + 1 against it
-    origin[0::2], origin[1::2] = ends[:n], ends[n:]
+    origin, angle = _half_edges(coords, count, start, last, ends)
     nodes = int(ends.max(initial=-1)) + 1
     alive = _drop_dangles(origin, nodes)
-    step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
-    step[0::2] = coords[start + 1] - coords[start]
-    step[1::2] = coords[last - 1] - coords[last]
-    for h in np.flatnonzero(~step.any(axis=1)).tolist():  # a repeated point (none seen)
-        k, sign = h // 2, 1 - 2 * (h % 2)
-        at = start[k] if sign > 0 else last[k]
-        j = at + sign
-        while not (coords[j] != coords[at]).any():  # parts have length > 0
-            j += sign
-        step[h] = coords[j] - coords[at]
-    angle = np.arctan2(step[:, 1], step[:, 0])
     label = off = None
     for _ in range(2):  # the second pass without the cut edges
         nxt = _next_half_edges(origin, angle, alive)
@@ -125,9 +115,51 @@ def trace_faces(parts: np.ndarray, ends: tuple | None = None
     # alive half-edges, cycle after cycle, in order
     seq = _cycle_order(nxt, label, alive) if off is None else _cycles_laid_out(label, off,
                                                                                 alive)
+    rings = _rings(coords, count, start, last, origin, seq, label[seq])
+    if rings is None:
+        return None
+    faces, side = rings[:2]
+    pf = np.sort(side.reshape(n, 2), axis=1)
+    one = pf[:, 0] < 0  # -1 (none) goes second
+    pf[one] = pf[one][:, ::-1]
+    pf[pf[:, 0] == pf[:, 1]] = -1
+    return faces, pf
+
+
+def _half_edges(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last: np.ndarray,
+                ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The half-edges of parts (:func:`part_ends` arrays; half-edge ``2k`` runs along part
+    ``k``, ``2k + 1`` against it): each one's origin node and the angle of its first step
+    from there (radians)."""
+    n = len(count)
+    origin = np.empty(2 * n, np.int64)
+    origin[0::2], origin[1::2] = ends[:n], ends[n:]
+    step = np.empty((2 * n, 2))  # each half-edge's first step from its origin
+    step[0::2] = coords[start + 1] - coords[start]
+    step[1::2] = coords[last - 1] - coords[last]
+    for h in np.flatnonzero(~step.any(axis=1)).tolist():  # a repeated point (none seen)
+        k, sign = h // 2, 1 - 2 * (h % 2)
+        at = start[k] if sign > 0 else last[k]
+        j = at + sign
+        while not (coords[j] != coords[at]).any():  # parts have length > 0
+            j += sign
+        step[h] = coords[j] - coords[at]
+    return origin, np.arctan2(step[:, 1], step[:, 0])
+
+
+def _rings(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last: np.ndarray,
+           origin: np.ndarray, seq: np.ndarray, lab: np.ndarray) -> tuple | None:
+    """The faces bounded by the cycles ``seq`` (half-edges cycle after cycle, in order;
+    ``lab``: their cycle) of parts (:func:`part_ends` arrays): pinched cycles split into
+    simple rings, counter-clockwise rings shells, clockwise rings holes of the smallest
+    shell holding them. Returns the faces (polygons), each half-edge's face (-1: none), the
+    ring of each position of ``seq``, each ring's face (-1: none) and coordinates (closed
+    rings ``xy[ptr[r]:ptr[r + 1]]``) and which rings are shells; None where a ring has no
+    point off its cycle's other rings."""
+    n = len(count)
     at = np.where(np.arange(2 * n) % 2 == 0, np.repeat(start, 2), np.repeat(last, 2))
     inner = np.where(np.repeat(count, 2) > 2, np.repeat(start + 1, 2), -1)
-    loop = _split_pinched(seq, label[seq], origin, at, inner)
+    loop = _split_pinched(seq, lab, origin, at, inner)
     if loop is None:
         return None
     ring_of, test_pt = loop
@@ -174,11 +206,7 @@ def trace_faces(parts: np.ndarray, ends: tuple | None = None
             face_of_ring[rows], minlength=len(shell))[with_holes])
     side = np.full(2 * n, -1)
     side[seq] = face_of_ring[ring_of]
-    pf = np.sort(side.reshape(n, 2), axis=1)
-    one = pf[:, 0] < 0  # -1 (none) goes second
-    pf[one] = pf[one][:, ::-1]
-    pf[pf[:, 0] == pf[:, 1]] = -1
-    return faces, pf
+    return faces, side, ring_of, face_of_ring, xy, ring_ptr, ccw
 
 
 def _rings_ccw(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
@@ -434,3 +462,211 @@ def _inradius_bound(polys: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         bound = 2 * shapely.area(hull) / shapely.length(hull)
     return np.nan_to_num(bound, nan=0.0)
+
+
+def local_faces(coords: np.ndarray, count: np.ndarray, held: Callable, complete: Callable,
+                owned: Callable, earlier: Callable) -> tuple | None:
+    """The faces of the whole arrangement that a part of it can vouch for: the faces of a
+    tile (:func:`tether.decomposition.tiles.trace_tile`), exactly as :func:`trace_faces`
+    traces them on all the parts.
+
+    ``coords``, ``count``: the parts' coordinates (part after part) and point counts: every
+    part of the whole arrangement whose bounding box meets a region (the *send* region),
+    exact copies. A node is *complete* if ``complete(points)`` says it lies in that region:
+    every part ending there is given. The *raw walks* (the boundary walks of the planar map
+    of all the half-edges, dangles and cut edges included) are local: a walk's step at a
+    complete node is the whole's. A raw walk whose bounding box is held by the *trust*
+    region (``held(lo, hi)``) passes complete nodes only, so it is one of the whole's. A part
+    bounds faces (is not a dangle or a cut edge, as :func:`trace_faces` drops them) iff its
+    two sides lie on different raw walks, so the faces are traced on those parts, on the
+    cycles all of whose half-edges lie on held raw walks; a face all of whose rings'
+    half-edges lie on held raw walks is the whole's face (each step along its
+    rings sees every half-edge between it and the next one, both sides on the walk), and it
+    is delivered if its *anchor* (the lexicographically smallest point of its shell) is
+    ``owned(points)`` and its raw walks' box is not held by an earlier region of the task
+    (``earlier(lo, hi)``, None for none: delivered there).
+
+    A face anchored at an owned point but not vouched for here is reported: the raw walk
+    through its anchor on its side is not held, and the anchor is the smallest point of that
+    walk's stretch (a run of steps at complete nodes, a piece of the whole's walk) with a
+    left turn there (the face is convex at its anchor). Every owned point that is such a
+    stretch's smallest point with a left turn there is returned, for a retry in a larger
+    region. The unbounded face's walk turns right at its smallest point, so it is not
+    retried forever; a smallest point of a stretch of it elsewhere stops being one as the
+    region grows.
+
+    Returns the delivered faces as ragged arrays (their rings' coordinates, face after face,
+    its shell then its holes, and the offsets of rings and of faces, as
+    ``shapely.from_ragged_array`` reads them), the half-edges on their rings (``2k`` along
+    part ``k``, ``2k + 1`` against it) and each one's face there, the points to retry ((m,
+    2)) and the boxes of the walks' stretches seen at each ((m, 4)); None where the tracing
+    cannot decide (two half-edges leaving a node in exactly the same direction, or a ring
+    with no point of its own: :func:`trace_faces` polygonizes the whole then)."""
+    n = len(count)
+    if n == 0:
+        return _no_faces((np.zeros((0, 2)), np.zeros((0, 4))))
+    start = np.cumsum(count) - count
+    last = start + count - 1
+    ends = _point_ids(np.take(coords, np.r_[start, last], axis=0))
+    origin, angle = _half_edges(coords, count, start, last, ends)
+    every = np.ones(2 * n, bool)
+    raw_next = _next_half_edges(origin, angle, every)
+    if raw_next is None:
+        return None
+    raw, raw_off = _cycle_labels(raw_next, every)
+    rseq = _cycles_laid_out(raw, raw_off, every)  # the raw walks, each in order
+    wstart = np.flatnonzero(np.r_[True, raw[rseq][1:] != raw[rseq][:-1]])
+    plo, phi = np.minimum.reduceat(coords, start), np.maximum.reduceat(coords, start)
+    wlo = np.minimum.reduceat(plo[rseq // 2], wstart)  # each walk's box
+    whi = np.maximum.reduceat(phi[rseq // 2], wstart)
+    wsize = np.diff(np.r_[wstart, 2 * n])
+    walk_of = np.empty(2 * n, np.int64)  # each half-edge's walk (in rseq order)
+    walk_of[rseq] = np.repeat(np.arange(len(wstart)), wsize)
+    on_held = held(wlo, whi)[walk_of]  # each half-edge's raw walk is held
+    alive = np.repeat(raw[0::2] != raw[1::2], 2)
+    open_seq = rseq[~on_held[rseq]]
+    retry = _retry_points(coords, count, start, last, origin, open_seq, raw[open_seq],
+                          (plo, phi), complete, owned)
+    if not alive.any():  # no part bounds a face here
+        return _no_faces(retry)
+    nxt = _next_half_edges(origin, angle, alive)
+    label, off = _cycle_labels(nxt, alive)
+    seq = _cycles_laid_out(label, off, alive)
+    # only the cycles all of whose half-edges lie on held raw walks: the whole's cycles (a
+    # face's rings are among them, and a shell's holes too, inside it); the others may be
+    # pieces of several that no ring of the whole is made of
+    open_cycle = np.bincount(label[seq], weights=~on_held[seq], minlength=2 * n) > 0
+    seq = seq[~open_cycle[label[seq]]]
+    if len(seq) == 0:
+        return _no_faces(retry)
+    rings = _rings(coords, count, start, last, origin, seq, label[seq])
+    if rings is None:
+        return None
+    faces, side, ring_of, face_of_ring, xy, ring_ptr, ccw = rings
+    nring, nf = len(ring_ptr) - 1, len(faces)
+    bad = np.bincount(ring_of, weights=~on_held[seq], minlength=nring) > 0
+    in_face = np.flatnonzero(face_of_ring >= 0)
+    face_bad = np.bincount(face_of_ring[in_face], weights=bad[in_face], minlength=nf) > 0
+    shell = np.flatnonzero(ccw)  # face i's shell is ring shell[i]
+    take = np.flatnonzero(~face_bad)
+    anchor = np.take(xy, _lexmin_rows(xy, ring_ptr)[shell[take]], axis=0)
+    take = take[owned(anchor)]
+    on = np.flatnonzero(side >= 0)
+    if earlier is not None and len(take):  # the faces' walks' boxes, held earlier or not
+        mine = np.zeros(nf, bool)
+        mine[take] = True
+        on_t = on[mine[side[on]]]
+        flo = np.full((nf, 2), np.inf)
+        fhi = np.full((nf, 2), -np.inf)
+        np.minimum.at(flo, side[on_t], wlo[walk_of[on_t]])
+        np.maximum.at(fhi, side[on_t], whi[walk_of[on_t]])
+        take = take[~earlier(flo[take], fhi[take])]
+    new = np.full(nf + 1, -1)
+    new[take] = np.arange(len(take))
+    he = on[new[side[on]] >= 0]
+    # the faces' rings as ragged arrays: face after face, its shell then its holes
+    r = in_face[new[face_of_ring[in_face]] >= 0]
+    r = r[np.lexsort((r, ~ccw[r], new[face_of_ring[r]]))]
+    size = ring_ptr[r + 1] - ring_ptr[r]
+    ring_xy = np.take(xy, ragged_arange(ring_ptr[r], size), axis=0)
+    per_face = np.bincount(new[face_of_ring[r]], minlength=len(take))
+    return (ring_xy, (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(per_face)]), he,
+            new[side[he]], *retry)
+
+
+def _no_faces(retry: tuple[np.ndarray, np.ndarray]) -> tuple:
+    """:func:`local_faces`'s answer with no face delivered, the points to retry and their
+    boxes ``retry``."""
+    empty = np.zeros(0, np.int64)
+    return np.zeros((0, 2)), (np.zeros(1, np.int64), np.zeros(1, np.int64)), empty, empty, \
+        *retry
+
+
+def _lexmin_rows(xy: np.ndarray, ptr: np.ndarray) -> np.ndarray:
+    """The row of the lexicographically smallest point ``(x, y)`` of each group
+    ``xy[ptr[g]:ptr[g + 1]]`` (groups non-empty; the first such row), without a sort."""
+    starts = ptr[:-1]
+    group = np.repeat(np.arange(len(starts)), np.diff(ptr))
+    x, y = xy[:, 0], xy[:, 1]
+    at_min = x == np.minimum.reduceat(x, starts)[group]
+    yy = np.where(at_min, y, np.inf)
+    hit = np.flatnonzero(at_min & (yy == np.minimum.reduceat(yy, starts)[group]))
+    g = group[hit]
+    return hit[np.r_[True, g[1:] != g[:-1]]]
+
+
+def _retry_points(coords: np.ndarray, count: np.ndarray, start: np.ndarray, last: np.ndarray,
+                  origin: np.ndarray, seq: np.ndarray, lab: np.ndarray, boxes: tuple,
+                  complete: Callable, owned: Callable) -> tuple[np.ndarray, np.ndarray]:
+    """The owned points that may anchor a face not vouched for (:func:`local_faces`): on the
+    raw walks not held (``seq``: their half-edges, walk after walk, each in order; ``lab``:
+    each one's walk), each stretch's smallest point where the walk turns left there; and
+    for each point, the box of its stretches (``boxes``: the parts' boxes ``(lo, hi)``),
+    ``(xmin, ymin, xmax, ymax)``: the part of its face's walk seen here."""
+    n = len(count)
+    none = np.zeros((0, 2)), np.zeros((0, 4))
+    if len(seq) == 0:
+        return none
+    first = np.r_[True, lab[1:] != lab[:-1]]
+    wid = np.cumsum(first) - 1  # walk of each position
+    wstart = np.flatnonzero(first)
+    node_xy = np.take(coords, np.r_[start, last], axis=0)
+    node_ok = np.zeros(int(origin.max()) + 1, bool)
+    node_ok[origin[np.r_[2 * np.arange(n), 2 * np.arange(n) + 1]]] = complete(node_xy)
+    brk = ~node_ok[origin[seq ^ 1]]  # the walk's step after this half-edge is not exact
+    before = np.cumsum(brk) - brk  # breaks before each position
+    within = before - before[wstart][wid]
+    total = np.bincount(wid, weights=brk, minlength=len(wstart)).astype(np.int64)
+    t = total[wid]
+    within = np.where(t > 0, within % np.maximum(t, 1), 0)  # after the last break: the first
+    stretch = row_ids(np.column_stack((wid, within)))[0]
+    # each part's smallest point, and each stretch's smallest among its half-edges' parts
+    k = seq // 2
+    pmin = _lexmin_rows(coords, np.r_[start, last[-1] + 1])
+    p = np.take(coords, pmin[k], axis=0)
+    order = np.lexsort((p[:, 1], p[:, 0], stretch))
+    ns = int(stretch.max()) + 1
+    best = order[np.searchsorted(stretch[order], np.arange(ns))]
+    occ = np.flatnonzero(np.all(p == p[best][stretch], axis=1))  # positions at that point
+    # the turn there: inside its part, or at the half-edge's origin (from the one before)
+    h, j = seq[occ], pmin[k[occ]]
+    fwd = h % 2 == 0
+    kk = k[occ]
+    inside = (j > start[kk]) & (j < last[kk])
+    jm, jp = np.maximum(j - 1, 0), np.minimum(j + 1, len(coords) - 1)
+    turn_in = _cross(coords[j] - coords[jm], coords[jp] - coords[j]) * np.where(fwd, 1, -1)
+    # (by coordinates: a closed part's smallest point may be read at either of its ends)
+    at_origin = ~inside & np.all(coords[j] == coords[np.where(fwd, start[kk], last[kk])],
+                                 axis=1)
+    prev = np.where(first[occ], _walk_last(first)[wid[occ]], occ - 1)
+    g = seq[prev]
+    g_end = np.where(g % 2 == 0, last[g // 2], start[g // 2])
+    g_in = coords[g_end] - coords[np.where(g % 2 == 0, g_end - 1, g_end + 1)]
+    h_out = coords[np.where(fwd, start[kk] + 1, last[kk] - 1)] - coords[j]
+    turn_at = _cross(g_in, h_out)
+    left = np.where(inside, turn_in > 0, at_origin & (turn_at > 0))
+    cand = occ[left]
+    cand = cand[owned(p[cand])] if len(cand) else cand
+    if len(cand) == 0:
+        return none
+    slo = np.full((ns, 2), np.inf)
+    shi = np.full((ns, 2), -np.inf)
+    np.minimum.at(slo, stretch, boxes[0][k])
+    np.maximum.at(shi, stretch, boxes[1][k])
+    # each point once, with the union of its stretches' boxes
+    pts, st = p[cand], stretch[cand]
+    o = np.lexsort((pts[:, 1], pts[:, 0]))
+    pts, st = pts[o], st[o]
+    head = np.flatnonzero(np.r_[True, np.any(pts[1:] != pts[:-1], axis=1)])
+    return pts[head], np.hstack((np.minimum.reduceat(slo[st], head),
+                                 np.maximum.reduceat(shi[st], head)))
+
+
+def _walk_last(first: np.ndarray) -> np.ndarray:
+    """The last position of each walk (``first``: where each walk starts)."""
+    return np.r_[np.flatnonzero(first)[1:], len(first)] - 1
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The z component of ``a x b``, row by row."""
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]

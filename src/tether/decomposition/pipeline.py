@@ -11,17 +11,16 @@ import numpy as np
 from shapely.errors import GEOSException
 
 from tether._util.memory import gc_paused, release_memory
-from tether.arcs import check_lss, free_arcs_many, near_edge_lines
+from tether.arcs import check_lss
 from tether.curves import critical_curves
 from tether.curves.budget import check_memory  # issue 25: the memory estimate, checked first
 from tether.decomposition.arrangement import arrangement
-from tether.decomposition.faces import face_points
 from tether.decomposition.frame import UserFrame
 from tether.decomposition.model import Decomposition
 from tether.decomposition.noding import geos_message
 from tether.decomposition.pieces import longest_unresolved, make_pieces
 from tether.decomposition.regions import face_regions, make_regions
-from tether.decomposition.structure import structure_ids
+from tether.decomposition.structure import face_arcs, structure_ids_of
 from tether.decomposition.tiles import check_tiles, process_executor, tiled_noder
 from tether.decomposition.views import Pieces
 from tether.environment import Environment
@@ -36,9 +35,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
               executor: Executor | None = None) -> Decomposition:
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
 
-    With ``tiles``, the arrangement is noded tile by tile (:mod:`tether.decomposition.tiles`,
-    ``docs/scale.md``): the result is equal to the untiled one up to the numbering of its
-    regions and pieces (the same regions, structures, pieces and verdict).
+    With ``tiles``, the arrangement is noded, its faces traced and their free arcs computed
+    tile by tile (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal
+    to the untiled one up to the numbering of its regions and pieces (the same regions,
+    structures, pieces and verdict).
 
     Parameters
     ----------
@@ -52,9 +52,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     tiles : (int, int) or str, optional
         ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
         or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
-        per tile); None (default): untiled. Only the noding is tiled: the curves, faces,
-        regions and pieces are made whole, so the memory check (``docs/memory.md``) and
-        :data:`tether.curves.MAX_CURVE_VERTICES` apply to the whole map.
+        per tile); None (default): untiled. Only the noding, the face tracing and the
+        faces' free arcs are tiled: the curves, regions and pieces are made whole, so the
+        memory check (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply
+        to the whole map.
     executor : concurrent.futures.Executor, optional
         Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
         threads); by default local processes, one per core, started and shut down here
@@ -118,25 +119,18 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     report("critical curves", 0.0)
     curves = critical_curves(env, lss, rel_tol)  # whole: tiles node them, nothing earlier
     report("arrangement", 0.3)
-    noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report)
+    noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report,
+                                                    arcs=(env, lss))
     arr = arrangement(env, curves, tol, noder)
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
-    pts, clear = face_points(arr.faces, tol, arr.grid)
-    inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
-    # and not on a wall: walls are arrangement parts (moved at most 0.71 grid by snapping),
-    # so a point farther than tol + grid from its face's boundary is off every wall
-    near = np.flatnonzero(inside & (clear < tol + arr.grid))
-    inside[near] = np.asarray(env.boundary_distance(pts[near, 0], pts[near, 1]) > 0)
-    # a face belongs to the free space iff its interior point does (faces inside holes, or
-    # between an overshooting curve end and an obstacle, are dropped)
-    keep = np.flatnonzero(inside)
-    resolved = clear[keep] >= 2 * tol
+    # the faces' points and free arcs: computed by the tiles' face tasks, or here
+    fa = arr.memo.pop("face_arcs", None) or face_arcs(env, arr.faces, tol, arr.grid, lss)
+    pts, clear, keep, resolved = fa.pts, fa.clear, fa.keep, fa.resolved
     ok = keep[resolved]
-    _off_edge_lines(env, pts, ok, lss)
-    table = free_arcs_many(env, np.take(pts, ok, axis=0), lss, check=False)
-    sid, structs = structure_ids(env, table, len(ok))
-    del table
+    sid, structs = structure_ids_of(env.n, fa.full, fa.point, fa.start_code, fa.end_code,
+                                    len(ok))
+    del fa
     face_sid = np.full(len(arr.faces), -1, dtype=np.int64)  # the structure id of each face
     face_sid[ok] = sid
     release_memory()
@@ -170,27 +164,3 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                             Pieces(pieces), tol / out.scale, unresolved_pieces, longest,
                             _crossing_arcs=out.crossing_arcs(arcs), _cell_codes=codes)
     return dec
-
-
-
-#: Directions in which a face's point is moved off an edge's supporting line (tried in
-#: turn; neither along the lattice's axes nor its diagonals), and by how many length
-#: tolerances: far past the band where the edge is skipped, far inside a resolved face.
-_OFF_LINE_STEPS = ((0.6, 0.8), (0.8, -0.6), (-0.28, 0.96), (0.96, 0.28))
-
-
-_OFF_LINE_TOLS = 64.0
-
-
-def _off_edge_lines(env: Environment, pts: np.ndarray, rows: np.ndarray, lss: float) -> None:
-    """Move the points ``pts[rows]`` (faces' points, each at least ``2 tol`` inside its face)
-    that lie within ``length_tol`` of an edge's supporting line, on its free side
-    (:func:`tether.arcs.near_edge_lines`), by ``_OFF_LINE_TOLS`` length tolerances: a face's
-    structure is read at its point alone, and on such a line the free arcs can show a sliver
-    arc that neither side of the line has (a symmetric face whose axis carries a wall)."""
-    todo = rows
-    for step in _OFF_LINE_STEPS:
-        todo = todo[near_edge_lines(env, np.take(pts, todo, axis=0), lss)]
-        if len(todo) == 0:
-            return
-        pts[todo] += _OFF_LINE_TOLS * env.length_tol * np.asarray(step)

@@ -13,13 +13,14 @@ import numpy as np
 
 from tether._util.arrays import ragged_arange, row_ids
 from tether._util.vocabulary import Vocabulary
-from tether.arcs import ArcTable, feature_name, free_arcs_many
+from tether.arcs import ArcTable, feature_name, free_arcs_many, near_edge_lines
+from tether.decomposition.faces import face_points
 from tether.environment import Environment
 
-__all__ = ["FREE", "Structure", "StructureRows", "Structures", "crossing_points",
-           "feature_name_rank", "feature_names", "join_rows", "rows_equal", "set_rows",
-           "structure_codes", "structure_ids", "structure_names", "structures",
-           "structures_across", "table_rows"]
+__all__ = ["FREE", "FaceArcs", "Structure", "StructureRows", "Structures", "crossing_points",
+           "face_arcs", "feature_name_rank", "feature_names", "join_rows", "rows_equal",
+           "set_rows", "structure_codes", "structure_ids", "structure_ids_of",
+           "structure_names", "structures", "structures_across", "table_rows"]
 
 
 class Structure(Vocabulary):
@@ -50,11 +51,22 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     """An integer id per point of an :class:`ArcTable`, equal for equal structures (and only
     for them), and the structures of the ids as integer rows (:class:`Structures`: no
     frozenset is made here)."""
+    return structure_ids_of(env.n, table.full, table.point, table.start_code, table.end_code,
+                            npts)
+
+
+def structure_ids_of(nvertices: int, full: np.ndarray, point: np.ndarray,
+                     start_code: np.ndarray, end_code: np.ndarray, npts: int
+                     ) -> tuple[np.ndarray, Structures]:
+    """:func:`structure_ids` from an :class:`ArcTable`'s columns ``full``, ``point``,
+    ``start_code``, ``end_code`` (a map of ``nvertices`` vertices): the arcs' angles are not
+    needed (the tiles' face tasks send these columns only)."""
     ids = np.zeros(npts, dtype=np.int64)  # id 0: EMPTY
-    ids[np.asarray(table.full, dtype=bool)] = 1
-    base = 2 * env.n + 1
-    if len(table.point) == 0:
+    ids[np.asarray(full, dtype=bool)] = 1
+    base = 2 * nvertices + 1
+    if len(point) == 0:
         return ids, Structures(base, np.zeros(3, np.int64), np.zeros(0, np.int64))
+    table = _Codes(point, start_code, end_code)
     pair = table.start_code.astype(np.int64) * base + table.end_code
     # np.lexsort((pair, point)) on one exact integer key (pair < base**2), several times faster
     if (npts + 1) * base * base < 2**62:
@@ -79,6 +91,80 @@ def structure_ids(env: Environment, table: ArcTable, npts: int
     valid = sub >= 0  # each row's pairs come first (sorted), then -1 padding
     ptr = np.r_[0, 0, 0, np.cumsum(valid.sum(axis=1))]  # ids 0 and 1 have no pairs
     return ids, Structures(base, ptr, sub[valid])
+
+
+@dataclass(frozen=True)
+class _Codes:
+    """An arc table's point and feature code columns."""
+
+    point: np.ndarray
+    start_code: np.ndarray
+    end_code: np.ndarray
+
+
+@dataclass(frozen=True)
+class FaceArcs:
+    """The faces' points and free arcs (:func:`face_arcs`): a point well inside each face and
+    its clearance (map units), the faces in the free space (``keep``, increasing) and which
+    of them are resolved (clear of their boundary by ``2 tol``), and the free arcs' columns
+    of the resolved ones (``keep[resolved]``, in that order): ``full``, ``point``,
+    ``start_code``, ``end_code`` (:class:`tether.arcs.ArcTable`)."""
+
+    pts: np.ndarray
+    clear: np.ndarray
+    keep: np.ndarray
+    resolved: np.ndarray
+    full: np.ndarray
+    point: np.ndarray
+    start_code: np.ndarray
+    end_code: np.ndarray
+
+
+def face_arcs(env: Environment, faces: np.ndarray, tol: float, grid: float, lss: float
+              ) -> FaceArcs:
+    """The free arcs of the faces ``faces`` (polygons, internal frame): each face's point
+    (:func:`tether.decomposition.faces.face_points`), whether it is in the free space, and
+    the free arcs at the points of those resolved, face by face (the same for a face
+    wherever the other faces are: the tiles' face tasks compute them for their faces).
+    ``tol``: the curve tolerance, ``grid``: the noding's snap grid (map units)."""
+    pts, clear = face_points(faces, tol, grid)
+    inside = np.asarray(env.contains(pts[:, 0], pts[:, 1]), dtype=bool)
+    # and not on a wall: walls are arrangement parts (moved at most 0.71 grid by snapping),
+    # so a point farther than tol + grid from its face's boundary is off every wall
+    near = np.flatnonzero(inside & (clear < tol + grid))
+    inside[near] = np.asarray(env.boundary_distance(pts[near, 0], pts[near, 1]) > 0)
+    # a face belongs to the free space iff its interior point does (faces inside holes, or
+    # between an overshooting curve end and an obstacle, are dropped)
+    keep = np.flatnonzero(inside)
+    resolved = clear[keep] >= 2 * tol
+    ok = keep[resolved]
+    _off_edge_lines(env, pts, ok, lss)
+    table = free_arcs_many(env, np.take(pts, ok, axis=0), lss, check=False)
+    return FaceArcs(pts, clear, keep, resolved, np.asarray(table.full, dtype=bool),
+                    table.point, table.start_code, table.end_code)
+
+
+#: Directions in which a face's point is moved off an edge's supporting line (tried in
+#: turn; neither along the lattice's axes nor its diagonals), and by how many length
+#: tolerances: far past the band where the edge is skipped, far inside a resolved face.
+_OFF_LINE_STEPS = ((0.6, 0.8), (0.8, -0.6), (-0.28, 0.96), (0.96, 0.28))
+
+
+_OFF_LINE_TOLS = 64.0
+
+
+def _off_edge_lines(env: Environment, pts: np.ndarray, rows: np.ndarray, lss: float) -> None:
+    """Move the points ``pts[rows]`` (faces' points, each at least ``2 tol`` inside its face)
+    that lie within ``length_tol`` of an edge's supporting line, on its free side
+    (:func:`tether.arcs.near_edge_lines`), by ``_OFF_LINE_TOLS`` length tolerances: a face's
+    structure is read at its point alone, and on such a line the free arcs can show a sliver
+    arc that neither side of the line has (a symmetric face whose axis carries a wall)."""
+    todo = rows
+    for step in _OFF_LINE_STEPS:
+        todo = todo[near_edge_lines(env, np.take(pts, todo, axis=0), lss)]
+        if len(todo) == 0:
+            return
+        pts[todo] += _OFF_LINE_TOLS * env.length_tol * np.asarray(step)
 
 
 class Structures:
