@@ -26,7 +26,7 @@ from tether import Environment
 from tether.arcs import check_lss
 from tether.curves import critical_curves
 from tether.decomposition.arrangement import arrangement
-from tether.decomposition.faces import part_ends
+from tether.decomposition.faces import FaceRings, part_ends
 from tether.decomposition.tiles import TileGrid, grown, trace_tile
 from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
@@ -53,7 +53,12 @@ def _whole(env, lss):
 
 def _face_keys(faces):
     """Each face as the sorted tuple of its rings, each ring the sorted tuple of its exact
-    vertices (a ring may start anywhere)."""
+    vertices (a ring may start anywhere); ``faces`` polygons or a :class:`FaceRings` (whose
+    areas must be its polygons' areas, bit for bit)."""
+    if isinstance(faces, FaceRings):
+        polys = faces.polygons()
+        np.testing.assert_array_equal(faces.area, shapely.area(polys))
+        faces = polys
     keys = []
     for f in faces:
         rings = [shapely.get_exterior_ring(f)] + [

@@ -19,6 +19,7 @@ from tether._util.threads import in_background
 from tether.curves import Curve
 from tether.decomposition.coincidence import merge_collinear, wall_stubs
 from tether.decomposition.faces import (
+    FaceRings,
     part_ends,
     part_segments,
     polygonize_faces,
@@ -43,7 +44,9 @@ class Arrangement:
     #: ``source_ids[source_ptr[k]:source_ptr[k + 1]]`` (increasing)
     source_ptr: np.ndarray
     source_ids: np.ndarray
-    faces: np.ndarray  # polygons
+    #: polygons, or (faces traced in tiles) :class:`FaceRings`: ragged arrays with the
+    #: faces' areas, the polygons made only where needed (``faces[ids]``)
+    faces: np.ndarray | FaceRings
     grid: float = 0.0  # the snap-rounding grid of the noding (map units), 0: exact
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
@@ -247,7 +250,8 @@ def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
     """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
     grid 0), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing,
     -1 = wall): its faces traced as :func:`arrangement` traces them, or ``traced`` (the
-    faces and the faces on the two sides of each part, traced tile by tile:
+    faces (:class:`FaceRings`, their areas kept in the memo as ``"face_area"``) and the
+    faces on the two sides of each part, traced tile by tile:
     :func:`tether.decomposition.tiles.trace_tile`, and the faces' points and free arcs,
     :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the memo as
     ``"face_arcs"`` for the decomposition)."""
@@ -262,6 +266,8 @@ def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
     arr.memo["part_segments"] = segs  # for segments(): not made again
     if fa is not None:
         arr.memo["face_arcs"] = fa
+    if isinstance(faces, FaceRings):  # the regions are numbered from these: no polygon
+        arr.memo["face_area"] = faces.area
     return arr
 
 

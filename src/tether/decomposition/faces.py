@@ -5,6 +5,7 @@ well inside each face with its clearance (inscribed circles where it matters).""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -12,8 +13,71 @@ import shapely
 from tether._util.arrays import ragged_arange, row_ids
 from tether._util.threads import map_chunks
 
-__all__ = ["MIC_MIN_BOUND", "face_points", "local_faces", "part_ends", "part_segments",
+__all__ = ["MIC_MIN_BOUND", "FaceRings", "face_points", "local_faces", "part_ends", "part_segments",
            "polygonize_faces", "ring_segments", "trace_faces"]
+
+
+@dataclass(frozen=True)
+class FaceRings:
+    """Faces kept as ragged coordinate arrays, not as shapely polygons (about a fifth of
+    their memory): face ``i``'s rings (its shell, then its holes; each closed) are rings
+    ``face_ptr[i]:face_ptr[i + 1]``, ring ``r``'s points ``xy[ring_ptr[r]:ring_ptr[r + 1]]``
+    (as ``shapely.from_ragged_array`` reads them), and ``area`` each face's area (map
+    units², ``shapely.area`` of its polygon: the bits the polygon gives). Indexing with an
+    array of face ids makes those faces' polygons (an object array; with one id, its
+    polygon), as ``shapely.from_ragged_array`` makes them from these coordinates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]], dtype=float)
+    >>> faces = FaceRings(square, np.array([0, 5]), np.array([0, 1]), np.array([1.0]))
+    >>> len(faces), faces[np.array([0])][0].area
+    (1, 1.0)
+    """
+
+    xy: np.ndarray
+    ring_ptr: np.ndarray
+    face_ptr: np.ndarray
+    area: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.face_ptr) - 1
+
+    def __getitem__(self, ids: np.ndarray) -> np.ndarray:
+        ids = np.asarray(ids, dtype=np.int64)
+        if ids.ndim == 0:  # one face: its polygon
+            return self[ids[None]][0]
+        if len(ids) == 0:
+            return np.zeros(0, dtype=object)
+        nring = self.face_ptr[ids + 1] - self.face_ptr[ids]
+        rings = ragged_arange(self.face_ptr[ids], nring)
+        size = self.ring_ptr[rings + 1] - self.ring_ptr[rings]
+        xy = np.take(self.xy, ragged_arange(self.ring_ptr[rings], size), axis=0)
+        offsets = (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(nring)])
+        return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy,
+                                                    offsets), dtype=object)
+
+    def polygons(self) -> np.ndarray:
+        """Every face's polygon (an object array, made now)."""
+        return self[np.arange(len(self))]
+
+    @staticmethod
+    def joined(parts: list[FaceRings]) -> FaceRings:
+        """The faces of ``parts`` one after the other (renumbered)."""
+        if not parts:
+            i = np.zeros(1, np.int64)
+            return FaceRings(np.zeros((0, 2)), i, i, np.zeros(0))
+        rings = np.cumsum([0] + [len(f.ring_ptr) - 1 for f in parts[:-1]])
+        points = np.cumsum([0] + [len(f.xy) for f in parts[:-1]])
+        return FaceRings(np.concatenate([f.xy for f in parts]),
+                         np.r_[np.concatenate([f.ring_ptr[:-1] + o for f, o in
+                                               zip(parts, points, strict=True)]),
+                               sum(len(f.xy) for f in parts)],
+                         np.r_[np.concatenate([f.face_ptr[:-1] + o for f, o in
+                                               zip(parts, rings, strict=True)]),
+                               sum(len(f.ring_ptr) - 1 for f in parts)],
+                         np.concatenate([f.area for f in parts]))
 
 
 def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:

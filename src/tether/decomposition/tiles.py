@@ -67,7 +67,7 @@ from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
-from tether.decomposition.faces import local_faces, part_ends, part_segments
+from tether.decomposition.faces import FaceRings, local_faces, part_ends, part_segments
 from tether.decomposition.noding import node_floating
 from tether.decomposition.structure import FaceArcs, face_arcs
 from tether.errors import InvalidParameterError
@@ -660,9 +660,10 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     of polygons, as ``shapely.from_ragged_array`` reads them), the half-edges on their rings
     (``2k`` along part ``k``, ``2k + 1`` against it) and each one's face, the anchors to
     retry ((m, 2)) and the boxes of their faces' walks seen here ((m, 4)), this process's
-    peak resident memory (bytes) and the faces'
-    :class:`tether.decomposition.structure.FaceArcs` (None without ``arcs``); None if the
-    tracing cannot decide (the whole is traced then)."""
+    peak resident memory (bytes), the faces'
+    :class:`tether.decomposition.structure.FaceArcs` (None without ``arcs``) and their areas
+    (map units², ``shapely.area`` of their polygons: the main process makes no polygon to
+    number the regions); None if the tracing cannot decide (the whole is traced then)."""
     if isinstance(own, tuple):
         grid, tile = own
 
@@ -684,11 +685,11 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     if got is None:
         return None
     fa = None
+    polys = _polygons(got[0], got[1])
     if arcs is not None:
         env, lss, tol = arcs
-        polys = _polygons(got[0], got[1])
         fa = face_arcs(env, polys, tol, 0.0, lss) if len(polys) else _no_arcs()
-    return (*got, _peak_rss(), fa)
+    return (*got, _peak_rss(), fa, shapely.area(polys) if len(polys) else np.zeros(0))
 
 
 def _no_arcs() -> FaceArcs:
@@ -708,11 +709,13 @@ def _polygons(xy: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> np.ndar
 def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int] | str,
                     executor: Executor, report: Callable, log: dict,
                     arcs: tuple | None = None) -> tuple | None:
-    """The faces of the parts (coordinates ``coords``, point counts ``count``) and the faces
-    on the two sides of each part, as :func:`tether.decomposition.faces.trace_faces` gives
-    them, traced in ``tiles`` on ``executor`` (:func:`trace_tile`): each face delivered by
-    the tile holding its anchor, retried in larger regions around the anchors a tile could
-    not vouch for, and with ``arcs`` (:func:`trace_tile`) their points and free arcs
+    """The faces of the parts (coordinates ``coords``, point counts ``count``; as ragged
+    arrays with their areas, :class:`tether.decomposition.faces.FaceRings`: the main process
+    makes no polygon) and the faces on the two sides of each part, as
+    :func:`tether.decomposition.faces.trace_faces` gives them, traced in ``tiles`` on
+    ``executor`` (:func:`trace_tile`): each face delivered by the tile holding its anchor,
+    retried in larger regions around the anchors a tile could not vouch for, and with
+    ``arcs`` (:func:`trace_tile`) their points and free arcs
     (:class:`tether.decomposition.structure.FaceArcs`, else None). None where a task cannot
     decide (the caller traces the whole)."""
     n = len(count)
@@ -746,7 +749,7 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
                for t in range(grid.count)}
     del near
     side = np.full(2 * n, -1, np.int64)
-    polys, arc_parts = [], []
+    rings, arc_parts = [], []
     nfaces, level, finished, total, shown = 0, 0, 0, len(futures), 0.0
     stage = f"face tiles ({nx}x{ny})"
     while futures:
@@ -759,18 +762,17 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
             if r is None:
                 log["face_fallback"] = True
                 return None
-            xy, offsets, he, face, retry, seen, peak, fa = r
+            xy, offsets, he, face, retry, seen, peak, fa, area = r
             log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
             ghe = 2 * sel[he // 2] + he % 2
             if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
                 log["face_fallback"] = True
                 return None
             side[ghe] = face + nfaces
-            got = _polygons(xy, offsets)
-            polys.append(got)
+            rings.append(FaceRings(xy, *offsets, area))
             if fa is not None:
                 arc_parts.append((fa, nfaces))
-            nfaces += len(got)
+            nfaces += len(area)
             if len(retry):
                 pending[t] = retry, seen
         level += 1
@@ -788,7 +790,7 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     one = pf[:, 0] < 0  # -1 (none) goes second, as trace_faces gives them
     pf[one] = pf[one][:, ::-1]
     pf[pf[:, 0] == pf[:, 1]] = -1
-    return np.concatenate(polys), pf, None if arcs is None else _joined_arcs(arc_parts)
+    return FaceRings.joined(rings), pf, None if arcs is None else _joined_arcs(arc_parts)
 
 
 def _joined_arcs(got: list[tuple[FaceArcs, int]]) -> FaceArcs:
