@@ -13,8 +13,8 @@ import shapely
 from tether._util.arrays import ragged_arange, row_ids
 from tether._util.threads import map_chunks
 
-__all__ = ["MIC_MIN_BOUND", "FaceRings", "face_points", "local_faces", "part_ends", "part_segments",
-           "polygonize_faces", "ring_segments", "trace_faces"]
+__all__ = ["MIC_MIN_BOUND", "FaceRings", "PartLines", "face_points", "local_faces",
+           "part_ends", "part_segments", "polygonize_faces", "ring_segments", "trace_faces"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +80,46 @@ class FaceRings:
                          np.concatenate([f.area for f in parts]))
 
 
+@dataclass(frozen=True)
+class PartLines:
+    """Noded parts kept as ragged coordinate arrays, not as shapely linestrings: part ``k``'s
+    points are the ``count[k]`` rows of ``xy`` after those of the parts before it, and
+    ``length[k]`` its length (map units, ``shapely.length`` of its linestring: the bits the
+    line gives). Indexing with an array of part ids makes those parts' linestrings (an
+    object array; with one id, its linestring), as ``shapely.linestrings`` makes them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> xy = np.array([[0, 0], [3, 4], [0, 0], [1, 0], [1, 1]], dtype=float)
+    >>> parts = PartLines(xy, np.array([2, 3]), np.array([5.0, 2.0]))
+    >>> len(parts), parts[1].wkt
+    (2, 'LINESTRING (0 0, 1 0, 1 1)')
+    """
+
+    xy: np.ndarray
+    count: np.ndarray
+    length: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.count)
+
+    def __getitem__(self, ids: np.ndarray) -> np.ndarray:
+        ids = np.asarray(ids, dtype=np.int64)
+        if ids.ndim == 0:  # one part: its linestring
+            return self[ids[None]][0]
+        if len(ids) == 0:
+            return np.zeros(0, dtype=object)
+        start = np.cumsum(self.count) - self.count
+        xy = np.take(self.xy, ragged_arange(start[ids], self.count[ids]), axis=0)
+        return np.asarray(shapely.linestrings(xy, indices=np.repeat(
+            np.arange(len(ids)), self.count[ids])), dtype=object)
+
+    def lines(self) -> np.ndarray:
+        """Every part's linestring (an object array, made now)."""
+        return self[np.arange(len(self))]
+
+
 def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """An integer id per undirected segment ``a[k]-b[k]``, equal for equal coordinates."""
     swap = (a[:, 0] > b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] > b[:, 1]))
@@ -127,12 +167,15 @@ def polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: 
     return faces, part_faces
 
 
-def part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
+def part_ends(parts: np.ndarray | PartLines) -> tuple[np.ndarray, ...]:
     """The parts' coordinates, each part's number of points, index of its first and of its
     last point there, and an id per end point (first points, then last points), equal for
-    equal coordinates."""
-    coords, idx = shapely.get_coordinates(parts, return_index=True)
-    count = np.bincount(idx, minlength=len(parts))
+    equal coordinates. ``parts``: linestrings or :class:`PartLines` (read as they are)."""
+    if isinstance(parts, PartLines):
+        coords, count = parts.xy, parts.count
+    else:
+        coords, idx = shapely.get_coordinates(parts, return_index=True)
+        count = np.bincount(idx, minlength=len(parts))
     start = np.cumsum(count) - count  # parts have 2 or more points
     last = start + count - 1
     return coords, count, start, last, _point_ids(np.take(coords, np.r_[start, last], axis=0))

@@ -48,7 +48,7 @@ def face_regions(arr: Arrangement, keep: np.ndarray, resolved: np.ndarray,
                                               == face_sid[adjacent[:, 1]])
     uf = _UnionFind(nf)
     uf.parent = components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
-    plen = shapely.length(arr.parts)
+    plen = arr.part_lengths()
     # sub-resolution faces join the neighbour they share most boundary with
     _absorb(keep[~resolved], adjacent, plen, uf, face_sid)
     for attempt in range(4):
