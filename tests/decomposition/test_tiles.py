@@ -575,3 +575,33 @@ def test_floor_plan_parts_exactly_the_whole(n, seed, tiles):
     env = floor_plan(n, seed)
     whole, tiled, log = _arrangements(env, (env.bounds[2] - env.bounds[0]) / 15, tiles)
     assert_same_parts(whole, tiled)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env", [L_SHAPE, STAR_HOLE], ids=lambda e: e.name)
+def test_region_polygons_and_piece_lines_equal(env):
+    """The geometries the main process makes from the ragged arrays of a decomposition in
+    tiles (the regions' polygons from the faces' rings, the pieces' lines from their chains'
+    parts) are the untiled ones: each region's polygon covers the same points as its match's
+    (``shapely.equals``), and the pieces' lines, matched by (regions, kind, features), have
+    the same lengths and end points."""
+    lss = 0.25 * env.diameter
+    a = decompose(env, lss)
+    b = _tiled(env, lss, (4, 3))
+    j = b.region_at(np.array([r.point for r in a.regions]).reshape(-1, 2))
+    assert sorted(j.tolist()) == list(range(len(b.regions)))
+    for r, k in zip(a.regions, j.tolist(), strict=True):
+        assert shapely.equals(r.polygon, b.regions[k].polygon), r.id
+    inv = np.empty_like(j)
+    inv[j] = np.arange(len(j))
+
+    def lines(d, ren):
+        out = collections.defaultdict(list)
+        for p in d.pieces:
+            g = p.geometry
+            ends = shapely.get_coordinates(shapely.boundary(g)) if not g.is_empty else []
+            out[tuple(sorted(int(ren[r]) for r in p.regions)), p.kind, p.features].append(
+                (round(g.length, 9), sorted(map(tuple, np.round(ends, 9).tolist()))))
+        return {k: sorted(v) for k, v in out.items()}
+
+    assert lines(a, np.arange(len(j))) == lines(b, inv)
