@@ -110,7 +110,8 @@ stage_peak("elimination")
 v = analyze(dec, g, self_check=False, near_critical=False)
 stage_peak(None)
 w2 = time.perf_counter()
-main_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# the stages' peaks reset Linux's VmHWM, which ru_maxrss reads: the largest of them
+main_mb = max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, *peaks.values()])
 worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 at = {}
 for stage, t in marks:
