@@ -19,13 +19,14 @@ __all__ = ["MIC_MIN_BOUND", "FaceRings", "PartLines", "face_points", "local_face
 
 @dataclass(frozen=True)
 class FaceRings:
-    """Faces kept as ragged coordinate arrays, not as shapely polygons (about a fifth of
-    their memory): face ``i``'s rings (its shell, then its holes; each closed) are rings
-    ``face_ptr[i]:face_ptr[i + 1]``, ring ``r``'s points ``xy[ring_ptr[r]:ring_ptr[r + 1]]``
-    (as ``shapely.from_ragged_array`` reads them), and ``area`` each face's area (map
-    units², ``shapely.area`` of its polygon: the bits the polygon gives). Indexing with an
-    array of face ids makes those faces' polygons (an object array; with one id, its
-    polygon), as ``shapely.from_ragged_array`` makes them from these coordinates.
+    """Faces kept as ragged coordinate arrays, not as shapely polygons (a polygon of 9
+    points takes ~0.93 KB, its coordinates 160 bytes): face ``i``'s rings (its shell, then
+    its holes; each closed) are rings ``face_ptr[i]:face_ptr[i + 1]``, ring ``r``'s points
+    ``xy[ring_ptr[r]:ring_ptr[r + 1]]`` (as ``shapely.from_ragged_array`` reads them), and
+    ``area`` each face's area (map units², ``shapely.area`` of its polygon: the bits the
+    polygon gives). Indexing with an array of face ids makes those faces' polygons (an
+    object array; with one id, its polygon), as ``shapely.from_ragged_array`` makes them
+    from these coordinates.
 
     Examples
     --------
@@ -82,7 +83,8 @@ class FaceRings:
 
 @dataclass(frozen=True)
 class PartLines:
-    """Noded parts kept as ragged coordinate arrays, not as shapely linestrings: part ``k``'s
+    """Noded parts kept as ragged coordinate arrays, not as shapely linestrings (one of 3
+    points takes ~0.28 KB, its coordinates 48 bytes): part ``k``'s
     points are the ``count[k]`` rows of ``xy`` after those of the parts before it, and
     ``length[k]`` its length (map units, ``shapely.length`` of its linestring: the bits the
     line gives). Indexing with an array of part ids makes those parts' linestrings (an
