@@ -29,7 +29,13 @@ peak with both decompositions held).
 ``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
 between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
 measured with a number of workers replaces its row, the others stay (if they have its
-columns); each row says which command line made it.
+columns); each row says which command line made it. And, between ``<!-- bench_scale stages:
+begin -->`` and ``<!-- bench_scale stages: end -->`` (if ``FILE`` has them), what the main
+process holds: its peak resident memory over each stage (Linux's ``VmHWM``, reset as each
+stage begins: the curves; the arrangement's input made; the tile work; the stitch; the face
+tiles; the structures numbered; the regions; the pieces; the result made in the map's frame;
+G; the elimination), the memory it holds once ``decompose`` has returned, and the counts
+(the arrangement's parts and faces, regions, cells, pieces).
 """
 
 from __future__ import annotations
@@ -64,18 +70,48 @@ pipeline.tiled_noder = _logged
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 marks = []
+def _vm(key):  # this process's resident memory (VmRSS) or its peak (VmHWM), MB; Linux only
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return None
+def _reset_peak():  # VmHWM from now on (Linux: clear_refs 5)
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+peaks, last = {}, [None]
+def stage_peak(name):  # the main process's peak over the stage that ends now
+    if last[0] is not None:
+        peaks[last[0]] = max(peaks.get(last[0], 0), _vm("VmHWM") or 0)
+    last[0] = name
+    _reset_peak()
 def progress(stage, frac):
     marks.append((stage, time.perf_counter()))
+    key = ("tiles" if stage.startswith("tiles") else
+           "face tiles" if stage.startswith("face tiles") else stage)
+    if key != last[0]:
+        stage_peak(key)
 
 ex = process_executor(workers)
 w0 = time.perf_counter()
 dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex)
 w1 = time.perf_counter()
 ex.shutdown()
+stage_peak("G")
+held = _vm("VmRSS")  # the decomposition returned, held
 g = build_graph(dec)
+stage_peak("elimination")
 v = analyze(dec, g, self_check=False, near_critical=False)
+stage_peak(None)
 w2 = time.perf_counter()
-main_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# the stages' peaks reset Linux's VmHWM, which ru_maxrss reads: the largest of them
+main_mb = max([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, *peaks.values()])
 worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 at = {}
 for stage, t in marks:
@@ -100,7 +136,10 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "sent": noder_log["segments_sent"], "retries": noder_log["retries"],
        "face sent": noder_log["face_parts_sent"], "face retries": noder_log["face_retries"],
        "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
-       "verdict": "strategy" if v.strategy_exists else "none"}
+       "verdict": "strategy" if v.strategy_exists else "none",
+       "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
+       "stages": {k: round(v_) for k, v_ in peaks.items()},
+       "held": None if held is None else round(held)}
 if compare:
     tether.curves.MAX_CURVE_VERTICES = 10**12
     whole = decompose(env, lss)
@@ -174,9 +213,19 @@ def main() -> None:
         print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
     if args.doc:
         write_doc(Path(args.doc), rows, " ".join(sys.argv[1:]), load)
+        write_stages(Path(args.doc), rows, " ".join(sys.argv[1:]), load)
 
 
 BEGIN, END = "<!-- bench_scale: begin -->", "<!-- bench_scale: end -->"
+STAGES_BEGIN, STAGES_END = ("<!-- bench_scale stages: begin -->",
+                            "<!-- bench_scale stages: end -->")
+
+#: The per-stage table's stage columns: (progress stage, column title).
+STAGES = (("critical curves", "curves"), ("arrangement", "input"), ("tiles", "tile work"),
+          ("stitch", "stitch"), ("face tiles", "face tiles"),
+          ("face structures", "structures"), ("regions", "regions"), ("pieces", "pieces"),
+          ("done", "to result"), ("G", "G"), ("elimination", "elim"))
+STAGE_COUNTS = ("vertices", "workers", "parts", "faces", "regions", "cells", "pieces")
 
 
 def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
@@ -204,6 +253,35 @@ def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     lines += ["| " + " | ".join(old[k]) + " |" for k in sorted(old)]
     lines += ["", ""]
     path.write_text(head + "\n".join(lines) + END + tail)
+
+
+def write_stages(path: Path, rows: list[dict], argv: str, load: float) -> None:
+    """The main process's peak resident memory per stage (MB; Linux's ``VmHWM``, reset at
+    each stage), the memory it holds once ``decompose`` returns (*held*) and the counts, as a
+    Markdown table between :data:`STAGES_BEGIN` and :data:`STAGES_END` in ``path`` (if it
+    has them): rows of the sizes and worker counts measured replace those of the same."""
+    text = path.read_text()
+    if STAGES_BEGIN not in text:
+        return
+    head, rest = text.split(STAGES_BEGIN, 1)
+    block, tail = rest.split(STAGES_END, 1)
+    cols = (*STAGE_COUNTS, *(t for _, t in STAGES), "held", "run")
+    old = {}
+    for ln in block.splitlines():
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) == len(cols) and cells[0].isdigit():
+            old[int(cells[0]), int(cells[1])] = cells
+    for r in rows:
+        if "stages" not in r:  # refused or failed: no stage measured
+            continue
+        st = r["stages"]
+        old[int(r["vertices"]), int(r["workers"])] = (
+            [fmt(r.get(c)) for c in STAGE_COUNTS] + [fmt(st.get(k)) for k, _ in STAGES]
+            + [fmt(r.get("held")), f"`bench_scale.py {argv}`, load {load:.1f}"])
+    lines = [STAGES_BEGIN, "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(old[k]) + " |" for k in sorted(old)]
+    lines += ["", ""]
+    path.write_text(head + "\n".join(lines) + STAGES_END + tail)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from tether import Environment
 from tether.analysis import analyze, build_graph
 from tether.decomposition import check, decompose
+from tether.decomposition.faces import part_ends
 from tether.decomposition.tiles import (
     MASK_CELLS,
     MAX_TILES,
@@ -440,8 +441,8 @@ def _arrangements(env, lss, tiles, **kw):
 
 def _part_multiset(arr):
     """The parts as a multiset of (exact coordinates in their direction, sources)."""
-    xy, idx = shapely.get_coordinates(arr.parts, return_index=True)
-    ptr = np.r_[0, np.cumsum(np.bincount(idx, minlength=len(arr.parts)))]
+    xy, count = part_ends(arr.parts)[:2]  # linestrings, or PartLines (noded in tiles)
+    ptr = np.r_[0, np.cumsum(count)]
     return collections.Counter((xy[a:b].tobytes(), s) for a, b, s in
                                zip(ptr[:-1], ptr[1:], arr.part_sources, strict=True))
 
@@ -550,8 +551,12 @@ def test_gallery_parts_exactly_the_whole(tiles):
     whole, tiled, log = _arrangements(load_example("gallery"), 1.0, tiles)
     assert log["tiles"] == tiles and not log["fallback"]
     assert_same_parts(whole, tiled)
-    # the same faces; a ring may start at another vertex (its area summed in another order)
-    np.testing.assert_allclose(np.sort(shapely.area(tiled.faces)),
+    # the same faces; a ring may start at another vertex (its area summed in another order);
+    # faces traced in tiles are kept as ragged arrays with their polygons' areas
+    assert type(tiled.faces).__name__ == "FaceRings" and type(tiled.parts).__name__ == \
+        "PartLines"
+    np.testing.assert_array_equal(tiled.faces.area, shapely.area(tiled.faces.polygons()))
+    np.testing.assert_allclose(np.sort(tiled.faces.area),
                                np.sort(shapely.area(whole.faces)), rtol=1e-12, atol=0)
 
 
@@ -570,3 +575,33 @@ def test_floor_plan_parts_exactly_the_whole(n, seed, tiles):
     env = floor_plan(n, seed)
     whole, tiled, log = _arrangements(env, (env.bounds[2] - env.bounds[0]) / 15, tiles)
     assert_same_parts(whole, tiled)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env", [L_SHAPE, STAR_HOLE], ids=lambda e: e.name)
+def test_region_polygons_and_piece_lines_equal(env):
+    """The geometries the main process makes from the ragged arrays of a decomposition in
+    tiles (the regions' polygons from the faces' rings, the pieces' lines from their chains'
+    parts) are the untiled ones: each region's polygon covers the same points as its match's
+    (``shapely.equals``), and the pieces' lines, matched by (regions, kind, features), have
+    the same lengths and end points."""
+    lss = 0.25 * env.diameter
+    a = decompose(env, lss)
+    b = _tiled(env, lss, (4, 3))
+    j = b.region_at(np.array([r.point for r in a.regions]).reshape(-1, 2))
+    assert sorted(j.tolist()) == list(range(len(b.regions)))
+    for r, k in zip(a.regions, j.tolist(), strict=True):
+        assert shapely.equals(r.polygon, b.regions[k].polygon), r.id
+    inv = np.empty_like(j)
+    inv[j] = np.arange(len(j))
+
+    def lines(d, ren):
+        out = collections.defaultdict(list)
+        for p in d.pieces:
+            g = p.geometry
+            ends = shapely.get_coordinates(shapely.boundary(g)) if not g.is_empty else []
+            out[tuple(sorted(int(ren[r]) for r in p.regions)), p.kind, p.features].append(
+                (round(g.length, 9), sorted(map(tuple, np.round(ends, 9).tolist()))))
+        return {k: sorted(v) for k, v in out.items()}
+
+    assert lines(a, np.arange(len(j))) == lines(b, inv)

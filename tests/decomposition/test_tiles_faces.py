@@ -26,7 +26,7 @@ from tether import Environment
 from tether.arcs import check_lss
 from tether.curves import critical_curves
 from tether.decomposition.arrangement import arrangement
-from tether.decomposition.faces import part_ends
+from tether.decomposition.faces import FaceRings, part_ends
 from tether.decomposition.tiles import TileGrid, grown, trace_tile
 from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
@@ -53,7 +53,12 @@ def _whole(env, lss):
 
 def _face_keys(faces):
     """Each face as the sorted tuple of its rings, each ring the sorted tuple of its exact
-    vertices (a ring may start anywhere)."""
+    vertices (a ring may start anywhere); ``faces`` polygons or a :class:`FaceRings` (whose
+    areas must be its polygons' areas, bit for bit)."""
+    if isinstance(faces, FaceRings):
+        polys = faces.polygons()
+        np.testing.assert_array_equal(faces.area, shapely.area(polys))
+        faces = polys
     keys = []
     for f in faces:
         rings = [shapely.get_exterior_ring(f)] + [
@@ -226,3 +231,65 @@ def test_face_tasks_free_arcs_same_structures():
     want = by_face(wa, len(whole.faces))
     got = by_face(fa, len(faces))
     assert list(got) == list(want[m])
+
+
+# ------------------------------------------- the main process's faces and parts as arrays
+def test_face_rings_and_part_lines_make_the_geometries_exactly():
+    """:class:`FaceRings` and :class:`PartLines` (what a decomposition in tiles keeps in the
+    main process instead of polygons and linestrings) make, for any ids, the very polygons
+    and linestrings they were read from (``equals_exact`` with tolerance 0: the same
+    coordinates in the same order), and joining split ragged arrays renumbers them in order;
+    checked against shapely's own ragged arrays of the untiled arrangement."""
+    from tether.decomposition.faces import PartLines
+
+    whole = _whole(L_SHAPE, 1.0)
+    kind, xy, (ring_off, face_off) = shapely.to_ragged_array(whole.faces)
+    assert kind == shapely.GeometryType.POLYGON
+    area = shapely.area(whole.faces)
+    cut = len(whole.faces) // 3  # the same faces in two pieces, joined
+    pieces = []
+    for lo, hi in ((0, cut), (cut, len(whole.faces))):
+        r0, r1 = face_off[lo], face_off[hi]
+        pieces.append(FaceRings(xy[ring_off[r0]:ring_off[r1]],
+                                ring_off[r0:r1 + 1] - ring_off[r0], face_off[lo:hi + 1] - r0,
+                                area[lo:hi]))
+    faces = FaceRings.joined(pieces)
+    assert len(faces) == len(whole.faces)
+    rng = np.random.default_rng(0)
+    for ids in (np.arange(len(faces)), rng.permutation(len(faces))[:50], np.array([3, 3, 0]),
+                np.zeros(0, np.int64)):
+        assert shapely.equals_exact(faces[ids], whole.faces[ids], 0).all()
+    assert shapely.equals_exact(faces[7], whole.faces[7], 0)
+    np.testing.assert_array_equal(faces.area, area)
+    coords, count = part_ends(whole.parts)[:2]
+    parts = PartLines(coords, count, shapely.length(whole.parts))
+    assert len(parts) == len(whole.parts)
+    for ids in (np.arange(len(parts)), rng.permutation(len(parts))[:50], np.zeros(0, np.int64)):
+        assert shapely.equals_exact(parts[ids], whole.parts[ids], 0).all()
+    assert shapely.equals_exact(parts.lines(), whole.parts, 0).all()
+    np.testing.assert_array_equal(part_ends(parts)[4], part_ends(whole.parts)[4])
+
+
+@pytest.mark.slow
+def test_tiled_arrangement_holds_arrays_with_the_whole_lengths_and_areas():
+    """The arrangement noded and traced in tiles holds its parts and faces as ragged arrays
+    (no linestring or polygon per part or face in the main process), with the parts'
+    lengths and the faces' areas that the untiled arrangement's geometries give: the
+    lengths bit for bit (the same parts), the areas to rounding (a ring may start at
+    another vertex)."""
+    from tether.decomposition.faces import PartLines
+    from tether.decomposition.tiles import tiled_noder
+
+    env = L_SHAPE
+    inner = env.internal
+    lss = check_lss(1.0 * env.frame.scale, inner)
+    tol = REL_CURVE_TOL * inner.diameter
+    curves = critical_curves(inner, lss)
+    whole = arrangement(inner, curves, tol)
+    tiled = arrangement(inner, curves, tol, tiled_noder((3, 2), _Serial(), tol))
+    assert isinstance(tiled.parts, PartLines) and isinstance(tiled.faces, FaceRings)
+    key = {shapely.get_coordinates(p).tobytes(): k for k, p in enumerate(whole.parts)}
+    m = np.array([key[shapely.get_coordinates(p).tobytes()] for p in tiled.parts.lines()])
+    np.testing.assert_array_equal(tiled.part_lengths(), whole.part_lengths()[m])
+    np.testing.assert_allclose(np.sort(tiled.faces.area), np.sort(shapely.area(whole.faces)),
+                               rtol=1e-12, atol=0)

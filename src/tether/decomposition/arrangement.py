@@ -19,10 +19,11 @@ from tether._util.threads import in_background
 from tether.curves import Curve
 from tether.decomposition.coincidence import merge_collinear, wall_stubs
 from tether.decomposition.faces import (
+    FaceRings,
+    PartLines,
     part_ends,
     part_segments,
     polygonize_faces,
-    ring_segments,
     trace_faces,
 )
 from tether.decomposition.noding import node_lines
@@ -37,13 +38,17 @@ class Arrangement:
     """The noded curves and rings: their parts, the faces on both sides of each, the curves
     each part comes from, and the faces' polygons."""
 
-    parts: np.ndarray  # noded linestrings
+    #: noded linestrings, or (noded in tiles) :class:`PartLines`: ragged arrays with the
+    #: parts' lengths, the linestrings made only where needed (``parts[ids]``)
+    parts: np.ndarray | PartLines
     part_faces: np.ndarray  # (nparts, 2) face ids, -1 for none
     #: curve ids (-1 = wall) of each part, CSR: part ``k``'s are
     #: ``source_ids[source_ptr[k]:source_ptr[k + 1]]`` (increasing)
     source_ptr: np.ndarray
     source_ids: np.ndarray
-    faces: np.ndarray  # polygons
+    #: polygons, or (faces traced in tiles) :class:`FaceRings`: ragged arrays with the
+    #: faces' areas, the polygons made only where needed (``faces[ids]``)
+    faces: np.ndarray | FaceRings
     grid: float = 0.0  # the snap-rounding grid of the noding (map units), 0: exact
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
@@ -60,9 +65,18 @@ class Arrangement:
         :func:`segments_near`), built once."""
         got = self.memo.get("segments")
         if got is None:
-            a, b, owner = self.memo.pop("part_segments", None) or ring_segments(self.parts)
+            a, b, owner = self.memo.pop("part_segments", None) or part_segments(
+                part_ends(self.parts))
             got = (a, b, owner, SegmentGrid(a, b))
             self.memo["segments"] = got
+        return got
+
+    def part_lengths(self) -> np.ndarray:
+        """Each part's length (map units, ``shapely.length`` of its linestring), built
+        once."""
+        got = self.memo.get("part_length")
+        if got is None:
+            got = self.memo["part_length"] = shapely.length(self.parts)
         return got
 
     def end_ids(self) -> tuple[np.ndarray, np.ndarray]:
@@ -242,19 +256,22 @@ def _faces(parts: np.ndarray, ends: tuple) -> tuple[np.ndarray, np.ndarray, tupl
     return faces, part_faces, (pa, pb, powner), longest
 
 
-def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
+def traced_arrangement(parts: np.ndarray | PartLines, ptr: np.ndarray, src: np.ndarray,
                        traced: tuple | None = None) -> Arrangement:
     """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
-    grid 0), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing,
-    -1 = wall): its faces traced as :func:`arrangement` traces them, or ``traced`` (the
-    faces and the faces on the two sides of each part, traced tile by tile:
+    grid 0; linestrings, or :class:`PartLines`, their lengths kept in the memo as
+    ``"part_length"``), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``,
+    increasing, -1 = wall): its faces traced as :func:`arrangement` traces them, or
+    ``traced`` (the faces (:class:`FaceRings`, their areas kept in the memo as
+    ``"face_area"``) and the faces on the two sides of each part, traced tile by tile:
     :func:`tether.decomposition.tiles.trace_tile`, and the faces' points and free arcs,
     :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the memo as
     ``"face_arcs"`` for the decomposition)."""
     ends = part_ends(parts)
     fa = None
-    if traced is None:
-        faces, part_faces, segs, _ = _faces(parts, ends)
+    if traced is None:  # traced whole, here: on linestrings
+        faces, part_faces, segs, _ = _faces(
+            parts.lines() if isinstance(parts, PartLines) else parts, ends)
     else:
         (faces, part_faces, fa), segs = traced, part_segments(ends)
     arr = Arrangement(parts, part_faces, ptr, src, faces, 0.0)
@@ -262,6 +279,10 @@ def traced_arrangement(parts: np.ndarray, ptr: np.ndarray, src: np.ndarray,
     arr.memo["part_segments"] = segs  # for segments(): not made again
     if fa is not None:
         arr.memo["face_arcs"] = fa
+    if isinstance(faces, FaceRings):  # the regions are numbered from these: no polygon
+        arr.memo["face_area"] = faces.area
+    if isinstance(parts, PartLines):  # the lengths the absorb rules compare: no line
+        arr.memo["part_length"] = parts.length
     return arr
 
 

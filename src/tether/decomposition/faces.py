@@ -5,6 +5,7 @@ well inside each face with its clearance (inscribed circles where it matters).""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -12,8 +13,113 @@ import shapely
 from tether._util.arrays import ragged_arange, row_ids
 from tether._util.threads import map_chunks
 
-__all__ = ["MIC_MIN_BOUND", "face_points", "local_faces", "part_ends", "part_segments",
-           "polygonize_faces", "ring_segments", "trace_faces"]
+__all__ = ["MIC_MIN_BOUND", "FaceRings", "PartLines", "face_points", "local_faces",
+           "part_ends", "part_segments", "polygonize_faces", "ring_segments", "trace_faces"]
+
+
+@dataclass(frozen=True)
+class FaceRings:
+    """Faces kept as ragged coordinate arrays, not as shapely polygons (a polygon of 9
+    points takes ~0.93 KB, its coordinates 160 bytes): face ``i``'s rings (its shell, then
+    its holes; each closed) are rings ``face_ptr[i]:face_ptr[i + 1]``, ring ``r``'s points
+    ``xy[ring_ptr[r]:ring_ptr[r + 1]]`` (as ``shapely.from_ragged_array`` reads them), and
+    ``area`` each face's area (map units², ``shapely.area`` of its polygon: the bits the
+    polygon gives). Indexing with an array of face ids makes those faces' polygons (an
+    object array; with one id, its polygon), as ``shapely.from_ragged_array`` makes them
+    from these coordinates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]], dtype=float)
+    >>> faces = FaceRings(square, np.array([0, 5]), np.array([0, 1]), np.array([1.0]))
+    >>> len(faces), faces[np.array([0])][0].area
+    (1, 1.0)
+    """
+
+    xy: np.ndarray
+    ring_ptr: np.ndarray
+    face_ptr: np.ndarray
+    area: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.face_ptr) - 1
+
+    def __getitem__(self, ids: np.ndarray) -> np.ndarray:
+        ids = np.asarray(ids, dtype=np.int64)
+        if ids.ndim == 0:  # one face: its polygon
+            return self[ids[None]][0]
+        if len(ids) == 0:
+            return np.zeros(0, dtype=object)
+        nring = self.face_ptr[ids + 1] - self.face_ptr[ids]
+        rings = ragged_arange(self.face_ptr[ids], nring)
+        size = self.ring_ptr[rings + 1] - self.ring_ptr[rings]
+        xy = np.take(self.xy, ragged_arange(self.ring_ptr[rings], size), axis=0)
+        offsets = (np.r_[0, np.cumsum(size)], np.r_[0, np.cumsum(nring)])
+        return np.asarray(shapely.from_ragged_array(shapely.GeometryType.POLYGON, xy,
+                                                    offsets), dtype=object)
+
+    def polygons(self) -> np.ndarray:
+        """Every face's polygon (an object array, made now)."""
+        return self[np.arange(len(self))]
+
+    @staticmethod
+    def joined(parts: list[FaceRings]) -> FaceRings:
+        """The faces of ``parts`` one after the other (renumbered)."""
+        if not parts:
+            i = np.zeros(1, np.int64)
+            return FaceRings(np.zeros((0, 2)), i, i, np.zeros(0))
+        rings = np.cumsum([0] + [len(f.ring_ptr) - 1 for f in parts[:-1]])
+        points = np.cumsum([0] + [len(f.xy) for f in parts[:-1]])
+        return FaceRings(np.concatenate([f.xy for f in parts]),
+                         np.r_[np.concatenate([f.ring_ptr[:-1] + o for f, o in
+                                               zip(parts, points, strict=True)]),
+                               sum(len(f.xy) for f in parts)],
+                         np.r_[np.concatenate([f.face_ptr[:-1] + o for f, o in
+                                               zip(parts, rings, strict=True)]),
+                               sum(len(f.ring_ptr) - 1 for f in parts)],
+                         np.concatenate([f.area for f in parts]))
+
+
+@dataclass(frozen=True)
+class PartLines:
+    """Noded parts kept as ragged coordinate arrays, not as shapely linestrings (one of 3
+    points takes ~0.28 KB, its coordinates 48 bytes): part ``k``'s
+    points are the ``count[k]`` rows of ``xy`` after those of the parts before it, and
+    ``length[k]`` its length (map units, ``shapely.length`` of its linestring: the bits the
+    line gives). Indexing with an array of part ids makes those parts' linestrings (an
+    object array; with one id, its linestring), as ``shapely.linestrings`` makes them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> xy = np.array([[0, 0], [3, 4], [0, 0], [1, 0], [1, 1]], dtype=float)
+    >>> parts = PartLines(xy, np.array([2, 3]), np.array([5.0, 2.0]))
+    >>> len(parts), parts[1].wkt
+    (2, 'LINESTRING (0 0, 1 0, 1 1)')
+    """
+
+    xy: np.ndarray
+    count: np.ndarray
+    length: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.count)
+
+    def __getitem__(self, ids: np.ndarray) -> np.ndarray:
+        ids = np.asarray(ids, dtype=np.int64)
+        if ids.ndim == 0:  # one part: its linestring
+            return self[ids[None]][0]
+        if len(ids) == 0:
+            return np.zeros(0, dtype=object)
+        start = np.cumsum(self.count) - self.count
+        xy = np.take(self.xy, ragged_arange(start[ids], self.count[ids]), axis=0)
+        return np.asarray(shapely.linestrings(xy, indices=np.repeat(
+            np.arange(len(ids)), self.count[ids])), dtype=object)
+
+    def lines(self) -> np.ndarray:
+        """Every part's linestring (an object array, made now)."""
+        return self[np.arange(len(self))]
 
 
 def _segment_ids(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -63,12 +169,15 @@ def polygonize_faces(parts: np.ndarray, pa: np.ndarray, pb: np.ndarray, powner: 
     return faces, part_faces
 
 
-def part_ends(parts: np.ndarray) -> tuple[np.ndarray, ...]:
+def part_ends(parts: np.ndarray | PartLines) -> tuple[np.ndarray, ...]:
     """The parts' coordinates, each part's number of points, index of its first and of its
     last point there, and an id per end point (first points, then last points), equal for
-    equal coordinates."""
-    coords, idx = shapely.get_coordinates(parts, return_index=True)
-    count = np.bincount(idx, minlength=len(parts))
+    equal coordinates. ``parts``: linestrings or :class:`PartLines` (read as they are)."""
+    if isinstance(parts, PartLines):
+        coords, count = parts.xy, parts.count
+    else:
+        coords, idx = shapely.get_coordinates(parts, return_index=True)
+        count = np.bincount(idx, minlength=len(parts))
     start = np.cumsum(count) - count  # parts have 2 or more points
     last = start + count - 1
     return coords, count, start, last, _point_ids(np.take(coords, np.r_[start, last], axis=0))

@@ -15,6 +15,7 @@ from tether.arcs import check_lss
 from tether.curves import critical_curves
 from tether.curves.budget import check_memory  # issue 25: the memory estimate, checked first
 from tether.decomposition.arrangement import arrangement
+from tether.decomposition.faces import FaceRings
 from tether.decomposition.frame import UserFrame
 from tether.decomposition.model import Decomposition
 from tether.decomposition.noding import geos_message
@@ -109,6 +110,11 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     return dec
 
 
+def _polygons(faces: np.ndarray | FaceRings) -> np.ndarray:
+    """The faces' polygons: as they are, or made from ragged arrays (:class:`FaceRings`)."""
+    return faces.polygons() if isinstance(faces, FaceRings) else faces
+
+
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                out: UserFrame | None = None, tiling: tuple | None = None) -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
@@ -125,7 +131,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     # the faces' points and free arcs: computed by the tiles' face tasks, or here
-    fa = arr.memo.pop("face_arcs", None) or face_arcs(env, arr.faces, tol, arr.grid, lss)
+    fa = arr.memo.pop("face_arcs", None) or face_arcs(env, _polygons(arr.faces), tol,
+                                                      arr.grid, lss)
     pts, clear, keep, resolved = fa.pts, fa.clear, fa.keep, fa.resolved
     ok = keep[resolved]
     sid, structs = structure_ids_of(env.n, fa.full, fa.point, fa.start_code, fa.end_code,

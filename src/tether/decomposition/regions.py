@@ -48,7 +48,7 @@ def face_regions(arr: Arrangement, keep: np.ndarray, resolved: np.ndarray,
                                               == face_sid[adjacent[:, 1]])
     uf = _UnionFind(nf)
     uf.parent = components(nf, adjacent[same, 0], adjacent[same, 1]).tolist()
-    plen = shapely.length(arr.parts)
+    plen = arr.part_lengths()
     # sub-resolution faces join the neighbour they share most boundary with
     _absorb(keep[~resolved], adjacent, plen, uf, face_sid)
     for attempt in range(4):
@@ -280,10 +280,11 @@ def _region_shapes(arr: Arrangement, flat: np.ndarray, size: np.ndarray, rank: n
     made on the first read (their faces gathered at once, each region's a slice)."""
     first = (np.cumsum(size) - size)[rank]  # each region's first face, in ``flat``
     count = size[rank]
-    polys = arr.faces[flat[first]]
+    made = arr.faces[flat]  # each face once (made here from ragged arrays: FaceRings)
+    polys = made[first]
     multi = np.flatnonzero(count > 1)
     k = count[multi]
-    faces = arr.faces[flat[ragged_arange(first[multi], k)]]
+    faces = made[ragged_arange(first[multi], k)]
     end = np.cumsum(k)
     unions = {rid: faces[a:b] for rid, a, b in zip(multi.tolist(), (end - k).tolist(),
                                                     end.tolist(), strict=True)}

@@ -67,7 +67,13 @@ from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
-from tether.decomposition.faces import local_faces, part_ends, part_segments
+from tether.decomposition.faces import (
+    FaceRings,
+    PartLines,
+    local_faces,
+    part_ends,
+    part_segments,
+)
 from tether.decomposition.noding import node_floating
 from tether.decomposition.structure import FaceArcs, face_arcs
 from tether.errors import InvalidParameterError
@@ -402,13 +408,14 @@ def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
     Returns the delivered parts' vertices and vertex counts, their sources (CSR ``(ptr,
     src)``), the *missed* points (the ends, in the tile or among ``own``, of the parts not
     trusted: anchors whose parts a retry in a larger region must deliver), those parts'
-    bounding boxes ((k, 4)) and this process's peak resident memory (bytes, 0 where
-    unknown); None if the noder fails."""
+    bounding boxes ((k, 4)), this process's peak resident memory (bytes, 0 where unknown)
+    and the delivered parts' lengths (map units, ``shapely.length``: the main process makes
+    no linestring to compare them); None if the noder fails."""
     n = len(ptr) - 1
     if n == 0:
         empty = np.zeros(0, np.int64)
         return (np.zeros((0, 2)), empty, np.zeros(1, np.int64), empty, np.zeros((0, 2)),
-                np.zeros((0, 4)), _peak_rss())
+                np.zeros((0, 4)), _peak_rss(), np.zeros(0))
     lines = shapely.linestrings(xy, indices=np.repeat(np.arange(n), np.diff(ptr)))
     try:
         parts = node_floating(np.asarray(lines, dtype=object))
@@ -429,6 +436,7 @@ def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
     missed = ~trusted & (mine_a | mine_b)
     miss = np.unique(np.vstack((a[missed & mine_a], b[missed & mine_b])), axis=0)
     keep = np.flatnonzero(trusted & owned)
+    length = shapely.length(parts[keep])
     kcount = count[keep]
     kcoords = coords[ragged_arange(start[keep], kcount)]
     del coords, parts
@@ -442,7 +450,7 @@ def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
         sources = (np.take(xy, rows, axis=0), np.take(xy, rows + 1, axis=0),
                    np.repeat(run_src, nseg))
     sptr, src = part_sources(mid, *sources, reach)
-    return kcoords, kcount, sptr, src, miss, box[missed], _peak_rss()
+    return kcoords, kcount, sptr, src, miss, box[missed], _peak_rss(), length
 
 
 def _owned(ends: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -488,8 +496,9 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
     reach is ``1e-3 tol`` as for the whole). The parts' faces are then traced in tiles too
     (:func:`trace_tile`, on a grid of the parts chosen alike), and the noder returns ``(parts,
-    ptr, src, traced)`` (``traced``: the faces and the parts' faces, None to trace them
-    whole). ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
+    ptr, src, traced)`` (``parts``: :class:`tether.decomposition.faces.PartLines`, no
+    linestring made; ``traced``: the faces and the parts' faces, None to trace them whole).
+    ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
     then ``("stitch", 0.45)``, then ``("face tiles (NXxNY)", fraction)`` as face tasks
     finish; ``log``, if given, gets ``tiles`` (the grid's shape, per strip), ``strips`` (1 or
     2), ``margin`` (map units), ``retries`` (tasks run again in a larger region),
@@ -497,7 +506,8 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
     ``fallback`` (True if the input was noded whole), and for the faces ``face_tiles``,
     ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
-    count) and ``face_fallback`` (True if they were traced whole). With ``arcs = (env,
+    count) and ``face_fallback`` (True if they were traced whole), and the counts ``parts``
+    and ``faces``. With ``arcs = (env,
     lss)`` (the internal map and rod length), the face tasks also compute their faces'
     points and free arcs (:func:`tether.decomposition.structure.face_arcs`), and
     ``traced`` carries them (:class:`tether.decomposition.structure.FaceArcs`) after the
@@ -530,10 +540,10 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
             sent += r[1]
         report("stitch", 0.45)
         log["segments_sent"] = sent / len(la)
-        coords, count, ptr, src = _stitched(got)
+        coords, count, ptr, src, length = _stitched(got)
         del got
-        parts = np.asarray(shapely.linestrings(coords, indices=np.repeat(
-            np.arange(len(count)), count)), dtype=object)
+        log["parts"] = len(count)
+        parts = PartLines(coords, count, length)  # no linestring made here
         traced = _faces_in_tiles(coords, count, tiles, executor, report, log,
                                  None if arcs is None else (*arcs, tol))
         return parts, ptr, src, traced
@@ -632,14 +642,15 @@ def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: floa
 
 def _stitched(got: list[tuple]) -> tuple[np.ndarray, ...]:
     """The tasks' delivered parts one after the other: their coordinates and point counts,
-    and their sources (CSR ``(ptr, src)``)."""
+    their sources (CSR ``(ptr, src)``) and their lengths."""
     coords = np.concatenate([r[0] for r in got])
     count = np.concatenate([r[1] for r in got])
+    length = np.concatenate([r[7] for r in got])
     src = np.concatenate([r[3] for r in got])
     offsets = np.cumsum([0] + [len(r[3]) for r in got[:-1]])
     ptr = np.concatenate([np.zeros(1, np.int64)] + [r[2][1:] + o for r, o in
                                                     zip(got, offsets, strict=True)])
-    return coords, count, ptr, src.astype(np.int64)
+    return coords, count, ptr, src.astype(np.int64), length
 
 
 def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMask,
@@ -660,9 +671,10 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     of polygons, as ``shapely.from_ragged_array`` reads them), the half-edges on their rings
     (``2k`` along part ``k``, ``2k + 1`` against it) and each one's face, the anchors to
     retry ((m, 2)) and the boxes of their faces' walks seen here ((m, 4)), this process's
-    peak resident memory (bytes) and the faces'
-    :class:`tether.decomposition.structure.FaceArcs` (None without ``arcs``); None if the
-    tracing cannot decide (the whole is traced then)."""
+    peak resident memory (bytes), the faces'
+    :class:`tether.decomposition.structure.FaceArcs` (None without ``arcs``) and their areas
+    (map units², ``shapely.area`` of their polygons: the main process makes no polygon to
+    number the regions); None if the tracing cannot decide (the whole is traced then)."""
     if isinstance(own, tuple):
         grid, tile = own
 
@@ -684,11 +696,11 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     if got is None:
         return None
     fa = None
+    polys = _polygons(got[0], got[1])
     if arcs is not None:
         env, lss, tol = arcs
-        polys = _polygons(got[0], got[1])
         fa = face_arcs(env, polys, tol, 0.0, lss) if len(polys) else _no_arcs()
-    return (*got, _peak_rss(), fa)
+    return (*got, _peak_rss(), fa, shapely.area(polys) if len(polys) else np.zeros(0))
 
 
 def _no_arcs() -> FaceArcs:
@@ -708,11 +720,13 @@ def _polygons(xy: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> np.ndar
 def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int] | str,
                     executor: Executor, report: Callable, log: dict,
                     arcs: tuple | None = None) -> tuple | None:
-    """The faces of the parts (coordinates ``coords``, point counts ``count``) and the faces
-    on the two sides of each part, as :func:`tether.decomposition.faces.trace_faces` gives
-    them, traced in ``tiles`` on ``executor`` (:func:`trace_tile`): each face delivered by
-    the tile holding its anchor, retried in larger regions around the anchors a tile could
-    not vouch for, and with ``arcs`` (:func:`trace_tile`) their points and free arcs
+    """The faces of the parts (coordinates ``coords``, point counts ``count``; as ragged
+    arrays with their areas, :class:`tether.decomposition.faces.FaceRings`: the main process
+    makes no polygon) and the faces on the two sides of each part, as
+    :func:`tether.decomposition.faces.trace_faces` gives them, traced in ``tiles`` on
+    ``executor`` (:func:`trace_tile`): each face delivered by the tile holding its anchor,
+    retried in larger regions around the anchors a tile could not vouch for, and with
+    ``arcs`` (:func:`trace_tile`) their points and free arcs
     (:class:`tether.decomposition.structure.FaceArcs`, else None). None where a task cannot
     decide (the caller traces the whole)."""
     n = len(count)
@@ -746,7 +760,7 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
                for t in range(grid.count)}
     del near
     side = np.full(2 * n, -1, np.int64)
-    polys, arc_parts = [], []
+    rings, arc_parts = [], []
     nfaces, level, finished, total, shown = 0, 0, 0, len(futures), 0.0
     stage = f"face tiles ({nx}x{ny})"
     while futures:
@@ -759,18 +773,17 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
             if r is None:
                 log["face_fallback"] = True
                 return None
-            xy, offsets, he, face, retry, seen, peak, fa = r
+            xy, offsets, he, face, retry, seen, peak, fa, area = r
             log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
             ghe = 2 * sel[he // 2] + he % 2
             if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
                 log["face_fallback"] = True
                 return None
             side[ghe] = face + nfaces
-            got = _polygons(xy, offsets)
-            polys.append(got)
+            rings.append(FaceRings(xy, *offsets, area))
             if fa is not None:
                 arc_parts.append((fa, nfaces))
-            nfaces += len(got)
+            nfaces += len(area)
             if len(retry):
                 pending[t] = retry, seen
         level += 1
@@ -784,11 +797,12 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
             log["face_retries"] += 1
             total += 1
     log["face_parts_sent"] = sent / n
+    log["faces"] = nfaces
     pf = np.sort(side.reshape(n, 2), axis=1)
     one = pf[:, 0] < 0  # -1 (none) goes second, as trace_faces gives them
     pf[one] = pf[one][:, ::-1]
     pf[pf[:, 0] == pf[:, 1]] = -1
-    return np.concatenate(polys), pf, None if arcs is None else _joined_arcs(arc_parts)
+    return FaceRings.joined(rings), pf, None if arcs is None else _joined_arcs(arc_parts)
 
 
 def _joined_arcs(got: list[tuple[FaceArcs, int]]) -> FaceArcs:
