@@ -30,12 +30,13 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["ConnectivityGraph", "build_graph"]
+__all__ = ["ConnectivityGraph", "build_graph", "index_dtype"]
 
 
 @dataclass(frozen=True, eq=False)
 class ConnectivityGraph:
-    """G: cells (nodes) and ``(cell, cell, piece)`` edges, on integer arrays.
+    """G: cells (nodes) and ``(cell, cell, piece)`` edges, on integer arrays (int32 where
+    the counts allow, :func:`index_dtype`: about 50 bytes an edge).
 
     Cells are indices into ``dec.cells``. Each cell has one *slot* per piece bounding its
     region (in increasing piece order): slots ``slot_ptr[c]:slot_ptr[c + 1]``, their pieces
@@ -229,39 +230,44 @@ def _table_arc_rows(table: ArcTable) -> dict[str, np.ndarray]:
 
 
 def _cell_index(dec: Decomposition, region: np.ndarray, start_code: np.ndarray,
-                end_code: np.ndarray) -> np.ndarray:
+                end_code: np.ndarray, keys: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> np.ndarray:
     """Index in ``dec.cells`` of the cell ``(region, start, end)`` given by feature codes
-    (-1 for the free end of a FULL region), vectorized; -1 where no such cell exists."""
-    keys, order = _cell_keys(dec)
+    (-1 for the free end of a FULL region), vectorized; -1 where no such cell exists.
+    ``keys``: :func:`_cell_keys` of ``dec`` (made if not given)."""
+    keys, order = _cell_keys(dec) if keys is None else keys
     base = 2 * dec.env.n + 1
     q = (np.asarray(region, np.int64) * base + (np.asarray(start_code, np.int64) + 1)) \
         * base + (np.asarray(end_code, np.int64) + 1)
-    pos = np.clip(np.searchsorted(keys, q), 0, max(len(keys) - 1, 0))
     if len(keys) == 0:
         return np.full(len(q), -1)
+    pos = np.clip(np.searchsorted(keys, q), 0, len(keys) - 1)
     return np.where(keys[pos] == q, order[pos], -1)
 
 
 def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     """Sorted integer keys ``(region * B + start + 1) * B + end + 1`` of the cells (codes in
-    ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key, cached."""
-    got = dec.memo.get("cell_keys")
-    if got is not None:
-        return got
+    ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key (not kept: 16
+    bytes a cell, needed once per build of G)."""
     base = 2 * dec.env.n + 1
     region, start, end = dec.cell_codes()
-    keys = (region * base + start + 1) * base + end + 1
+    keys = (region.astype(np.int64) * base + start + 1) * base + end + 1
     order = np.argsort(keys, kind="stable")
-    got = (keys[order], order)
-    dec.memo["cell_keys"] = got
-    return got
+    return keys[order], order.astype(index_dtype(len(keys)))
+
+
+def index_dtype(n: int) -> type:
+    """The integer type of indices into ``n`` items, and of counts up to ``n``: int32 below
+    2**31 (half the bytes of G's columns), else int64."""
+    return np.int32 if n < 2**31 else np.int64
 
 
 def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
-    arrays: arc pairs of the two sides of each piece whose arcs overlap (all at once)."""
+    arrays (:func:`index_dtype` of the cells' and the pieces' counts): arc pairs of the two
+    sides of each piece whose arcs overlap (all at once)."""
     m = len(dec.pieces)
-    empty = np.zeros(0, dtype=np.int64)
+    empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
     rows = _arc_rows(dec)
@@ -269,14 +275,20 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pair_a, pair_b = _candidate_pairs(rows, m, length)
     keep = _overlapping(rows["start"], length, pair_a, pair_b)
     del length
-    k = rows["point"][pair_a[keep]]
+    pair_a, pair_b = pair_a[keep], pair_b[keep]
+    del keep
+    k = rows["point"][pair_a]
     regs = piece_regions(dec)
-    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
-                     rows["end_code"][pair_a[keep]])
-    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
-                     rows["end_code"][pair_b[keep]])
+    keys = _cell_keys(dec)
+    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a], rows["end_code"][pair_a],
+                     keys)
+    del pair_a
+    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b], rows["end_code"][pair_b],
+                     keys)
+    del pair_b, keys
     ok = (ca >= 0) & (cb >= 0)
-    return (ca[ok].astype(np.int64), cb[ok].astype(np.int64), k[ok].astype(np.int64))
+    cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
+    return ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)
 
 
 #: Arc pairs compared at once by :func:`_overlapping` (bounds its temporaries: ~10 arrays of
@@ -401,30 +413,38 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     nreg, ncell = len(dec.regions), len(dec.cells)
     regs = piece_regions(dec)
     m = len(regs)
+    piece_t = index_dtype(2 * m)
     # pieces of each region (CSR), increasing: entries (region, piece) per piece side
     ent_region = regs.T.ravel()  # side 0 of every piece, then side 1
-    ent_piece = np.tile(np.arange(m, dtype=np.int64), 2)
+    ent_piece = np.tile(np.arange(m, dtype=piece_t), 2)
     order = np.lexsort((ent_piece, ent_region))
     region_count = np.bincount(ent_region, minlength=nreg)
-    region_ptr = np.concatenate(([0], np.cumsum(region_count)))
+    region_ptr = np.zeros(nreg + 1, dtype=piece_t)
+    np.cumsum(region_count, out=region_ptr[1:])
     region_pieces = ent_piece[order]
     # position of each piece side among its region's pieces
-    pos = np.empty(2 * m, dtype=np.int64)
-    pos[order] = np.arange(2 * m) - region_ptr[ent_region[order]]
+    pos = np.empty(2 * m, dtype=piece_t)
+    pos[order] = np.arange(2 * m, dtype=piece_t) - region_ptr[ent_region[order]]
+    del order, ent_piece, ent_region
     side_pos = pos.reshape(2, m)
     # slots: one per (cell, piece of the cell's region)
     creg = cell_regions(dec)
     nslot = region_count[creg] if ncell else np.zeros(0, np.int64)
-    slot_ptr = np.concatenate(([0], np.cumsum(nslot))).astype(np.int64)
-    slot_piece = region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell \
-        else np.zeros(0, np.int64)
+    total = int(nslot.sum())
+    slot_t = index_dtype(total + 1)
+    slot_ptr = np.zeros(ncell + 1, dtype=slot_t)
+    np.cumsum(nslot, out=slot_ptr[1:])
+    slot_piece = (region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell
+                  else np.zeros(0, piece_t))
+    del nslot, creg
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
     # (made one after the other, each temporary freed when used: a lower peak)
     slot_a = slot_ptr[ea] + side_pos[0, ep]
     slot_b = slot_ptr[eb] + side_pos[1, ep]
     key = np.column_stack((slot_a, slot_b)).ravel()
     order = np.argsort(key, kind="stable")
-    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=np.int64)
+    entry_t = index_dtype(len(key) + 1)
+    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=entry_t)
     np.cumsum(np.bincount(key, minlength=len(slot_piece)), out=partner_ptr[1:])
     del key
     partner_slot = np.column_stack((slot_b, slot_a)).ravel()[order]
@@ -432,5 +452,5 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     partner_cell = np.column_stack((eb, ea)).ravel()[order]
     del order
     release_memory()  # the temporaries' heap, before the elimination allocates its own
-    return ConnectivityGraph(dec, ea, eb, ep, region_ptr.astype(np.int64), region_pieces,
+    return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
                              slot_ptr, slot_piece, partner_ptr, partner_cell, partner_slot)

@@ -30,7 +30,7 @@ import shapely
 from tether._util.files import check_output_dir
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
-from tether.decomposition.model import Decomposition, Region
+from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
 from tether.decomposition.structure import Structure, Structures
 from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
 from tether.errors import InvalidParameterError, OutputPathError
@@ -261,7 +261,7 @@ def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
     made yet keeps its faces, the union made when read, as :func:`decompose` leaves it), the
     distinct structures in the file's codes and each region's structure id."""
     regs = dec.regions
-    holder = regs[0]._polygon if regs else None
+    holder = shared_holder(regs, "_polygon")
     if isinstance(holder, RegionShapes):
         geoms, frame = holder.held()
         pending = holder.pending_unions()
@@ -275,8 +275,12 @@ def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
     face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
                               else np.zeros(0, dtype=object))
     sid, sptr, spairs = _structure_columns(dec)
-    return {"area": np.array([r.area for r in regs], dtype=float),
-            "point": np.array([r.point for r in regs], dtype=float).reshape(-1, 2),
+    if type(regs) is Regions:  # the columns as held, no record made
+        area, point = regs._table.area, regs._table.point
+    else:
+        area = np.array([r.area for r in regs], dtype=float)
+        point = np.array([r.point for r in regs], dtype=float).reshape(-1, 2)
+    return {"area": area, "point": point,
             "structure": sid, "polygon_ptr": ptr, "polygon_wkb": wkb,
             "union_ptr": union_ptr, "face_ptr": face_ptr, "face_wkb": face_wkb,
             "internal_frame": np.array([frame is not None] * len(regs), dtype=bool),
@@ -288,8 +292,8 @@ def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.n
     the file's feature codes, sorted; id 0 EMPTY, 1 FULL), read from the shared
     :class:`Structures` when the regions hold one (no frozenset made)."""
     regs = dec.regions
-    held = regs[0]._structure if regs else None
-    if type(held) is Structures and all(r._structure is held for r in regs):
+    held = shared_holder(regs, "_structure")
+    if type(held) is Structures:
         a, b = np.divmod(held.pairs, held.base)
         if held._code_map is not None:
             a, b = held._code_map[a], held._code_map[b]
@@ -493,9 +497,7 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     sp = reg["structures_pairs"].astype(np.int64)
     structs = Structures(base, reg["structures_ptr"].astype(np.int64),
                          sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
-    area, point = reg["area"].tolist(), reg["point"].tolist()
-    regions = tuple(Region(i, shapes, area[i], (point[i][0], point[i][1]), structs, table)
-                    for i in range(nreg))
+    regions = Regions(RegionTable(reg["area"], reg["point"], shapes, structs, table))
     pc = t["pieces"]
     descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
                                                          pc["desc_curve_ptr"][j + 1]]),
