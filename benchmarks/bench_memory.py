@@ -104,15 +104,18 @@ parts = {}
 seen = set()
 # regions: the records, the shared structures and polygons
 regs = dec.regions
-shapes = regs[0]._polygon
-structs = regs[0]._structure
-py = deep(regs, seen)  # the tuple, the Region records, their points, floats, ints
+lean = hasattr(regs, "_table")  # Regions: columns, records made when read
+shapes = regs._table.shapes if lean else regs[0]._polygon
+structs = regs._table.structures if lean else regs[0]._structure
+py = deep(regs, seen)  # the records (a tuple of them), points, floats, ints; or the view
 held, _ = shapes.held()
 faces = [f for fs in shapes.pending_unions().values() for f in fs]
 g_b, g_c, g_n = geos(list(held) + faces)
-parts["regions"] = {"per": nr, "columns": columns(structs, ("ptr", "pairs", "region")),
-                    "python": py + deep(structs._sets, seen), "geos": g_b,
-                    "coords": g_c, "geoms": g_n}
+cols = columns(structs, ("ptr", "pairs", "region"))
+if lean:
+    cols += columns(regs._table, ("area", "point"))
+parts["regions"] = {"per": nr, "columns": cols, "python": py + deep(structs._sets, seen),
+                    "geos": g_b, "coords": g_c, "geoms": g_n}
 table = dec.cells._table
 parts["cells"] = {"per": nc, "columns": columns(table, ("region", "start", "end", "first")),
                   "python": deep(table.names, seen)}
@@ -152,7 +155,8 @@ cur, peak = tracemalloc.get_traced_memory()
 out["peak_eliminate_MB"] = (peak - base) / 2**20
 tracemalloc.stop()
 parts["elimination"] = {"per": max(len(elim), 1), "columns": columns(
-    elim, ("cell", "piece", "round", "because")), "python": deep(surviving, seen),
+    elim, ("cell", "piece", "round", "because")) + columns(surviving, ("alive",)),
+    "python": deep(surviving, seen),
     "surviving": len(surviving)}
 out["parts"] = parts
 out["rss_final_MB"] = rss() / 2**20

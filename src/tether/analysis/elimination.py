@@ -12,7 +12,7 @@ survives (with unbounded observer speed, any start in a surviving cell can be he
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence, Set
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -36,7 +36,8 @@ from tether.decomposition import Decomposition, decompose, feature_name_rank
 from tether.decomposition.views import parse_cell_name
 from tether.tolerances import REL_LENGTH_TOL
 
-__all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
+__all__ = ["CellSet", "Elimination", "Eliminations", "Verdict", "analyze", "eliminate",
+           "escape_story"]
 
 
 @dataclass(frozen=True)
@@ -80,7 +81,9 @@ class Verdict:
 
     dec: Decomposition = field(repr=False)
     graph: ConnectivityGraph = field(repr=False)
-    surviving: frozenset[str]
+    #: the surviving cells' ids (a frozenset, or from :func:`analyze` an equal
+    #: :class:`CellSet` over a bool column, ids made when read)
+    surviving: Set[str]
     #: the eliminations in order (a tuple-like :class:`Eliminations` from :func:`analyze`)
     eliminated: Sequence[Elimination]
     witness_region: int | None
@@ -225,16 +228,68 @@ class Eliminations(Sequence):
         return f"Eliminations({len(self)})"
 
 
-def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
+class CellSet(Set):
+    """A set of cells of a decomposition, held as one bool per cell (``alive``, in the order
+    of ``dec.cells``) and read as the set of their ids (``"(R3,E1,V2)"``): membership by id
+    through the cells' columns (:meth:`Decomposition.cell_index`), iteration in cell order
+    making the ids then. Equal to the frozenset of the same ids (and hashed as it; pickled
+    as it): a million surviving cells cost a megabyte, not ~100 MB of strings and hash
+    table."""
+
+    __slots__ = ("_dec", "alive", "_n")
+
+    def __init__(self, dec: Decomposition, alive: np.ndarray) -> None:
+        self._dec = dec
+        self.alive = np.asarray(alive, dtype=bool)
+        self._n = int(np.count_nonzero(self.alive))
+
+    @classmethod
+    def _from_iterable(cls, it: Iterable[str]) -> frozenset[str]:
+        return frozenset(it)  # the results of &, |, - ...: plain frozensets
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __contains__(self, cell_id: object) -> bool:
+        if not isinstance(cell_id, str):
+            return False
+        try:
+            i = self._dec.cell_index(cell_id)
+        except KeyError:
+            return False
+        return bool(self.alive[i])
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.indices_ids())
+
+    def indices(self) -> np.ndarray:
+        """The cells' indices into ``dec.cells``, increasing."""
+        return np.flatnonzero(self.alive)
+
+    def indices_ids(self) -> list[str]:
+        """The cells' ids, in cell order."""
+        return cell_ids_of(self._dec, self.indices())
+
+    def __hash__(self) -> int:
+        return hash(frozenset(self))
+
+    def __reduce__(self) -> tuple:
+        return (frozenset, (self.indices_ids(),))
+
+    def __repr__(self) -> str:
+        return f"CellSet({len(self)} of {len(self.alive)} cells)"
+
+
+def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
     """Greatest fixed point of removing escapable cells, by rounds (linear in the graph).
 
-    Returns the surviving cells and the eliminations in the order they happened.
+    Returns the surviving cells (a :class:`CellSet`, equal to the frozenset of their ids)
+    and the eliminations in the order they happened.
     """
     dec = graph.dec
     alive, cell, slot, rnd, because = fixed_point_arrays(
         cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
-    surviving = frozenset(cell_ids_of(dec, np.flatnonzero(alive)))
-    return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
+    return CellSet(dec, alive), Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
 
 
 def cell_rank(dec: Decomposition) -> np.ndarray:

@@ -40,7 +40,8 @@ from tether.decomposition.views import (
 )
 from tether.environment import Environment
 
-__all__ = ["Decomposition", "Region", "RegionTable", "Regions", "region_rows", "shared_holder"]
+__all__ = ["Decomposition", "Region", "RegionTable", "Regions", "compact_arcs", "region_rows",
+           "shared_holder"]
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -225,6 +226,11 @@ class Decomposition:
         default=None, repr=False, compare=False)
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
+
+    def __post_init__(self) -> None:
+        if self._crossing_arcs is not None:  # held for G: in the smallest int columns
+            object.__setattr__(self, "_crossing_arcs",
+                               compact_arcs(self._crossing_arcs, 2 * self.env.n))
 
     def __repr__(self) -> str:
         return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
@@ -415,6 +421,23 @@ class Decomposition:
         from tether.plot.decomposition import plot_decomposition
 
         return plot_decomposition(self, ax, **kw)
+
+
+def compact_arcs(table: ArcTable, ncodes: int) -> ArcTable:
+    """The arc table ``table`` with its point column in int32 (below 2**31 points) and its
+    feature codes (``-1 .. ncodes - 1``) in int16 (fewer than 2**15 codes) or int32: the same
+    values in 24 bytes a row instead of 40 (the crossings' arcs are the largest columns a
+    decomposition holds, ~16 rows a piece). Columns already that small are kept as they
+    are."""
+    npts = len(table.full)
+    pt = np.int32 if npts < 2**31 else np.int64
+    code = np.int16 if ncodes < 2**15 else np.int32 if ncodes < 2**31 else np.int64
+
+    def small(a: np.ndarray, dtype: type) -> np.ndarray:
+        return a if a.dtype.itemsize <= np.dtype(dtype).itemsize else a.astype(dtype)
+
+    return ArcTable(small(table.point, pt), table.start, table.end,
+                    small(table.start_code, code), small(table.end_code, code), table.full)
 
 
 def region_rows(regions: Sequence[Region], base: int) -> tuple[StructureRows, np.ndarray]:
