@@ -95,20 +95,19 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
         raise InvalidParameterError(f"parts must be >= 1, got {parts}")
     target = check_store_dir(path)
     report = progress or (lambda stage, frac: None)
-    tables = {}
-    for k, (name, fn) in enumerate(_WRITERS.items()):
-        report(name, 0.8 * k / len(_WRITERS))
-        tables[name] = fn(dec)
-    report("files", 0.8)
+    parts = int(parts)
+    total = _table_rows(dec)
+    memo: dict[str, Any] = {}  # the whole-table columns, made once for every part
     with _folder_written_whole(target) as tmp:
         entries = []
-        for k in range(int(parts)):
+        for k in range(parts):  # each part's columns made, written and freed in turn
             name = f"part-{k:05d}"
             (tmp / name).mkdir()
             rows = {}
-            for table, cols in tables.items():
-                lo, hi = _split(_rows(cols), int(parts), k)
-                np.savez(tmp / name / f"{table}.npz", **_slice(cols, lo, hi))
+            for j, (table, fn) in enumerate(_WRITERS.items()):
+                report(table, (k * len(_WRITERS) + j) / (parts * len(_WRITERS)))
+                lo, hi = _split(total[table], parts, k)
+                np.savez(tmp / name / f"{table}.npz", **fn(dec, lo, hi, memo))
                 rows[table] = [lo, hi]
             entries.append({"name": name, "rows": rows})
         index = {"format": FORMAT, "version": VERSION, "map": dec.env.to_dict(),
@@ -120,6 +119,12 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
         (tmp / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
     report("done", 1.0)
     return target
+
+
+def _table_rows(dec: Decomposition) -> dict[str, int]:
+    """The rows of each table of ``dec``'s store."""
+    return {"regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
+            "curves": len(dec.curves), "arcs": len(dec.crossing_arcs().point)}
 
 
 def check_store_dir(path: str | os.PathLike) -> Path:
@@ -167,16 +172,6 @@ def _umask() -> int:
     return mask
 
 
-def _rows(cols: dict[str, np.ndarray]) -> int:
-    """The rows of a table: the length of its first column."""
-    return len(next(iter(cols.values())))
-
-
-def _split(n: int, parts: int, k: int) -> tuple[int, int]:
-    """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
-    return n * k // parts, n * (k + 1) // parts
-
-
 #: The ragged columns: each ``*_ptr`` (one entry per row, plus one) and the columns it indexes
 #: (``vertex_ptr`` is indexed by ``polyline_ptr`` in turn: two levels)
 _RAGGED = {"polygon_ptr": ("polygon_wkb",), "union_ptr": ("face_ptr",),
@@ -191,50 +186,9 @@ _WHOLE = ("desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr", "des
           "full_points", "structures_ptr", "structures_pairs")
 
 
-def _row_columns(cols: dict[str, np.ndarray]) -> list[str]:
-    """The columns with one entry per row (neither ragged values nor whole-table columns)."""
-    inner = {v for vs in _RAGGED.values() for v in vs}
-    return [k for k in cols if k not in inner and k not in _WHOLE and k not in _RAGGED]
-
-
-def _rows(cols: dict[str, np.ndarray]) -> int:
-    """The rows of a table: the length of its row columns (or of its first ``*_ptr`` less
-    one)."""
-    rows = _row_columns(cols)
-    if rows:
-        return len(cols[rows[0]])
-    return len(next(c for k, c in cols.items() if k in _RAGGED)) - 1
-
-
 def _split(n: int, parts: int, k: int) -> tuple[int, int]:
     """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
     return n * k // parts, n * (k + 1) // parts
-
-
-def _slice(cols: dict[str, np.ndarray], lo: int, hi: int) -> dict[str, np.ndarray]:
-    """Rows ``lo:hi`` of a table, its ragged columns' offsets rebased to start at 0."""
-    out = {k: cols[k][lo:hi] for k in _row_columns(cols)}
-    out.update({k: cols[k] for k in _WHOLE if k in cols})
-
-    def ragged(ptr_name: str, a: int, b: int) -> None:
-        ptr = cols[ptr_name]
-        c, d = int(ptr[a]), int(ptr[b])
-        out[ptr_name] = ptr[a:b + 1] - c
-        for v in _RAGGED[ptr_name]:
-            if v in _RAGGED:
-                ragged(v, c, d)
-            else:
-                out[v] = cols[v][c:d]
-
-    for name in cols:
-        if name in _RAGGED and name not in _inner_ptrs() and name not in _WHOLE:
-            ragged(name, lo, hi)
-    return out
-
-
-def _inner_ptrs() -> set[str]:
-    """The ``*_ptr`` columns indexed by another (the second level)."""
-    return {v for vs in _RAGGED.values() for v in vs if v in _RAGGED}
 
 
 def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = float
@@ -256,34 +210,39 @@ def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
 
 
-def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    """The regions' columns: the polygons as held (a multi-face region whose union is not
-    made yet keeps its faces, the union made when read, as :func:`decompose` leaves it), the
-    distinct structures in the file's codes and each region's structure id."""
+def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    """Regions ``lo:hi``'s columns: the polygons as held (a multi-face region whose union is
+    not made yet keeps its faces, the union made when read, as :func:`decompose` leaves it),
+    each region's structure id, and the distinct structures (whole) in the file's codes."""
     regs = dec.regions
     holder = shared_holder(regs, "_polygon")
     if isinstance(holder, RegionShapes):
-        geoms, frame = holder.held()
-        pending = holder.pending_unions()
+        held, frame = holder.held()
+        geoms = held[lo:hi]
+        if "pending" not in memo:
+            memo["pending"] = holder.pending_unions()
+        pending = memo["pending"]
     else:
-        geoms, frame, pending = dec.region_polygons(np.arange(len(regs))), None, {}
+        geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
     wkb, ptr = _wkb(geoms)
-    multi = sorted(pending)
-    count = np.zeros(len(regs), dtype=np.int64)
-    count[multi] = [len(pending[i]) for i in multi]
+    multi = [i for i in sorted(pending) if lo <= i < hi]
+    count = np.zeros(hi - lo, dtype=np.int64)
+    count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
     union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
     face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
                               else np.zeros(0, dtype=object))
-    sid, sptr, spairs = _structure_columns(dec)
+    if "structures" not in memo:
+        memo["structures"] = _structure_columns(dec)
+    sid, sptr, spairs = memo["structures"]
     if type(regs) is Regions:  # the columns as held, no record made
-        area, point = regs._table.area, regs._table.point
+        area, point = regs._table.area[lo:hi], regs._table.point[lo:hi]
     else:
-        area = np.array([r.area for r in regs], dtype=float)
-        point = np.array([r.point for r in regs], dtype=float).reshape(-1, 2)
-    return {"area": area, "point": point,
-            "structure": sid, "polygon_ptr": ptr, "polygon_wkb": wkb,
-            "union_ptr": union_ptr, "face_ptr": face_ptr, "face_wkb": face_wkb,
-            "internal_frame": np.array([frame is not None] * len(regs), dtype=bool),
+        area = np.array([r.area for r in regs[lo:hi]], dtype=float)
+        point = np.array([r.point for r in regs[lo:hi]], dtype=float).reshape(-1, 2)
+    return {"area": area, "point": point, "structure": sid[lo:hi], "polygon_ptr": ptr,
+            "polygon_wkb": wkb, "union_ptr": union_ptr, "face_ptr": face_ptr,
+            "face_wkb": face_wkb,
+            "internal_frame": np.full(hi - lo, frame is not None, dtype=bool),
             "structures_ptr": sptr, "structures_pairs": spairs}
 
 
@@ -309,10 +268,10 @@ def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.n
     return sid, ptr, pairs
 
 
-def _cell_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+def _cell_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     region, start, end = dec.cell_codes()
-    return {"region": np.asarray(region, np.int64), "start": np.asarray(start, np.int64),
-            "end": np.asarray(end, np.int64)}
+    return {"region": np.asarray(region[lo:hi], np.int64),
+            "start": np.asarray(start[lo:hi], np.int64), "end": np.asarray(end[lo:hi], np.int64)}
 
 
 def _feature_names(dec: Decomposition) -> list[str]:
@@ -325,41 +284,48 @@ def _feature_names(dec: Decomposition) -> list[str]:
     return [FREE] + [feature_name(dec.env, c) for c in range(2 * dec.env.n)]
 
 
-def _piece_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    """The pieces' columns (read from the columns :func:`decompose` keeps, lines as held)."""
+def _piece_table(dec: Decomposition, memo: dict) -> tuple:
+    """The pieces' columns and the lines as held (read from the columns :func:`decompose`
+    keeps, else made from the pieces once, for every part)."""
     if type(dec.pieces) is Pieces:
         t = dec.pieces._table
         geoms, frame = t.shapes.held()
-        pair, q, n, eps, ok, desc, dlist = t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs
-    else:
+        return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, geoms, frame
+    if "pieces" not in memo:
         pieces = list(dec.pieces)
         descs: dict[tuple, int] = {}
         desc = np.array([descs.setdefault((p.curves, p.kind, p.features), len(descs))
                          for p in pieces], dtype=np.int64)
-        dlist = list(descs)
-        geoms = np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces))
-        frame = None
-        pair = np.array([p.regions for p in pieces], np.int64).reshape(-1, 2)
-        q = np.array([p.sample for p in pieces], float).reshape(-1, 2)
-        n = np.array([p.normal for p in pieces], float).reshape(-1, 2)
-        eps = np.array([p.eps for p in pieces], float)
-        ok = np.array([p.verified for p in pieces], bool)
-    wkb, ptr = _wkb(geoms)
-    cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
-    fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
-    return {"pair": np.asarray(pair, np.int64), "q": np.asarray(q, float),
-            "n": np.asarray(n, float), "eps": np.asarray(eps, float),
-            "ok": np.asarray(ok, bool), "desc": np.asarray(desc, np.int64),
-            "internal_frame": np.array([frame is not None] * len(pair), dtype=bool),
-            "geometry_ptr": ptr, "geometry_wkb": wkb,
-            # the distinct descriptions (a table of their own, whole in every part)
+        memo["pieces"] = (
+            np.array([p.regions for p in pieces], np.int64).reshape(-1, 2),
+            np.array([p.sample for p in pieces], float).reshape(-1, 2),
+            np.array([p.normal for p in pieces], float).reshape(-1, 2),
+            np.array([p.eps for p in pieces], float),
+            np.array([p.verified for p in pieces], bool), desc, list(descs),
+            np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces)), None)
+    return memo["pieces"]
+
+
+def _piece_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    """Pieces ``lo:hi``'s columns and the distinct descriptions (whole)."""
+    pair, q, n, eps, ok, desc, dlist, geoms, frame = _piece_table(dec, memo)
+    wkb, ptr = _wkb(geoms[lo:hi])
+    if "descs" not in memo:
+        cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
+        fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
+        memo["descs"] = {  # the distinct descriptions (a table of their own, in every part)
             "desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
             "desc_curve_ptr": cptr, "desc_curves": cvals,
             "desc_feature_ptr": fptr, "desc_features": fvals}
+    return {"pair": np.asarray(pair[lo:hi], np.int64), "q": np.asarray(q[lo:hi], float),
+            "n": np.asarray(n[lo:hi], float), "eps": np.asarray(eps[lo:hi], float),
+            "ok": np.asarray(ok[lo:hi], bool), "desc": np.asarray(desc[lo:hi], np.int64),
+            "internal_frame": np.full(hi - lo, frame is not None, dtype=bool),
+            "geometry_ptr": ptr, "geometry_wkb": wkb, **memo["descs"]}
 
 
-def _curve_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    cs = dec.curves
+def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    cs = dec.curves[lo:hi]
     iptr, ivs = _ragged([np.array(c.intervals, float).reshape(-1, 2) for c in cs], 2)
     fptr, feats = _ragged([np.array(c.features, dtype=str) for c in cs], dtype=str)
     pptr = np.zeros(len(cs) + 1, dtype=np.int64)
@@ -385,13 +351,16 @@ def _curve_columns(dec: Decomposition) -> dict[str, np.ndarray]:
             "fam_lss": np.array([f.lss for f in fam], float)}
 
 
-def _arc_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+def _arc_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     t = dec.crossing_arcs()
     # ``full`` has one entry per point, not per row: kept whole (not split by part)
-    return {"point": t.point, "start": t.start, "end": t.end, "start_code": t.start_code,
-            "end_code": t.end_code, "full_points": np.asarray(t.full, bool)}
+    return {"point": t.point[lo:hi], "start": t.start[lo:hi], "end": t.end[lo:hi],
+            "start_code": t.start_code[lo:hi], "end_code": t.end_code[lo:hi],
+            "full_points": np.asarray(t.full, bool)}
 
 
+#: The tables' writers: ``fn(dec, lo, hi, memo)`` gives rows ``lo:hi``'s columns (ragged
+#: offsets from 0) and the whole-table columns (made once, kept in ``memo``)
 _WRITERS = {"regions": _region_columns, "cells": _cell_columns, "pieces": _piece_columns,
             "curves": _curve_columns, "arcs": _arc_columns}
 
