@@ -19,8 +19,9 @@ import json
 import os
 import shutil
 import tempfile
+import threading
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,10 +33,18 @@ from tether.arcs import ArcTable
 from tether.curves import Curve, Family
 from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
 from tether.decomposition.structure import Structure, Structures
-from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
+from tether.decomposition.views import (
+    Cells,
+    CellTable,
+    Pieces,
+    PieceTable,
+    RegionShapes,
+    Shapes,
+    wkb_geometries,
+)
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "check_store_dir", "read_decomposition",
+__all__ = ["FORMAT", "TABLES", "VERSION", "StoredCurves", "check_store_dir", "read_decomposition",
            "write_decomposition"]
 
 #: The store's format name and version (``index.json``'s ``format`` and ``version``)
@@ -454,14 +463,13 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     nreg = len(reg["area"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    polys = _from_wkb(reg["polygon_wkb"], reg["polygon_ptr"])
-    faces = _from_wkb(reg["face_wkb"], reg["face_ptr"])
+    # the polygons and lines decoded on their first read (G and the elimination read none)
+    faces = wkb_geometries(reg["face_wkb"], reg["face_ptr"])
     uptr = reg["union_ptr"]
     multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
     unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
-    shapes = RegionShapes(polys, unions, frame if _internal(reg) else None, prepare=True)
-    if not unions and not _internal(reg):
-        shapely.prepare(polys)
+    shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
+                          wkb=(reg["polygon_wkb"], reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
     sp = reg["structures_pairs"].astype(np.int64)
     structs = Structures(base, reg["structures_ptr"].astype(np.int64),
@@ -476,8 +484,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
              for j in range(len(pc["desc_kind"]))]
     pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
                         pc["desc"], descs,
-                        Shapes(_from_wkb(pc["geometry_wkb"], pc["geometry_ptr"]),
-                               frame if _internal(pc) else None))
+                        Shapes(None, frame if _internal(pc) else None,
+                               wkb=(pc["geometry_wkb"], pc["geometry_ptr"])))
     a = t["arcs"]
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])
@@ -486,7 +494,7 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
            "pieces": len(pieces)}
     if got != index["counts"]:
         raise ValueError(f"the parts hold {got}, the index says {index['counts']}")
-    return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), regions,
+    return Decomposition(env, float(index["lss"]), StoredCurves(env, t["curves"]), regions,
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
                          _crossing_arcs=arcs, _cell_codes=codes)
@@ -500,13 +508,47 @@ def _internal(cols: dict[str, np.ndarray]) -> bool:
     return bool(flag[0]) if len(flag) else False
 
 
-def _from_wkb(raw: np.ndarray, ptr: np.ndarray) -> np.ndarray:
-    """Geometries from a byte column and offsets (an object array)."""
-    data = raw.tobytes()
-    bounds = ptr.tolist()
-    blobs = np.array([data[bounds[i]:bounds[i + 1]] for i in range(len(bounds) - 1)],
-                     dtype=object)
-    return shapely.from_wkb(blobs) if len(blobs) else np.zeros(0, dtype=object)
+class StoredCurves(Sequence):
+    """A store's critical curves (:attr:`Decomposition.curves`): a tuple of :class:`Curve`
+    made from the curves' columns all at once on the first read of any item (their number is
+    known without; analysis reads none), then kept: ``curves[i] is curves[i]``. Equal to the
+    tuple of the same curves and hashed as it; pickled as that tuple."""
+
+    def __init__(self, env: Any, cols: dict[str, np.ndarray]) -> None:
+        self._env, self._cols = env, cols
+        self._n = len(cols["id"])
+        self._done: tuple[Curve, ...] | None = None
+        self._lock = threading.Lock()
+
+    def _all(self) -> tuple[Curve, ...]:
+        with self._lock:
+            if self._done is None:
+                self._done = _curves(self._env, self._cols)
+                self._env = self._cols = None
+            return self._done
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i: Any) -> Any:
+        return self._all()[i]
+
+    def __iter__(self) -> Iterator[Curve]:
+        return iter(self._all())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, StoredCurves)):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all())
+
+    def __repr__(self) -> str:
+        return repr(self._all())
+
+    def __reduce__(self) -> tuple:
+        return (tuple, (self._all(),))
 
 
 def _curves(env: Any, c: dict[str, np.ndarray]) -> tuple[Curve, ...]:

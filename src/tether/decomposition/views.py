@@ -17,7 +17,7 @@ import shapely
 
 __all__ = ["PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById", "Piece", "PieceTable",
            "Pieces", "RegionShapes", "RowSequence", "Shapes", "cell_name", "parse_cell_name",
-           "unique_pairs", "valid_polygons"]
+           "unique_pairs", "valid_polygons", "wkb_geometries"]
 
 
 @dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
@@ -61,12 +61,30 @@ class Shapes:
     pay for it, and reading one region's polygon converts the batch once, never one by one.
     ``frame`` None: the geometries are the map's already."""
 
-    __slots__ = ("_geoms", "_frame", "_prepare")
+    __slots__ = ("_held", "_wkb", "_frame", "_prepare")
 
-    def __init__(self, geoms: np.ndarray, frame: Any = None, prepare: bool = False) -> None:
-        self._geoms = geoms  # object array of shapely geometries (None stays None)
+    def __init__(self, geoms: np.ndarray | None, frame: Any = None, prepare: bool = False,
+                 wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        self._held = geoms  # object array of shapely geometries (None stays None)
+        #: or, with ``geoms`` None, the geometries as WKB, decoded on the first read
+        #: (``(bytes, offsets)``: a store's column, :mod:`tether.decomposition.store`)
+        self._wkb = wkb
         self._frame = frame  # tether.environment frame: internal -> map coordinates
         self._prepare = prepare  # shapely.prepare the converted geometries
+
+    @property
+    def _geoms(self) -> np.ndarray:
+        """The geometries as kept (decoded from the WKB column on the first read)."""
+        if self._held is None:
+            geoms = wkb_geometries(*self._wkb)
+            if self._frame is None and self._prepare:  # in the map's frame: as read
+                shapely.prepare(geoms)
+            self._held, self._wkb = geoms, None
+        return self._held
+
+    @_geoms.setter
+    def _geoms(self, geoms: np.ndarray) -> None:
+        self._held, self._wkb = geoms, None
 
     @property
     def converted(self) -> bool:
@@ -89,9 +107,12 @@ class Shapes:
         """The geometries ``ids`` in map coordinates, converting only those if the batch is
         not converted yet (not cached: the same numbers, the transform is pointwise; not
         prepared): a few reads need not convert them all."""
-        if self._frame is None:
-            return self._geoms[ids]
-        return self._to_user(self._geoms[ids])
+        if self._held is None:  # still WKB: only these decoded
+            raw, ptr = self._wkb
+            geoms = wkb_geometries(raw, ptr, np.asarray(ids, dtype=np.int64).reshape(-1))
+        else:
+            geoms = self._geoms[ids]
+        return geoms if self._frame is None else self._to_user(geoms)
 
     def held(self) -> tuple[np.ndarray, Any]:
         """The geometries as kept and the frame they are in (None: the map's), for a store
@@ -104,7 +125,22 @@ class Shapes:
         return self._frame.geometry_to_user(geoms)
 
     def __len__(self) -> int:
-        return len(self._geoms)
+        return len(self._held) if self._held is not None else len(self._wkb[1]) - 1
+
+
+def wkb_geometries(raw: np.ndarray, ptr: np.ndarray, ids: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """Geometries from a byte column and offsets (item ``i`` is
+    ``raw[ptr[i]:ptr[i + 1]]``): all, or those of ``ids`` (an object array)."""
+    if ids is None:
+        data, bounds = raw.tobytes(), ptr.tolist()
+        blobs = [data[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    else:
+        blobs = [raw[a:b].tobytes() for a, b in zip(ptr[ids].tolist(), ptr[ids + 1].tolist(),
+                                                    strict=True)]
+    if not blobs:
+        return np.zeros(0, dtype=object)
+    return shapely.from_wkb(np.array(blobs, dtype=object))
 
 
 class RegionShapes(Shapes):
@@ -115,9 +151,10 @@ class RegionShapes(Shapes):
 
     __slots__ = ("_unions", "_face_tree", "_face_owner")
 
-    def __init__(self, geoms: np.ndarray, unions: dict[int, np.ndarray], frame: Any = None,
-                 prepare: bool = True) -> None:
-        super().__init__(geoms, frame, prepare)
+    def __init__(self, geoms: np.ndarray | None, unions: dict[int, np.ndarray],
+                 frame: Any = None, prepare: bool = True,
+                 wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        super().__init__(geoms, frame, prepare, wkb)
         self._unions = unions or None
 
     @property
@@ -174,7 +211,10 @@ class RegionShapes(Shapes):
         if self._unions is None:
             return super().some(ids)
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
-        geoms = self._geoms[ids]
+        if self._held is None:  # still WKB: only these decoded
+            geoms = wkb_geometries(*self._wkb, ids)
+        else:
+            geoms = self._geoms[ids]
         for k, i in enumerate(ids.tolist()):
             faces = self._unions.get(i)
             if faces is not None:
