@@ -28,12 +28,13 @@ from tether.analysis.connectivity import (
     cell_first,
     cell_ids_of,
     cell_regions,
+    index_dtype,
     piece_regions,
 )
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
 from tether.decomposition import Decomposition, decompose, feature_name_rank
-from tether.decomposition.views import parse_cell_name
+from tether.decomposition.views import parse_cell_name, small_ints
 from tether.tolerances import REL_LENGTH_TOL
 
 __all__ = ["CellSet", "Elimination", "Eliminations", "Verdict", "analyze", "eliminate",
@@ -289,7 +290,10 @@ def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
     dec = graph.dec
     alive, cell, slot, rnd, because = fixed_point_arrays(
         cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
-    return CellSet(dec, alive), Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
+    t = index_dtype(len(alive))  # held in 16 bytes an elimination instead of 32
+    return CellSet(dec, alive), Eliminations(
+        graph, small_ints(cell, t), graph.slot_piece[slot],  # the pieces: in G's type
+        small_ints(rnd, t), small_ints(because, t))
 
 
 def cell_rank(dec: Decomposition) -> np.ndarray:

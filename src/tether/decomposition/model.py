@@ -36,6 +36,7 @@ from tether.decomposition.views import (
     RowSequence,
     Shapes,
     cell_name,
+    small_ints,
     unique_pairs,
 )
 from tether.environment import Environment
@@ -231,6 +232,11 @@ class Decomposition:
         if self._crossing_arcs is not None:  # held for G: in the smallest int columns
             object.__setattr__(self, "_crossing_arcs",
                                compact_arcs(self._crossing_arcs, 2 * self.env.n))
+        if self._cell_codes is not None and type(self.cells) is Cells:
+            t = self.cells._table  # the codes are the cells' columns: held once, compact
+            if all(np.array_equal(a, b) for a, b in zip(
+                    self._cell_codes, (t.region, t.start, t.end), strict=True)):
+                object.__setattr__(self, "_cell_codes", (t.region, t.start, t.end))
 
     def __repr__(self) -> str:
         return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
@@ -432,12 +438,9 @@ def compact_arcs(table: ArcTable, ncodes: int) -> ArcTable:
     npts = len(table.full)
     pt = np.int32 if npts < 2**31 else np.int64
     code = np.int16 if ncodes < 2**15 else np.int32 if ncodes < 2**31 else np.int64
-
-    def small(a: np.ndarray, dtype: type) -> np.ndarray:
-        return a if a.dtype.itemsize <= np.dtype(dtype).itemsize else a.astype(dtype)
-
-    return ArcTable(small(table.point, pt), table.start, table.end,
-                    small(table.start_code, code), small(table.end_code, code), table.full)
+    return ArcTable(small_ints(table.point, pt), table.start, table.end,
+                    small_ints(table.start_code, code), small_ints(table.end_code, code),
+                    table.full)
 
 
 def region_rows(regions: Sequence[Region], base: int) -> tuple[StructureRows, np.ndarray]:

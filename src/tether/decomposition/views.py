@@ -17,7 +17,8 @@ import shapely
 
 __all__ = ["PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById", "Piece", "PieceTable",
            "Pieces", "RegionShapes", "RowSequence", "Shapes", "cell_name", "parse_cell_name",
-           "unique_pairs", "valid_polygons", "wkb_geometries"]
+           "small_ints", "unique_pairs", "valid_polygons",
+           "wkb_geometries"]
 
 
 @dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
@@ -245,7 +246,8 @@ def valid_polygons(geoms: np.ndarray) -> np.ndarray:
 
 
 class CellTable:
-    """The cells of a decomposition as int columns, in cell order (region by region):
+    """The cells of a decomposition as int columns (int32 regions, int16 codes where they
+    fit), in cell order (region by region):
     ``region``, ``start`` and ``end`` feature codes (the reported map's numbering, -1 for both
     ends of a FULL region's cell); ``names[code + 1]`` is a code's feature name (``FREE`` for
     -1); region ``r``'s cells are ``first[r]:first[r + 1]``. :class:`Cell` objects and id
@@ -255,7 +257,13 @@ class CellTable:
 
     def __init__(self, region: np.ndarray, start: np.ndarray, end: np.ndarray,
                  names: list[str], nregions: int) -> None:
-        self.region, self.start, self.end, self.names = region, start, end, names
+        # held in the smallest int types that hold them (:func:`small_ints`): 8 bytes a
+        # cell below 2**31 regions and 2**15 feature codes, instead of 24
+        code_t = np.int16 if len(names) < 2**15 else np.int32 if len(names) < 2**31 \
+            else np.int64
+        self.region = small_ints(region, np.int32 if nregions < 2**31 else np.int64)
+        self.start, self.end = small_ints(start, code_t), small_ints(end, code_t)
+        self.names = names
         count = np.bincount(region, minlength=nregions)
         self.first = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
         self._codes: dict[str, int] | None = None
@@ -330,6 +338,13 @@ class CellTable:
             return -1
         i = lo + int(hit[0])
         return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
+
+
+def small_ints(a: np.ndarray, dtype: type) -> np.ndarray:
+    """``a`` as ``dtype`` (an int type whose range the caller knows holds every value), or
+    as it is if its items are that small already."""
+    a = np.asarray(a)
+    return a if a.dtype.itemsize <= np.dtype(dtype).itemsize else a.astype(dtype)
 
 
 class RowSequence(Sequence):
