@@ -126,3 +126,23 @@ def test_surviving_cells_read_as_the_set_of_their_ids(star):
     none = eliminate(build_graph(decompose(Environment([(0, 0), (1.5, 0), (1.5, 3),
                                                         (0, 3)]), 1.0)))[0]
     assert len(none) == 0 and not none and none == frozenset()
+
+
+@pytest.mark.parametrize("limit", [1, 37, 100])
+def test_edges_found_run_by_run_equal_all_at_once(star, monkeypatch, limit):
+    """G found for runs of a few pieces at a time (limit: arc rows a run) has the same
+    edges in the same order, and the same verdict."""
+    whole = build_graph(star)
+    monkeypatch.setattr(C, "EDGE_CHUNK_ROWS", limit)
+    ends = C._runs(np.cumsum(np.ones(len(star.pieces), np.int64) * 8), limit)
+    assert len(ends) > 1 and ends[-1] == len(star.pieces)
+    runs = build_graph(star)
+    for name in ("edge_a", "edge_b", "edge_piece", "partner_ptr", "partner_cell"):
+        assert np.array_equal(getattr(whole, name), getattr(runs, name)), name
+    assert analyze(star, runs, **QUICK).to_dict() == analyze(star, whole, **QUICK).to_dict()
+
+
+def test_runs_cover_every_item_once():
+    total = np.cumsum([5, 1, 1, 9, 2, 2, 2])
+    assert C._runs(total, 6) == [2, 3, 4, 7]  # 5 1 | 1 | 9 (alone: over the limit) | 2 2 2
+    assert C._runs(total, 100) == [7] and C._runs(np.zeros(0, np.int64), 4) == []

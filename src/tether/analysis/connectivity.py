@@ -265,30 +265,76 @@ def index_dtype(n: int) -> type:
 def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
     arrays (:func:`index_dtype` of the cells' and the pieces' counts): arc pairs of the two
-    sides of each piece whose arcs overlap (all at once)."""
+    sides of each piece whose arcs overlap, found for runs of consecutive pieces of about
+    :data:`EDGE_CHUNK_ROWS` arc rows at a time (all at once within a run; the same edges in
+    the same order as in one run: the rows of a run are those of its pieces, in order)."""
     m = len(dec.pieces)
     empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
     rows = _arc_rows(dec)
+    first = np.searchsorted(rows["point"], np.arange(2 * m + 1))  # each point's first row
+    per_piece = np.diff(first[:m + 1]) + np.diff(first[m:])  # rows of both sides
+    ends = _runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
+    regs = piece_regions(dec)
+    keys = _cell_keys(dec)
+    cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
+    got = []
+    for p0, p1 in zip([0, *ends[:-1]], ends, strict=True):
+        sub = _run_rows(rows, first, m, p0, p1)
+        k, ia, ib = _run_pairs(sub, p1 - p0)
+        k += p0
+        ca = _cell_index(dec, regs[k, 0], sub["start_code"][ia], sub["end_code"][ia], keys)
+        cb = _cell_index(dec, regs[k, 1], sub["start_code"][ib], sub["end_code"][ib], keys)
+        del sub, ia, ib
+        ok = (ca >= 0) & (cb >= 0)
+        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
+    if len(got) == 1:
+        return got[0]
+    return tuple(np.concatenate([g[i] for g in got]) for i in range(3))
+
+
+#: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
+#: :func:`_edges` finds at once: bounds its temporaries (~150 bytes a row) on large maps
+EDGE_CHUNK_ROWS = 1 << 21
+
+
+def _runs(total: np.ndarray, limit: int) -> list[int]:
+    """The ends of runs of consecutive items of cumulative sizes ``total``, each run at most
+    ``limit`` in all (or one item); the last end is ``len(total)``."""
+    ends, done, n = [], 0, len(total)
+    while done < n:
+        base = int(total[done - 1]) if done else 0
+        end = max(int(np.searchsorted(total, base + limit, side="right")), done + 1)
+        ends.append(min(end, n))
+        done = ends[-1]
+    return ends
+
+
+def _run_rows(rows: dict[str, np.ndarray], first: np.ndarray, m: int, p0: int, p1: int
+              ) -> dict[str, np.ndarray]:
+    """The arc rows of pieces ``p0:p1`` (both sides), their points renumbered as a
+    decomposition of those pieces alone: side 0 ``0 .. k - 1``, side 1 ``k .. 2k - 1``."""
+    a0, a1, b0, b1 = (int(first[i]) for i in (p0, p1, m + p0, m + p1))
+    if p0 == 0 and p1 == m:
+        return rows
+    out = {name: np.concatenate((col[a0:a1], col[b0:b1])) for name, col in rows.items()}
+    shift = np.full(len(out["point"]), -p0, dtype=np.int64)
+    shift[a1 - a0:] = -(m + p0) + (p1 - p0)
+    out["point"] = out["point"] + shift
+    return out
+
+
+def _run_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, np.ndarray,
+                                                              np.ndarray]:
+    """The overlapping arc pairs of ``m`` pieces' rows: each pair's piece, its row on the
+    side of ``regions[0]`` and its row on the other side."""
     length = _arc_length(rows["start"], rows["end"], rows["full"])  # each arc's, once
     pair_a, pair_b = _candidate_pairs(rows, m, length)
     keep = _overlapping(rows["start"], length, pair_a, pair_b)
     del length
     pair_a, pair_b = pair_a[keep], pair_b[keep]
-    del keep
-    k = rows["point"][pair_a]
-    regs = piece_regions(dec)
-    keys = _cell_keys(dec)
-    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a], rows["end_code"][pair_a],
-                     keys)
-    del pair_a
-    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b], rows["end_code"][pair_b],
-                     keys)
-    del pair_b, keys
-    ok = (ca >= 0) & (cb >= 0)
-    cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
-    return ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)
+    return rows["point"][pair_a].astype(np.int64), pair_a, pair_b
 
 
 #: Arc pairs compared at once by :func:`_overlapping` (bounds its temporaries: ~10 arrays of
