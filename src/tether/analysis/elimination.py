@@ -333,7 +333,8 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     order and each slot's partners in order (the cell falls through its first slot to empty).
 
     Returns ``alive`` (bool per cell) and, per removal in order, the cell, its slot, its round
-    (from 1) and the ``because`` cell (-1 in round 1).
+    (from 1) and the ``because`` cell (-1 in round 1), in :func:`index_dtype` of the cells'
+    and the slots' counts.
     """
     ncell = len(slot_ptr) - 1
     count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
@@ -350,15 +351,16 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
     cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
     out_cell, out_slot, out_round, out_because = [], [], [], []
+    cell_t, slot_t = index_dtype(ncell), index_dtype(len(count))
     rnd = 0
     while len(lvl_cell):
         rnd += 1
         order = np.argsort(rank[lvl_cell], kind="stable")
         lvl_cell, lvl_slot, lvl_because = lvl_cell[order], lvl_slot[order], lvl_because[order]
-        out_cell.append(lvl_cell)
-        out_slot.append(lvl_slot)
-        out_round.append(np.full(len(lvl_cell), rnd, dtype=np.int64))
-        out_because.append(lvl_because)
+        out_cell.append(lvl_cell.astype(cell_t))  # kept in the smallest int types
+        out_slot.append(lvl_slot.astype(slot_t))
+        out_round.append(np.full(len(lvl_cell), rnd, dtype=cell_t))
+        out_because.append(lvl_because.astype(cell_t))
         # every partner entry of every slot of the level's cells, in processing order
         first = entry_ptr[lvl_cell]
         nentry = entry_ptr[lvl_cell + 1] - first
