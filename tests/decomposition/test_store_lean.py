@@ -13,6 +13,7 @@ from tether import Environment
 from tether.analysis import analyze
 from tether.decomposition import decompose
 from tether.decomposition.model import Regions
+from tether.errors import InvalidParameterError
 
 QUICK = {"self_check": False, "near_critical": False}
 ELL = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])
@@ -33,6 +34,7 @@ def test_analysis_from_a_store_decodes_no_geometry_and_makes_no_curve(stored):
     assert shapes._held is None and lines._held is None and back.curves._done is None
     assert analyze(back, **QUICK).to_dict() == analyze(dec, **QUICK).to_dict()
     assert shapes._held is None and lines._held is None and back.curves._done is None
+    assert callable(shapes._wkb[0]) and callable(lines._wkb[0])  # the bytes not even read
     assert len(back.curves) == len(dec.curves) and back.curves._done is None
 
 
@@ -65,3 +67,19 @@ def test_written_one_part_at_a_time(stored, tmp_path, monkeypatch):
     S.write_decomposition(dec, tmp_path / "s", parts=4)
     most = math.ceil(max(len(dec.regions), len(dec.pieces)) / 4)
     assert sizes and max(sizes) <= most  # no column of every geometry made at once
+
+
+def test_a_column_read_later_is_checked_now_and_refused_when_read(stored, tmp_path):
+    dec, _ = stored
+    path = S.write_decomposition(dec, tmp_path / "s", parts=2)
+    part = path / "part-00001" / "pieces.npz"
+    with np.load(part) as z:
+        cols = {k: z[k] for k in z.files}
+    np.savez(part, **{k: v for k, v in cols.items() if k != "geometry_wkb"})
+    with pytest.raises(InvalidParameterError, match="lacks the column"):
+        S.read_decomposition(path)  # refused at once, though read only when used
+    cols["geometry_wkb"] = np.array([object()], dtype=object)  # a pickled column
+    np.savez(part, **cols)
+    back = S.read_decomposition(path)
+    with pytest.raises(InvalidParameterError, match="cannot be read"):
+        _ = back.pieces[0].geometry

@@ -21,7 +21,7 @@ import shutil
 import tempfile
 import threading
 import zipfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -391,8 +391,9 @@ def read_decomposition(path: str | os.PathLike) -> Decomposition:
         from tether.io.polygon import from_dict
 
         env = from_dict(index["map"], "map", index["map"].get("name", ""))
-        tables = {name: _concat([_load(root / part["name"] / f"{name}.npz", shown)
-                                 for part in index["parts"]]) for name in TABLES}
+        tables = {name: _read_table([root / part["name"] / f"{name}.npz"
+                                     for part in index["parts"]], name, shown)
+                  for name in TABLES}
         return _assemble(env, index, tables)
     except InvalidParameterError:
         raise
@@ -422,11 +423,58 @@ def _read_index(root: Path, shown: str) -> dict:
     return index
 
 
-def _load(path: Path, shown: str) -> dict[str, np.ndarray]:
-    """A table's columns (no pickled objects allowed)."""
+#: The columns read only when first used (analysis reads none of them): the polygons' and
+#: lines' WKB and every column of the curves
+_LATER = {"regions": ("polygon_wkb",), "pieces": ("geometry_wkb",),
+          "curves": TABLES["curves"]}
+
+
+def _read_table(paths: list[Path], name: str, shown: str) -> Mapping[str, np.ndarray]:
+    """A table over its parts: the columns of :data:`_LATER` read when first used (every part
+    checked now: readable, with every documented column), the others now."""
+    later = _LATER.get(name, ())
+    for path in paths:
+        files = _load(path, shown, ())
+        missing = sorted(set(TABLES[name]) - set(files))
+        if missing:
+            raise InvalidParameterError(f"{shown}: {path.parent.name}/{path.name} lacks the "
+                                        f"column(s) {', '.join(missing)}")
+    now = _concat([_load(path, shown, None, later) for path in paths])
+    return _Columns(paths, shown, now, later)
+
+
+class _Columns(Mapping):
+    """A table's columns: those read already, and the others read (every part's, joined as
+    :func:`_concat` joins them) on first use."""
+
+    def __init__(self, paths: list[Path], shown: str, now: dict[str, np.ndarray],
+                 later: tuple[str, ...]) -> None:
+        self._paths, self._shown, self._got, self._later = paths, shown, now, later
+
+    def __getitem__(self, k: str) -> np.ndarray:
+        if k not in self._got:
+            if k not in self._later:
+                raise KeyError(k)
+            self._got[k] = _concat([_load(p, self._shown, (k,)) for p in self._paths])[k]
+        return self._got[k]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(dict.fromkeys([*self._got, *self._later]))
+
+    def __len__(self) -> int:
+        return len(set(self._got) | set(self._later))
+
+
+def _load(path: Path, shown: str, only: tuple[str, ...] | None = None,
+          but: tuple[str, ...] = ()) -> Any:
+    """A table's columns (no pickled objects allowed): all, those of ``only``, all but those
+    of ``but``; ``only`` empty: the list of its column names (nothing read but the
+    archive's directory)."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            if only == ():
+                return list(z.files)
+            return {k: z[k] for k in z.files if (only is None or k in only) and k not in but}
     except FileNotFoundError:
         raise InvalidParameterError(f"{shown} is incomplete: {path.parent.name}/{path.name} "
                                     "is missing") from None
@@ -463,13 +511,13 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     nreg = len(reg["area"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    # the polygons and lines decoded on their first read (G and the elimination read none)
+    # the polygons and lines read and decoded on their first read (analysis reads none)
     faces = wkb_geometries(reg["face_wkb"], reg["face_ptr"])
     uptr = reg["union_ptr"]
     multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
     unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
     shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
-                          wkb=(reg["polygon_wkb"], reg["polygon_ptr"]))
+                          wkb=(lambda: reg["polygon_wkb"], reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
     sp = reg["structures_pairs"].astype(np.int64)
     structs = Structures(base, reg["structures_ptr"].astype(np.int64),
@@ -485,7 +533,7 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
                         pc["desc"], descs,
                         Shapes(None, frame if _internal(pc) else None,
-                               wkb=(pc["geometry_wkb"], pc["geometry_ptr"])))
+                               wkb=(lambda: pc["geometry_wkb"], pc["geometry_ptr"])))
     a = t["arcs"]
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])

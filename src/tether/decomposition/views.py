@@ -68,16 +68,25 @@ class Shapes:
                  wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self._held = geoms  # object array of shapely geometries (None stays None)
         #: or, with ``geoms`` None, the geometries as WKB, decoded on the first read
-        #: (``(bytes, offsets)``: a store's column, :mod:`tether.decomposition.store`)
+        #: (``(bytes, offsets)``: a store's columns, :mod:`tether.decomposition.store`; the
+        #: bytes may be a function reading them, called then)
         self._wkb = wkb
         self._frame = frame  # tether.environment frame: internal -> map coordinates
         self._prepare = prepare  # shapely.prepare the converted geometries
+
+    def _wkb_column(self) -> tuple[np.ndarray, np.ndarray]:
+        """The WKB bytes and offsets (the bytes read now if given as a function)."""
+        raw, ptr = self._wkb
+        if callable(raw):
+            raw = raw()
+            self._wkb = (raw, ptr)
+        return raw, ptr
 
     @property
     def _geoms(self) -> np.ndarray:
         """The geometries as kept (decoded from the WKB column on the first read)."""
         if self._held is None:
-            geoms = wkb_geometries(*self._wkb)
+            geoms = wkb_geometries(*self._wkb_column())
             if self._frame is None and self._prepare:  # in the map's frame: as read
                 shapely.prepare(geoms)
             self._held, self._wkb = geoms, None
@@ -109,8 +118,8 @@ class Shapes:
         not converted yet (not cached: the same numbers, the transform is pointwise; not
         prepared): a few reads need not convert them all."""
         if self._held is None:  # still WKB: only these decoded
-            raw, ptr = self._wkb
-            geoms = wkb_geometries(raw, ptr, np.asarray(ids, dtype=np.int64).reshape(-1))
+            geoms = wkb_geometries(*self._wkb_column(),
+                                   np.asarray(ids, dtype=np.int64).reshape(-1))
         else:
             geoms = self._geoms[ids]
         return geoms if self._frame is None else self._to_user(geoms)
@@ -213,7 +222,7 @@ class RegionShapes(Shapes):
             return super().some(ids)
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
         if self._held is None:  # still WKB: only these decoded
-            geoms = wkb_geometries(*self._wkb, ids)
+            geoms = wkb_geometries(*self._wkb_column(), ids)
         else:
             geoms = self._geoms[ids]
         for k, i in enumerate(ids.tolist()):
