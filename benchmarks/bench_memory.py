@@ -199,21 +199,154 @@ def report(r: dict) -> None:
           f"{r['peak_eliminate_MB']:.0f} MB, process {r['peak_MB']:.0f} MB")
 
 
+#: The per-object figures of the doc's table: (column, parts summed, per which count)
+_PER = (("B/region", ("regions",), "regions"), ("B/cell", ("cells",), "cells"),
+        ("B/piece", ("pieces",), "pieces"), ("arcs B/piece", ("crossing arcs",), "pieces"),
+        ("B/edge", ("G",), "edges"), ("B/elim.", ("elimination",), "cells"))
+
+
+def _bytes(r: dict, parts: tuple[str, ...]) -> float:
+    return sum(r["parts"][p].get(k, 0) for p in parts for k in ("columns", "python", "geos"))
+
+
+def _table(rows: list[dict]) -> list[str]:
+    head = ["run", "vertices", "regions", "cells", "pieces", "edges",
+            *[c for c, _, _ in _PER], "decomposition MB", "after elim. MB", "G build + MB",
+            "elim. + MB", "peak MB", "load"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        per = [f"{_bytes(r, parts) / max(r[n], 1):.0f}" for _, parts, n in _PER]
+        out.append("| " + " | ".join([
+            r["label"], f"{r['vertices']:,}", f"{r['regions']:,}", f"{r['cells']:,}",
+            f"{r['pieces']:,}", f"{r['edges']:,}", *per, f"{r['rss_decomposition_MB']:,.0f}",
+            f"{r['rss_final_MB']:,.0f}", f"{r['peak_graph_MB']:,.0f}",
+            f"{r['peak_eliminate_MB']:,.0f}", f"{r['peak_MB']:,.0f}",
+            f"{r['load']:.1f}"]) + " |")
+    return out
+
+
+def _projection(rows: list[dict], label: str, src: str) -> list[str]:
+    """The counts and the main process's holdings at twice the largest size measured with
+    ``label``: each count grown as over the last doubling, times the change in the growth of
+    what drives it in the memory estimate (``P`` pairs within lss for regions, pieces and
+    curves; ``P**2 / n`` for cells and edges), the bytes per object of the largest run."""
+    sys.path.insert(0, src)
+    from tether.curves.budget import estimate_memory
+    from tether.examples.floorplan import floor_plan
+
+    mine = sorted((r for r in rows if r["label"] == label), key=lambda r: r["vertices"])
+    if len(mine) < 2:
+        return []
+    a, b = mine[-2], mine[-1]
+    sizes = (a["vertices"], b["vertices"], 2 * b["vertices"])
+    est = []
+    for n in sizes:
+        env = floor_plan(n, seed=0)
+        e = estimate_memory(env, (env.bounds[2] - env.bounds[0]) / 15)
+        est.append((e.pairs, e.cells))
+    grow_p = (est[2][0] / est[1][0]) / (est[1][0] / est[0][0])
+    grow_c = (est[2][1] / est[1][1]) / (est[1][1] / est[0][1])
+    count = {k: b[k] * (b[k] / a[k]) * (grow_c if k in ("cells", "edges") else grow_p)
+             for k in ("regions", "cells", "pieces", "edges", "curves")}
+    held = {name: _bytes(b, (name,)) / max(b[n], 1) * count[n] for name, n in (
+        ("regions", "regions"), ("cells", "cells"), ("pieces", "pieces"),
+        ("crossing arcs", "pieces"), ("curves", "curves"), ("G", "edges"),
+        ("elimination", "cells"))}
+    geos = sum(b["parts"][k].get("geos", 0) / max(b[n], 1) * count[n]
+               for k, n in (("regions", "regions"), ("pieces", "pieces")))
+    dec = sum(v for k, v in held.items() if k not in ("G", "elimination"))
+    g_build = b["peak_graph_MB"] * 2**20 / b["edges"] * count["edges"]
+    g_elim = held["G"] + b["peak_eliminate_MB"] * 2**20 / b["cells"] * count["cells"]
+    gb = 2.0**30
+    n2 = sizes[2]
+    return [
+        f"Projected at {n2:,} vertices from the `{label}` runs at {sizes[0]:,} and "
+        f"{sizes[1]:,} (pairs within lss P = {est[0][0]:,}, {est[1][0]:,}, {est[2][0]:,}: "
+        f"each count grown as over the last doubling, times {grow_p:.3f} for regions, "
+        f"pieces and curves, which follow P, and {grow_c:.3f} for cells and edges, which "
+        f"follow P²/n): about {count['regions']:,.0f} regions, {count['cells']:,.0f} cells, "
+        f"{count['pieces']:,.0f} pieces and {count['edges']:,.0f} edges of G. At the bytes "
+        f"per object of {sizes[1]:,} vertices, the finished decomposition holds "
+        f"{dec / gb:.1f} GB ({geos / gb:.1f} GB of it the regions' and pieces' shapely "
+        f"geometries, {held['crossing arcs'] / gb:.1f} GB the crossings' arcs), G "
+        f"{held['G'] / gb:.1f} GB, the eliminations {held['elimination'] / gb:.2f} GB; the "
+        f"build of G peaks {g_build / gb:.1f} GB above the decomposition, the elimination "
+        f"{g_elim / gb:.1f} GB (G included). Analyzed from a store (`tether analyze --from "
+        f"DIR`), no geometry is read: about "
+        f"{(dec - geos + max(g_build, g_elim)) / gb:.1f} GB in all, before the "
+        "map and the interpreter (~50 MB)."]
+
+
+BEGIN, END = "<!-- bench_memory: begin -->", "<!-- bench_memory: end -->"
+
+
+def write_doc(path: Path, rows: list[dict], label: str, src: str) -> None:
+    """The runs' table and the projection between :data:`BEGIN` and :data:`END` in
+    ``path`` (appended at its end, under a heading, the first time)."""
+    text = path.read_text()
+    body = "\n".join([BEGIN, *_table(rows), "", *_projection(rows, label, src), END])
+    if BEGIN in text:
+        head, rest = text.split(BEGIN, 1)
+        text = head + body + rest.split(END, 1)[1]
+    else:
+        text = text.rstrip("\n") + "\n\n" + SECTION + body + "\n"
+    path.write_text(text)
+
+
+SECTION = """## What the main process holds per region, cell, piece and edge
+
+Measured by `python benchmarks/bench_memory.py --sizes 1000 2000 --label LABEL --runs
+docs/memory_lean_runs.json --doc docs/memory.md` (the rows below; `--src DIR` measures
+another checkout, as the rows of main before the lean results were). Floor plans
+`floor_plan(n, seed=0)`, lss = width / 15, decomposed in tiles on two worker processes; the
+bytes are those the finished `Decomposition`, `ConnectivityGraph` and eliminations hold in
+the main process, per object: numpy columns (`nbytes`), Python objects (`sys.getsizeof` over
+their graph) and shapely geometries (the resident memory an equal copy made from WKB takes).
+*B/piece* counts the pieces' columns and lines, *arcs B/piece* the free arcs kept at both
+sides of each piece's crossing (for G and the store), *B/elim.* the eliminations and the
+surviving set per cell. *decomposition MB* is the resident memory the decomposition adds,
+*after elim.* the process's resident memory once G and the eliminations are made, *G build +*
+and *elim. +* the `tracemalloc` peaks of those two steps above what was held, *peak* the
+process's peak resident memory (the decomposition's own, in tiles, is most of it).
+
+The lean representation (`tether.decomposition.model.Regions`, `RegionTable`; the cells'
+and G's columns in int32/int16; `tether.analysis.elimination.CellSet`): a region is its
+area, point and structure id in columns, its `Region` record made when read; cells are
+three small int columns; G is int32 CSR arrays found for runs of ~2 million arc rows at a
+time (`EDGE_CHUNK_ROWS`); the surviving cells are one bool a cell; a store read for analysis
+decodes no geometry and makes no curve (`docs/store.md`).
+
+"""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 2000])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 2000],
+                    help="floor-plan sizes to measure (none: only rewrite --doc from --runs)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--tiles", default="auto", help="NXxNY or auto")
     ap.add_argument("--json", help="also write the raw rows to this file")
+    ap.add_argument("--label", default="this checkout", help="the rows' name in --runs")
+    ap.add_argument("--runs", help="merge the rows into this JSON file (by label and size)")
+    ap.add_argument("--doc", help="write the --runs rows and a projection into this "
+                    "Markdown file (between its bench_memory markers)")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     args = ap.parse_args()
     print(f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f} at start", flush=True)
     rows = []
     for n in args.sizes:
-        rows.append(run(n, args.workers, args.tiles, args.src))
+        rows.append(dict(run(n, args.workers, args.tiles, args.src), label=args.label))
         report(rows[-1])
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1) + "\n")
+    if args.runs:
+        path = Path(args.runs)
+        old = json.loads(path.read_text()) if path.exists() else []
+        keys = {(r["label"], r["vertices"]) for r in rows}
+        merged = [r for r in old if (r["label"], r["vertices"]) not in keys] + rows
+        path.write_text(json.dumps(merged, indent=1) + "\n")
+        if args.doc:
+            write_doc(Path(args.doc), merged, args.label, args.src)
 
 
 if __name__ == "__main__":

@@ -134,7 +134,7 @@ def test_edges_found_run_by_run_equal_all_at_once(star, monkeypatch, limit):
     edges in the same order, and the same verdict."""
     whole = build_graph(star)
     monkeypatch.setattr(C, "EDGE_CHUNK_ROWS", limit)
-    ends = C._runs(np.cumsum(np.ones(len(star.pieces), np.int64) * 8), limit)
+    ends = C.size_runs(np.cumsum(np.ones(len(star.pieces), np.int64) * 8), limit)
     assert len(ends) > 1 and ends[-1] == len(star.pieces)
     runs = build_graph(star)
     for name in ("edge_a", "edge_b", "edge_piece", "partner_ptr", "partner_cell"):
@@ -144,5 +144,23 @@ def test_edges_found_run_by_run_equal_all_at_once(star, monkeypatch, limit):
 
 def test_runs_cover_every_item_once():
     total = np.cumsum([5, 1, 1, 9, 2, 2, 2])
-    assert C._runs(total, 6) == [2, 3, 4, 7]  # 5 1 | 1 | 9 (alone: over the limit) | 2 2 2
-    assert C._runs(total, 100) == [7] and C._runs(np.zeros(0, np.int64), 4) == []
+    assert C.size_runs(total, 6) == [2, 3, 4, 7]  # 5 1 | 1 | 9 (alone: over the limit) | 2 2 2
+    assert C.size_runs(total, 100) == [7] and C.size_runs(np.zeros(0, np.int64), 4) == []
+
+
+@pytest.mark.parametrize("limit", [1, 5])
+def test_rounds_read_run_by_run_equal_all_at_once(star, monkeypatch, limit):
+    """The elimination reading each round's partner entries a few at a time gives the same
+    removals (cell, piece, round, because) in the same order and the same survivors."""
+    import tether.analysis.elimination as E
+
+    room = decompose(Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)]), 1.0)  # all fall
+    for dec in (star, room):
+        g = build_graph(dec)
+        whole = eliminate(g)
+        monkeypatch.setattr(E, "ELIM_CHUNK", limit)
+        runs = eliminate(g)
+        monkeypatch.undo()
+        assert runs[0] == whole[0] and len(whole[1]) > 4
+        for name in ("cell", "piece", "round", "because"):
+            assert np.array_equal(getattr(runs[1], name), getattr(whole[1], name)), name

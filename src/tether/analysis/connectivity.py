@@ -30,7 +30,7 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["ConnectivityGraph", "build_graph", "index_dtype"]
+__all__ = ["EDGE_CHUNK_ROWS", "ConnectivityGraph", "build_graph", "index_dtype", "size_runs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,7 +275,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rows = _arc_rows(dec)
     first = np.searchsorted(rows["point"], np.arange(2 * m + 1))  # each point's first row
     per_piece = np.diff(first[:m + 1]) + np.diff(first[m:])  # rows of both sides
-    ends = _runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
+    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
     regs = piece_regions(dec)
     keys = _cell_keys(dec)
     cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
@@ -299,7 +299,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 EDGE_CHUNK_ROWS = 1 << 21
 
 
-def _runs(total: np.ndarray, limit: int) -> list[int]:
+def size_runs(total: np.ndarray, limit: int) -> list[int]:
     """The ends of runs of consecutive items of cumulative sizes ``total``, each run at most
     ``limit`` in all (or one item); the last end is ``len(total)``."""
     ends, done, n = [], 0, len(total)

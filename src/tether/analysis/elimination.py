@@ -30,6 +30,7 @@ from tether.analysis.connectivity import (
     cell_regions,
     index_dtype,
     piece_regions,
+    size_runs,
 )
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
@@ -364,34 +365,60 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         # every partner entry of every slot of the level's cells, in processing order
         first = entry_ptr[lvl_cell]
         nentry = entry_ptr[lvl_cell + 1] - first
-        tgt = partner_slot[ragged_arange(first, nentry)]
-        _decrement(count, tgt)
-        # a slot empties at its last entry of the round (its count never rises again)
-        hit = np.flatnonzero(count[tgt] == 0)
-        slot = tgt[hit]
+        done = np.cumsum(nentry)  # entries up to each of the level's cells
+        hit, slot = _emptied(count, partner_slot, slot_cell, queued, first, nentry, done)
         cell = slot_cell[slot]  # int32 mostly: made int64 once filtered, below
-        fresh = ~queued[cell]
-        hit, slot, cell = hit[fresh], slot[fresh], cell[fresh]
         # the entry position where each emptied slot reached 0 (its last), and each cell
         # falls through its slot that emptied first
         slot_end[slot] = -1
         # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
         np.maximum.at(slot_end, slot, hit.astype(slot_end.dtype, copy=False))
         end = slot_end[slot]
-        cell_end[cell] = len(tgt)
+        cell_end[cell] = int(done[-1]) if len(done) else 0
         np.minimum.at(cell_end, cell, end)
         keep = (hit == end) & (cell_end[cell] == end)
         pos, cell = hit[keep], cell[keep].astype(np.int64)
         queued[cell] = True
         # the level's cell whose run of entries holds each position
-        src = lvl_cell[np.searchsorted(np.cumsum(nentry), pos, side="right")]
-        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src
+        src = lvl_cell[np.searchsorted(done, pos, side="right")]
+        lvl_cell, lvl_slot, lvl_because = cell, slot[keep], src
     alive = ~queued
     if out_cell:
         return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
                 np.concatenate(out_round), np.concatenate(out_because))
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
+
+
+#: Partner entries a round of the elimination reads at once (bounds its temporaries, ~30
+#: bytes an entry, on large graphs): the round's cells taken in runs of about this many
+ELIM_CHUNK = 1 << 22
+
+
+def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
+             queued: np.ndarray, first: np.ndarray, nentry: np.ndarray, done: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """One round's decrements: every partner entry of the level's cells (``first``,
+    ``nentry``, cumulative ``done``), in processing order, run by run of about
+    :data:`ELIM_CHUNK` entries. Returns the positions (in the round's entries) at which a
+    slot of a cell not queued yet is left without partners, and those slots: a slot's count
+    never rises, so it reaches 0 within the run holding its last entry of the round, and
+    every entry of it in that run sees 0 (its last among them: the one kept by the
+    caller)."""
+    hits, slots = [], []
+    ends = size_runs(done, ELIM_CHUNK)
+    for c0, c1 in zip([0, *ends[:-1]], ends, strict=True):
+        base = int(done[c0 - 1]) if c0 else 0
+        tgt = partner_slot[ragged_arange(first[c0:c1], nentry[c0:c1])]
+        _decrement(count, tgt)
+        hit = np.flatnonzero(count[tgt] == 0)
+        slot = tgt[hit]
+        fresh = ~queued[slot_cell[slot]]
+        hits.append(hit[fresh] + base)
+        slots.append(slot[fresh])
+    if not hits:
+        return np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype)
+    return np.concatenate(hits), np.concatenate(slots)
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
