@@ -146,7 +146,7 @@ ne = g.n_edges
 out["edges"] = ne
 parts["G"] = {"per": max(ne, 1), "columns": columns(g, (
     "edge_a", "edge_b", "edge_piece", "region_ptr", "region_pieces", "slot_ptr", "slot_piece",
-    "partner_ptr", "partner_cell", "partner_slot"))}
+    "partner_ptr", "partner_slot"))}  # (partner_cell: made when read, not held)
 base, _ = tracemalloc.get_traced_memory()
 t = time.perf_counter()
 surviving, elim = eliminate(g)
@@ -281,15 +281,15 @@ BEGIN, END = "<!-- bench_memory: begin -->", "<!-- bench_memory: end -->"
 
 
 def write_doc(path: Path, rows: list[dict], label: str, src: str) -> None:
-    """The runs' table and the projection between :data:`BEGIN` and :data:`END` in
-    ``path`` (appended at its end, under a heading, the first time)."""
+    """The section (heading, text, the runs' table and the projection) between
+    :data:`BEGIN` and :data:`END` in ``path`` (appended at its end the first time)."""
     text = path.read_text()
-    body = "\n".join([BEGIN, *_table(rows), "", *_projection(rows, label, src), END])
+    body = "\n".join([BEGIN, SECTION, *_table(rows), "", *_projection(rows, label, src), END])
     if BEGIN in text:
         head, rest = text.split(BEGIN, 1)
         text = head + body + rest.split(END, 1)[1]
     else:
-        text = text.rstrip("\n") + "\n\n" + SECTION + body + "\n"
+        text = text.rstrip("\n") + "\n\n" + body + "\n"
     path.write_text(text)
 
 
@@ -312,10 +312,12 @@ process's peak resident memory (the decomposition's own, in tiles, is most of it
 The lean representation (`tether.decomposition.model.Regions`, `RegionTable`; the cells'
 and G's columns in int32/int16; `tether.analysis.elimination.CellSet`): a region is its
 area, point and structure id in columns, its `Region` record made when read; cells are
-three small int columns; G is int32 CSR arrays found for runs of ~2 million arc rows at a
-time (`EDGE_CHUNK_ROWS`); the surviving cells are one bool a cell; a store read for analysis
-decodes no geometry and makes no curve (`docs/store.md`).
-
+three small int columns; G is int32 CSR arrays found for runs of ~1 million arc rows at a
+time (`EDGE_CHUNK_ROWS`), the elimination reads each round's partner entries in runs of ~4
+million (`ELIM_CHUNK`); the surviving cells are one bool a cell; a store read for analysis
+decodes no geometry and makes no curve (`docs/store.md`). The projection below scales every
+figure of the largest run by its count, the runs' temporaries included: an upper bound
+for the steps done run by run.
 """
 
 

@@ -41,8 +41,9 @@ class ConnectivityGraph:
     Cells are indices into ``dec.cells``. Each cell has one *slot* per piece bounding its
     region (in increasing piece order): slots ``slot_ptr[c]:slot_ptr[c + 1]``, their pieces
     ``slot_piece``. The partners of a slot (the cells adjacent to the cell across the piece)
-    are ``partner_cell[partner_ptr[s]:partner_ptr[s + 1]]`` (CSR), and ``partner_slot`` the
-    partner's own slot for the same piece. Edges are ``(edge_a[i], edge_b[i], edge_piece[i])``.
+    are ``partner_cell[partner_ptr[s]:partner_ptr[s + 1]]`` (CSR; made from the slots on the
+    first read), and ``partner_slot`` the partner's own slot for the same piece. Edges are
+    ``(edge_a[i], edge_b[i], edge_piece[i])``.
 
     The string views :attr:`edge_list`, :attr:`partners` (``partners[(cell, piece)]`` lists
     the cells adjacent to ``cell`` across ``piece``), :attr:`pieces_of` (``pieces_of[region]``
@@ -59,10 +60,16 @@ class ConnectivityGraph:
     slot_ptr: np.ndarray = field(repr=False)
     slot_piece: np.ndarray = field(repr=False)
     partner_ptr: np.ndarray = field(repr=False)
-    partner_cell: np.ndarray = field(repr=False)
     partner_slot: np.ndarray = field(repr=False)
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
+
+    @cached_property
+    def partner_cell(self) -> np.ndarray:
+        """The cell of every partner entry (the cell of its ``partner_slot``), made on the
+        first read: the elimination reads only the slots (4 bytes an entry not held)."""
+        cell = np.searchsorted(self.slot_ptr, self.partner_slot, side="right") - 1
+        return cell.astype(index_dtype(len(self.slot_ptr) - 1))
 
     @property
     def n_edges(self) -> int:
@@ -296,7 +303,7 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 #: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
 #: :func:`_edges` finds at once: bounds its temporaries (~150 bytes a row) on large maps
-EDGE_CHUNK_ROWS = 1 << 21
+EDGE_CHUNK_ROWS = 1 << 20
 
 
 def size_runs(total: np.ndarray, limit: int) -> list[int]:
@@ -494,9 +501,7 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     np.cumsum(np.bincount(key, minlength=len(slot_piece)), out=partner_ptr[1:])
     del key
     partner_slot = np.column_stack((slot_b, slot_a)).ravel()[order]
-    del slot_a, slot_b
-    partner_cell = np.column_stack((eb, ea)).ravel()[order]
-    del order
+    del slot_a, slot_b, order
     release_memory()  # the temporaries' heap, before the elimination allocates its own
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
-                             slot_ptr, slot_piece, partner_ptr, partner_cell, partner_slot)
+                             slot_ptr, slot_piece, partner_ptr, partner_slot)
