@@ -83,3 +83,13 @@ def test_a_column_read_later_is_checked_now_and_refused_when_read(stored, tmp_pa
     back = S.read_decomposition(path)
     with pytest.raises(InvalidParameterError, match="cannot be read"):
         _ = back.pieces[0].geometry
+
+
+def test_a_store_read_pickles_with_its_columns_still_unread(stored):
+    import pickle
+
+    dec, path = stored
+    back = pickle.loads(pickle.dumps(S.read_decomposition(path)))
+    assert callable(back.pieces._table.shapes._wkb[0])
+    assert analyze(back, **QUICK).to_dict() == analyze(dec, **QUICK).to_dict()
+    assert [p.geometry.wkb for p in back.pieces] == [p.geometry.wkb for p in dec.pieces]

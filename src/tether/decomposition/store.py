@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import contextlib
 import json
+import operator
 import os
 import shutil
 import tempfile
 import threading
 import zipfile
 from collections.abc import Iterator, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -517,7 +519,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
     unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
     shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
-                          wkb=(lambda: reg["polygon_wkb"], reg["polygon_ptr"]))
+                          wkb=(partial(operator.getitem, reg, "polygon_wkb"),
+                               reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
     sp = reg["structures_pairs"].astype(np.int64)
     structs = Structures(base, reg["structures_ptr"].astype(np.int64),
@@ -533,7 +536,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
                         pc["desc"], descs,
                         Shapes(None, frame if _internal(pc) else None,
-                               wkb=(lambda: pc["geometry_wkb"], pc["geometry_ptr"])))
+                               wkb=(partial(operator.getitem, pc, "geometry_wkb"),
+                                    pc["geometry_ptr"])))
     a = t["arcs"]
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])

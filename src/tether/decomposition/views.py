@@ -74,9 +74,13 @@ class Shapes:
         self._frame = frame  # tether.environment frame: internal -> map coordinates
         self._prepare = prepare  # shapely.prepare the converted geometries
 
-    def _wkb_column(self) -> tuple[np.ndarray, np.ndarray]:
-        """The WKB bytes and offsets (the bytes read now if given as a function)."""
-        raw, ptr = self._wkb
+    def _wkb_column(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The WKB bytes and offsets (the bytes read now if given as a function), None once
+        decoded (by another thread meanwhile: the geometries are then held)."""
+        got = self._wkb
+        if got is None:
+            return None
+        raw, ptr = got
         if callable(raw):
             raw = raw()
             self._wkb = (raw, ptr)
@@ -84,13 +88,18 @@ class Shapes:
 
     @property
     def _geoms(self) -> np.ndarray:
-        """The geometries as kept (decoded from the WKB column on the first read)."""
-        if self._held is None:
-            geoms = wkb_geometries(*self._wkb_column())
+        """The geometries as kept (decoded from the WKB column on the first read; two
+        threads reading at once may both decode, to the same geometries)."""
+        held = self._held
+        if held is None:
+            column = self._wkb_column()
+            if column is None:
+                return self._held
+            held = wkb_geometries(*column)
             if self._frame is None and self._prepare:  # in the map's frame: as read
-                shapely.prepare(geoms)
-            self._held, self._wkb = geoms, None
-        return self._held
+                shapely.prepare(held)
+            self._held, self._wkb = held, None
+        return held
 
     @_geoms.setter
     def _geoms(self, geoms: np.ndarray) -> None:
@@ -117,9 +126,9 @@ class Shapes:
         """The geometries ``ids`` in map coordinates, converting only those if the batch is
         not converted yet (not cached: the same numbers, the transform is pointwise; not
         prepared): a few reads need not convert them all."""
-        if self._held is None:  # still WKB: only these decoded
-            geoms = wkb_geometries(*self._wkb_column(),
-                                   np.asarray(ids, dtype=np.int64).reshape(-1))
+        column = self._wkb_column() if self._held is None else None
+        if column is not None:  # still WKB: only these decoded
+            geoms = wkb_geometries(*column, np.asarray(ids, dtype=np.int64).reshape(-1))
         else:
             geoms = self._geoms[ids]
         return geoms if self._frame is None else self._to_user(geoms)
@@ -221,8 +230,9 @@ class RegionShapes(Shapes):
         if self._unions is None:
             return super().some(ids)
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
-        if self._held is None:  # still WKB: only these decoded
-            geoms = wkb_geometries(*self._wkb_column(), ids)
+        column = self._wkb_column() if self._held is None else None
+        if column is not None:  # still WKB: only these decoded
+            geoms = wkb_geometries(*column, ids)
         else:
             geoms = self._geoms[ids]
         for k, i in enumerate(ids.tolist()):
