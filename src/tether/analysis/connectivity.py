@@ -30,18 +30,20 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["ConnectivityGraph", "build_graph"]
+__all__ = ["EDGE_CHUNK_ROWS", "ConnectivityGraph", "build_graph", "index_dtype", "size_runs"]
 
 
 @dataclass(frozen=True, eq=False)
 class ConnectivityGraph:
-    """G: cells (nodes) and ``(cell, cell, piece)`` edges, on integer arrays.
+    """G: cells (nodes) and ``(cell, cell, piece)`` edges, on integer arrays (int32 where
+    the counts allow, :func:`index_dtype`: about 50 bytes an edge).
 
     Cells are indices into ``dec.cells``. Each cell has one *slot* per piece bounding its
     region (in increasing piece order): slots ``slot_ptr[c]:slot_ptr[c + 1]``, their pieces
     ``slot_piece``. The partners of a slot (the cells adjacent to the cell across the piece)
-    are ``partner_cell[partner_ptr[s]:partner_ptr[s + 1]]`` (CSR), and ``partner_slot`` the
-    partner's own slot for the same piece. Edges are ``(edge_a[i], edge_b[i], edge_piece[i])``.
+    are ``partner_cell[partner_ptr[s]:partner_ptr[s + 1]]`` (CSR; made from the slots on the
+    first read), and ``partner_slot`` the partner's own slot for the same piece. Edges are
+    ``(edge_a[i], edge_b[i], edge_piece[i])``.
 
     The string views :attr:`edge_list`, :attr:`partners` (``partners[(cell, piece)]`` lists
     the cells adjacent to ``cell`` across ``piece``), :attr:`pieces_of` (``pieces_of[region]``
@@ -58,10 +60,16 @@ class ConnectivityGraph:
     slot_ptr: np.ndarray = field(repr=False)
     slot_piece: np.ndarray = field(repr=False)
     partner_ptr: np.ndarray = field(repr=False)
-    partner_cell: np.ndarray = field(repr=False)
     partner_slot: np.ndarray = field(repr=False)
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
+
+    @cached_property
+    def partner_cell(self) -> np.ndarray:
+        """The cell of every partner entry (the cell of its ``partner_slot``), made on the
+        first read: the elimination reads only the slots (4 bytes an entry not held)."""
+        cell = np.searchsorted(self.slot_ptr, self.partner_slot, side="right") - 1
+        return cell.astype(index_dtype(len(self.slot_ptr) - 1))
 
     @property
     def n_edges(self) -> int:
@@ -229,54 +237,111 @@ def _table_arc_rows(table: ArcTable) -> dict[str, np.ndarray]:
 
 
 def _cell_index(dec: Decomposition, region: np.ndarray, start_code: np.ndarray,
-                end_code: np.ndarray) -> np.ndarray:
+                end_code: np.ndarray, keys: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> np.ndarray:
     """Index in ``dec.cells`` of the cell ``(region, start, end)`` given by feature codes
-    (-1 for the free end of a FULL region), vectorized; -1 where no such cell exists."""
-    keys, order = _cell_keys(dec)
+    (-1 for the free end of a FULL region), vectorized; -1 where no such cell exists.
+    ``keys``: :func:`_cell_keys` of ``dec`` (made if not given)."""
+    keys, order = _cell_keys(dec) if keys is None else keys
     base = 2 * dec.env.n + 1
     q = (np.asarray(region, np.int64) * base + (np.asarray(start_code, np.int64) + 1)) \
         * base + (np.asarray(end_code, np.int64) + 1)
-    pos = np.clip(np.searchsorted(keys, q), 0, max(len(keys) - 1, 0))
     if len(keys) == 0:
         return np.full(len(q), -1)
+    pos = np.clip(np.searchsorted(keys, q), 0, len(keys) - 1)
     return np.where(keys[pos] == q, order[pos], -1)
 
 
 def _cell_keys(dec: Decomposition) -> tuple[np.ndarray, np.ndarray]:
     """Sorted integer keys ``(region * B + start + 1) * B + end + 1`` of the cells (codes in
-    ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key, cached."""
-    got = dec.memo.get("cell_keys")
-    if got is not None:
-        return got
+    ``dec.env``'s numbering, ``B = 2 n + 1``) and the cell index of each key (not kept: 16
+    bytes a cell, needed once per build of G)."""
     base = 2 * dec.env.n + 1
     region, start, end = dec.cell_codes()
-    keys = (region * base + start + 1) * base + end + 1
+    keys = (region.astype(np.int64) * base + start + 1) * base + end + 1
     order = np.argsort(keys, kind="stable")
-    got = (keys[order], order)
-    dec.memo["cell_keys"] = got
-    return got
+    return keys[order], order.astype(index_dtype(len(keys)))
+
+
+def index_dtype(n: int) -> type:
+    """The integer type of indices into ``n`` items, and of counts up to ``n``: int32 below
+    2**31 (half the bytes of G's columns), else int64."""
+    return np.int32 if n < 2**31 else np.int64
 
 
 def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
-    arrays: arc pairs of the two sides of each piece whose arcs overlap (all at once)."""
+    arrays (:func:`index_dtype` of the cells' and the pieces' counts): arc pairs of the two
+    sides of each piece whose arcs overlap, found for runs of consecutive pieces of about
+    :data:`EDGE_CHUNK_ROWS` arc rows at a time (all at once within a run; the same edges in
+    the same order as in one run: the rows of a run are those of its pieces, in order)."""
     m = len(dec.pieces)
-    empty = np.zeros(0, dtype=np.int64)
+    empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
     rows = _arc_rows(dec)
+    first = np.searchsorted(rows["point"], np.arange(2 * m + 1))  # each point's first row
+    per_piece = np.diff(first[:m + 1]) + np.diff(first[m:])  # rows of both sides
+    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
+    regs = piece_regions(dec)
+    keys = _cell_keys(dec)
+    cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
+    got = []
+    for p0, p1 in zip([0, *ends[:-1]], ends, strict=True):
+        sub = _run_rows(rows, first, m, p0, p1)
+        k, ia, ib = _run_pairs(sub, p1 - p0)
+        k += p0
+        ca = _cell_index(dec, regs[k, 0], sub["start_code"][ia], sub["end_code"][ia], keys)
+        cb = _cell_index(dec, regs[k, 1], sub["start_code"][ib], sub["end_code"][ib], keys)
+        del sub, ia, ib
+        ok = (ca >= 0) & (cb >= 0)
+        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
+    if len(got) == 1:
+        return got[0]
+    return tuple(np.concatenate([g[i] for g in got]) for i in range(3))
+
+
+#: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
+#: :func:`_edges` finds at once: bounds its temporaries (~150 bytes a row) on large maps
+EDGE_CHUNK_ROWS = 1 << 20
+
+
+def size_runs(total: np.ndarray, limit: int) -> list[int]:
+    """The ends of runs of consecutive items of cumulative sizes ``total``, each run at most
+    ``limit`` in all (or one item); the last end is ``len(total)``."""
+    ends, done, n = [], 0, len(total)
+    while done < n:
+        base = int(total[done - 1]) if done else 0
+        end = max(int(np.searchsorted(total, base + limit, side="right")), done + 1)
+        ends.append(min(end, n))
+        done = ends[-1]
+    return ends
+
+
+def _run_rows(rows: dict[str, np.ndarray], first: np.ndarray, m: int, p0: int, p1: int
+              ) -> dict[str, np.ndarray]:
+    """The arc rows of pieces ``p0:p1`` (both sides), their points renumbered as a
+    decomposition of those pieces alone: side 0 ``0 .. k - 1``, side 1 ``k .. 2k - 1``."""
+    a0, a1, b0, b1 = (int(first[i]) for i in (p0, p1, m + p0, m + p1))
+    if p0 == 0 and p1 == m:
+        return rows
+    out = {name: np.concatenate((col[a0:a1], col[b0:b1])) for name, col in rows.items()}
+    shift = np.full(len(out["point"]), -p0, dtype=np.int64)
+    shift[a1 - a0:] = -(m + p0) + (p1 - p0)
+    out["point"] = out["point"] + shift
+    return out
+
+
+def _run_pairs(rows: dict[str, np.ndarray], m: int) -> tuple[np.ndarray, np.ndarray,
+                                                              np.ndarray]:
+    """The overlapping arc pairs of ``m`` pieces' rows: each pair's piece, its row on the
+    side of ``regions[0]`` and its row on the other side."""
     length = _arc_length(rows["start"], rows["end"], rows["full"])  # each arc's, once
     pair_a, pair_b = _candidate_pairs(rows, m, length)
     keep = _overlapping(rows["start"], length, pair_a, pair_b)
     del length
-    k = rows["point"][pair_a[keep]]
-    regs = piece_regions(dec)
-    ca = _cell_index(dec, regs[k, 0], rows["start_code"][pair_a[keep]],
-                     rows["end_code"][pair_a[keep]])
-    cb = _cell_index(dec, regs[k, 1], rows["start_code"][pair_b[keep]],
-                     rows["end_code"][pair_b[keep]])
-    ok = (ca >= 0) & (cb >= 0)
-    return (ca[ok].astype(np.int64), cb[ok].astype(np.int64), k[ok].astype(np.int64))
+    pair_a, pair_b = pair_a[keep], pair_b[keep]
+    return rows["point"][pair_a].astype(np.int64), pair_a, pair_b
 
 
 #: Arc pairs compared at once by :func:`_overlapping` (bounds its temporaries: ~10 arrays of
@@ -401,36 +466,42 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     nreg, ncell = len(dec.regions), len(dec.cells)
     regs = piece_regions(dec)
     m = len(regs)
+    piece_t = index_dtype(2 * m)
     # pieces of each region (CSR), increasing: entries (region, piece) per piece side
     ent_region = regs.T.ravel()  # side 0 of every piece, then side 1
-    ent_piece = np.tile(np.arange(m, dtype=np.int64), 2)
+    ent_piece = np.tile(np.arange(m, dtype=piece_t), 2)
     order = np.lexsort((ent_piece, ent_region))
     region_count = np.bincount(ent_region, minlength=nreg)
-    region_ptr = np.concatenate(([0], np.cumsum(region_count)))
+    region_ptr = np.zeros(nreg + 1, dtype=piece_t)
+    np.cumsum(region_count, out=region_ptr[1:])
     region_pieces = ent_piece[order]
     # position of each piece side among its region's pieces
-    pos = np.empty(2 * m, dtype=np.int64)
-    pos[order] = np.arange(2 * m) - region_ptr[ent_region[order]]
+    pos = np.empty(2 * m, dtype=piece_t)
+    pos[order] = np.arange(2 * m, dtype=piece_t) - region_ptr[ent_region[order]]
+    del order, ent_piece, ent_region
     side_pos = pos.reshape(2, m)
     # slots: one per (cell, piece of the cell's region)
     creg = cell_regions(dec)
     nslot = region_count[creg] if ncell else np.zeros(0, np.int64)
-    slot_ptr = np.concatenate(([0], np.cumsum(nslot))).astype(np.int64)
-    slot_piece = region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell \
-        else np.zeros(0, np.int64)
+    total = int(nslot.sum())
+    slot_t = index_dtype(total + 1)
+    slot_ptr = np.zeros(ncell + 1, dtype=slot_t)
+    np.cumsum(nslot, out=slot_ptr[1:])
+    slot_piece = (region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell
+                  else np.zeros(0, piece_t))
+    del nslot, creg
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
     # (made one after the other, each temporary freed when used: a lower peak)
     slot_a = slot_ptr[ea] + side_pos[0, ep]
     slot_b = slot_ptr[eb] + side_pos[1, ep]
     key = np.column_stack((slot_a, slot_b)).ravel()
     order = np.argsort(key, kind="stable")
-    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=np.int64)
+    entry_t = index_dtype(len(key) + 1)
+    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=entry_t)
     np.cumsum(np.bincount(key, minlength=len(slot_piece)), out=partner_ptr[1:])
     del key
     partner_slot = np.column_stack((slot_b, slot_a)).ravel()[order]
-    del slot_a, slot_b
-    partner_cell = np.column_stack((eb, ea)).ravel()[order]
-    del order
+    del slot_a, slot_b, order
     release_memory()  # the temporaries' heap, before the elimination allocates its own
-    return ConnectivityGraph(dec, ea, eb, ep, region_ptr.astype(np.int64), region_pieces,
-                             slot_ptr, slot_piece, partner_ptr, partner_cell, partner_slot)
+    return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
+                             slot_ptr, slot_piece, partner_ptr, partner_slot)

@@ -12,7 +12,7 @@ survives (with unbounded observer speed, any start in a surviving cell can be he
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence, Set
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -28,15 +28,18 @@ from tether.analysis.connectivity import (
     cell_first,
     cell_ids_of,
     cell_regions,
+    index_dtype,
     piece_regions,
+    size_runs,
 )
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
 from tether.decomposition import Decomposition, decompose, feature_name_rank
-from tether.decomposition.views import parse_cell_name
+from tether.decomposition.views import parse_cell_name, small_ints
 from tether.tolerances import REL_LENGTH_TOL
 
-__all__ = ["Elimination", "Eliminations", "Verdict", "analyze", "eliminate", "escape_story"]
+__all__ = ["CellSet", "Elimination", "Eliminations", "Verdict", "analyze", "eliminate",
+           "escape_story"]
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,9 @@ class Verdict:
 
     dec: Decomposition = field(repr=False)
     graph: ConnectivityGraph = field(repr=False)
-    surviving: frozenset[str]
+    #: the surviving cells' ids (a frozenset, or from :func:`analyze` an equal
+    #: :class:`CellSet` over a bool column, ids made when read)
+    surviving: Set[str]
     #: the eliminations in order (a tuple-like :class:`Eliminations` from :func:`analyze`)
     eliminated: Sequence[Elimination]
     witness_region: int | None
@@ -225,16 +230,71 @@ class Eliminations(Sequence):
         return f"Eliminations({len(self)})"
 
 
-def eliminate(graph: ConnectivityGraph) -> tuple[frozenset[str], Eliminations]:
+class CellSet(Set):
+    """A set of cells of a decomposition, held as one bool per cell (``alive``, in the order
+    of ``dec.cells``) and read as the set of their ids (``"(R3,E1,V2)"``): membership by id
+    through the cells' columns (:meth:`Decomposition.cell_index`), iteration in cell order
+    making the ids then. Equal to the frozenset of the same ids (and hashed as it; pickled
+    as it): a million surviving cells cost a megabyte, not ~100 MB of strings and hash
+    table."""
+
+    __slots__ = ("_dec", "alive", "_n")
+
+    def __init__(self, dec: Decomposition, alive: np.ndarray) -> None:
+        self._dec = dec
+        self.alive = np.asarray(alive, dtype=bool)
+        self._n = int(np.count_nonzero(self.alive))
+
+    @classmethod
+    def _from_iterable(cls, it: Iterable[str]) -> frozenset[str]:
+        return frozenset(it)  # the results of &, |, - ...: plain frozensets
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __contains__(self, cell_id: object) -> bool:
+        if not isinstance(cell_id, str):
+            return False
+        try:
+            i = self._dec.cell_index(cell_id)
+        except KeyError:
+            return False
+        return bool(self.alive[i])
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.indices_ids())
+
+    def indices(self) -> np.ndarray:
+        """The cells' indices into ``dec.cells``, increasing."""
+        return np.flatnonzero(self.alive)
+
+    def indices_ids(self) -> list[str]:
+        """The cells' ids, in cell order."""
+        return cell_ids_of(self._dec, self.indices())
+
+    def __hash__(self) -> int:
+        return hash(frozenset(self))
+
+    def __reduce__(self) -> tuple:
+        return (frozenset, (self.indices_ids(),))
+
+    def __repr__(self) -> str:
+        return f"CellSet({len(self)} of {len(self.alive)} cells)"
+
+
+def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
     """Greatest fixed point of removing escapable cells, by rounds (linear in the graph).
 
-    Returns the surviving cells and the eliminations in the order they happened.
+    Returns the surviving cells (a :class:`CellSet`, equal to the frozenset of their ids)
+    and the eliminations in the order they happened.
     """
     dec = graph.dec
     alive, cell, slot, rnd, because = fixed_point_arrays(
         cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
-    surviving = frozenset(cell_ids_of(dec, np.flatnonzero(alive)))
-    return surviving, Eliminations(graph, cell, graph.slot_piece[slot], rnd, because)
+    t = index_dtype(len(alive))  # held in 16 bytes an elimination instead of 32
+    return CellSet(dec, alive), Eliminations(
+        graph, small_ints(cell, t), graph.slot_piece[slot],  # the pieces: in G's type
+        small_ints(rnd, t), small_ints(because, t))
 
 
 def cell_rank(dec: Decomposition) -> np.ndarray:
@@ -274,7 +334,8 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     order and each slot's partners in order (the cell falls through its first slot to empty).
 
     Returns ``alive`` (bool per cell) and, per removal in order, the cell, its slot, its round
-    (from 1) and the ``because`` cell (-1 in round 1).
+    (from 1) and the ``because`` cell (-1 in round 1), in :func:`index_dtype` of the cells'
+    and the slots' counts.
     """
     ncell = len(slot_ptr) - 1
     count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
@@ -291,46 +352,73 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
     cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
     out_cell, out_slot, out_round, out_because = [], [], [], []
+    cell_t, slot_t = index_dtype(ncell), index_dtype(len(count))
     rnd = 0
     while len(lvl_cell):
         rnd += 1
         order = np.argsort(rank[lvl_cell], kind="stable")
         lvl_cell, lvl_slot, lvl_because = lvl_cell[order], lvl_slot[order], lvl_because[order]
-        out_cell.append(lvl_cell)
-        out_slot.append(lvl_slot)
-        out_round.append(np.full(len(lvl_cell), rnd, dtype=np.int64))
-        out_because.append(lvl_because)
+        out_cell.append(lvl_cell.astype(cell_t))  # kept in the smallest int types
+        out_slot.append(lvl_slot.astype(slot_t))
+        out_round.append(np.full(len(lvl_cell), rnd, dtype=cell_t))
+        out_because.append(lvl_because.astype(cell_t))
         # every partner entry of every slot of the level's cells, in processing order
         first = entry_ptr[lvl_cell]
         nentry = entry_ptr[lvl_cell + 1] - first
-        tgt = partner_slot[ragged_arange(first, nentry)]
-        _decrement(count, tgt)
-        # a slot empties at its last entry of the round (its count never rises again)
-        hit = np.flatnonzero(count[tgt] == 0)
-        slot = tgt[hit]
+        done = np.cumsum(nentry)  # entries up to each of the level's cells
+        hit, slot = _emptied(count, partner_slot, slot_cell, queued, first, nentry, done)
         cell = slot_cell[slot]  # int32 mostly: made int64 once filtered, below
-        fresh = ~queued[cell]
-        hit, slot, cell = hit[fresh], slot[fresh], cell[fresh]
         # the entry position where each emptied slot reached 0 (its last), and each cell
         # falls through its slot that emptied first
         slot_end[slot] = -1
         # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
         np.maximum.at(slot_end, slot, hit.astype(slot_end.dtype, copy=False))
         end = slot_end[slot]
-        cell_end[cell] = len(tgt)
+        cell_end[cell] = int(done[-1]) if len(done) else 0
         np.minimum.at(cell_end, cell, end)
         keep = (hit == end) & (cell_end[cell] == end)
         pos, cell = hit[keep], cell[keep].astype(np.int64)
         queued[cell] = True
         # the level's cell whose run of entries holds each position
-        src = lvl_cell[np.searchsorted(np.cumsum(nentry), pos, side="right")]
-        lvl_cell, lvl_slot, lvl_because = cell, tgt[pos], src
+        src = lvl_cell[np.searchsorted(done, pos, side="right")]
+        lvl_cell, lvl_slot, lvl_because = cell, slot[keep], src
     alive = ~queued
     if out_cell:
         return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
                 np.concatenate(out_round), np.concatenate(out_because))
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
+
+
+#: Partner entries a round of the elimination reads at once (bounds its temporaries, ~30
+#: bytes an entry, on large graphs): the round's cells taken in runs of about this many
+ELIM_CHUNK = 1 << 22
+
+
+def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
+             queued: np.ndarray, first: np.ndarray, nentry: np.ndarray, done: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """One round's decrements: every partner entry of the level's cells (``first``,
+    ``nentry``, cumulative ``done``), in processing order, run by run of about
+    :data:`ELIM_CHUNK` entries. Returns the positions (in the round's entries) at which a
+    slot of a cell not queued yet is left without partners, and those slots: a slot's count
+    never rises, so it reaches 0 within the run holding its last entry of the round, and
+    every entry of it in that run sees 0 (its last among them: the one kept by the
+    caller)."""
+    hits, slots = [], []
+    ends = size_runs(done, ELIM_CHUNK)
+    for c0, c1 in zip([0, *ends[:-1]], ends, strict=True):
+        base = int(done[c0 - 1]) if c0 else 0
+        tgt = partner_slot[ragged_arange(first[c0:c1], nentry[c0:c1])]
+        _decrement(count, tgt)
+        hit = np.flatnonzero(count[tgt] == 0)
+        slot = tgt[hit]
+        fresh = ~queued[slot_cell[slot]]
+        hits.append(hit[fresh] + base)
+        slots.append(slot[fresh])
+    if not hits:
+        return np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype)
+    return np.concatenate(hits), np.concatenate(slots)
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from tether.arcs import ArcTable
 from tether.curves import Curve, curves_to_user
+from tether.decomposition.model import shared_holder
 from tether.decomposition.structure import FREE, Structures
 from tether.decomposition.views import PieceTable, Shapes
 from tether.environment import Environment
@@ -116,8 +117,8 @@ class UserFrame:
         (:func:`~tether.decomposition.regions.make_regions`)."""
         if not regions or self.same:
             return
-        held = regions[0]._structure
-        if type(held) is Structures and all(r._structure is held for r in regions):
+        held = shared_holder(regions, "_structure")
+        if type(held) is Structures:
             held.to_file(self.code_map)
             return
         put = object.__setattr__

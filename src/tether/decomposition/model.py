@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -25,6 +25,7 @@ from tether.decomposition.structure import (
     set_rows,
 )
 from tether.decomposition.views import (
+    PIECE_BATCH,
     Cell,
     Cells,
     CellsById,
@@ -32,13 +33,16 @@ from tether.decomposition.views import (
     Piece,
     Pieces,
     RegionShapes,
+    RowSequence,
     Shapes,
     cell_name,
+    small_ints,
     unique_pairs,
 )
 from tether.environment import Environment
 
-__all__ = ["Decomposition", "Region", "region_rows"]
+__all__ = ["Decomposition", "Region", "RegionTable", "Regions", "compact_arcs", "region_rows",
+           "shared_holder"]
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -93,6 +97,94 @@ class Region:
         return {"id": self.name, "area": self.area, "point": list(self.point),
                 "cells": list(self.cells)}
 
+    def __eq__(self, other: object) -> bool:
+        """Two reads of one region of a decomposition (:class:`Regions` makes a record per
+        read) are equal: the same id, area and point and the same holders of its polygon and
+        structure; regions of different decompositions are equal only if they are one
+        object, as before."""
+        if self is other:
+            return True
+        if type(other) is not Region:
+            return NotImplemented
+        return (self.id == other.id and self.area == other.area and self.point == other.point
+                and self._polygon is other._polygon and self._structure is other._structure)
+
+    def __hash__(self) -> int:
+        return hash((self.id, self.area, self.point))
+
+
+class RegionTable:
+    """The regions of a decomposition as columns, in region order (region ``i`` is row
+    ``i``): ``area`` (n,) and ``point`` (n, 2) float arrays (map units), the shared holders
+    of their polygons (a :class:`Shapes`), structures (a :class:`Structures`) and cells (a
+    :class:`CellTable`). :class:`Region` records are made from it when read: 16 + 8 bytes
+    of columns a region instead of ~250 bytes of Python objects."""
+
+    __slots__ = ("area", "point", "shapes", "structures", "cells")
+
+    def __init__(self, area: np.ndarray, point: np.ndarray, shapes: Shapes,
+                 structures: Structures, cells: CellTable) -> None:
+        self.area = np.asarray(area, dtype=float)
+        self.point = np.asarray(point, dtype=float).reshape(-1, 2)
+        self.shapes, self.structures, self.cells = shapes, structures, cells
+
+    def __len__(self) -> int:
+        return len(self.area)
+
+    def region(self, i: int) -> Region:
+        """The :class:`Region` of row ``i``."""
+        x, y = self.point[i].tolist()
+        return Region(i, self.shapes, float(self.area[i]), (x, y), self.structures,
+                      self.cells)
+
+    def regions(self, lo: int = 0, hi: int | None = None) -> Iterator[Region]:
+        """The regions ``lo:hi``, made one by one (a bounded batch of columns read at a
+        time)."""
+        hi = len(self) if hi is None else hi
+        shapes, structs, cells = self.shapes, self.structures, self.cells
+        for b in range(lo, hi, PIECE_BATCH):
+            e = min(b + PIECE_BATCH, hi)
+            for i, a, x, y in zip(range(b, e), self.area[b:e].tolist(),
+                                  self.point[b:e, 0].tolist(), self.point[b:e, 1].tolist(),
+                                  strict=True):
+                yield Region(i, shapes, a, (x, y), structs, cells)
+
+    def dicts(self) -> list[dict]:
+        """Every region's :meth:`Region.to_dict`, made from the columns (the cell ids all in
+        one pass)."""
+        ids, first = self.cells.ids(), self.cells.first.tolist()
+        return [{"id": f"R{i}", "area": a, "point": [x, y], "cells": ids[first[i]:first[i + 1]]}
+                for i, (a, x, y) in enumerate(zip(self.area.tolist(), self.point[:, 0].tolist(),
+                                                  self.point[:, 1].tolist(), strict=True))]
+
+
+class Regions(RowSequence):
+    """:attr:`Decomposition.regions` from :func:`decompose` and the store: the
+    :class:`Region` s of a :class:`RegionTable`, each made when read (see
+    :class:`RowSequence`: ``regions[i] is regions[i]`` may be False; they are equal)."""
+
+    __slots__ = ()
+    _what = "region"
+
+    def _one(self, i: int) -> Region:
+        return self._table.region(i)
+
+    def _many(self, lo: int = 0, hi: int | None = None) -> Iterator[Region]:
+        return self._table.regions(lo, hi)
+
+
+def shared_holder(regions: Sequence[Region], attr: str) -> Any:
+    """The holder every region of ``regions`` reads its ``attr`` from (``"_polygon"``,
+    ``"_structure"`` or ``"_cells"``): the table's for :class:`Regions` (no record made),
+    else the first region's if every region holds that very object, else None."""
+    if type(regions) is Regions:
+        t = regions._table
+        return {"_polygon": t.shapes, "_structure": t.structures, "_cells": t.cells}[attr]
+    if not len(regions):
+        return None
+    held = getattr(regions[0], attr)
+    return held if all(getattr(r, attr) is held for r in regions) else None
+
 
 @dataclass(frozen=True, eq=False)
 class Decomposition:
@@ -113,7 +205,9 @@ class Decomposition:
     env: Environment = field(repr=False)
     lss: float
     curves: tuple[Curve, ...] = field(repr=False)
-    regions: tuple[Region, ...] = field(repr=False)
+    #: the regions, in id order (a tuple, or from :func:`decompose` and the store an equal
+    #: :class:`Regions` making each :class:`Region` when read)
+    regions: Sequence[Region] = field(repr=False)
     #: the cells, region by region (a tuple, or from :func:`decompose` an equal sequence
     #: making each :class:`Cell` when read: ``cells[i] is cells[i]`` may be False)
     cells: Sequence[Cell] = field(repr=False)
@@ -133,6 +227,16 @@ class Decomposition:
         default=None, repr=False, compare=False)
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
+
+    def __post_init__(self) -> None:
+        if self._crossing_arcs is not None:  # held for G: in the smallest int columns
+            object.__setattr__(self, "_crossing_arcs",
+                               compact_arcs(self._crossing_arcs, 2 * self.env.n))
+        if self._cell_codes is not None and type(self.cells) is Cells:
+            t = self.cells._table  # the codes are the cells' columns: held once, compact
+            if all(np.array_equal(a, b) for a, b in zip(
+                    self._cell_codes, (t.region, t.start, t.end), strict=True)):
+                object.__setattr__(self, "_cell_codes", (t.region, t.start, t.end))
 
     def __repr__(self) -> str:
         return (f"Decomposition(map={self.env.name!r}, lss={self.lss:g}, "
@@ -199,6 +303,9 @@ class Decomposition:
 
     @cached_property
     def _tree(self) -> shapely.STRtree:
+        shapes = shared_holder(self.regions, "_polygon")
+        if isinstance(shapes, Shapes):
+            return shapely.STRtree(shapes.all())
         return shapely.STRtree([r.polygon for r in self.regions])
 
     def piece_crossings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -229,7 +336,7 @@ class Decomposition:
         intersects the shapely geometry ``geoms[i]`` (an array of them, map coordinates).
         Makes no region polygon that was not made yet."""
         geoms = np.asarray(geoms, dtype=object).reshape(-1)
-        shapes = self.regions[0]._polygon if self.regions else None
+        shapes = shared_holder(self.regions, "_polygon")
         if type(shapes) is RegionShapes and not shapes.converted:
             return shapes.crossing(geoms)
         gi, ri = self._tree.query(geoms, predicate="intersects")
@@ -239,9 +346,9 @@ class Decomposition:
         """The polygons of the regions ``ids`` (map coordinates, an object array), making and
         converting only those if the regions' polygons were not read yet."""
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
-        shapes = self.regions[0]._polygon if self.regions else None
-        if isinstance(shapes, Shapes) and not shapes.converted:
-            return shapes.some(ids)
+        shapes = shared_holder(self.regions, "_polygon")
+        if isinstance(shapes, Shapes):
+            return shapes.some(ids) if not shapes.converted else shapes.all()[ids]
         return np.fromiter((self.regions[i].polygon for i in ids.tolist()), dtype=object,
                            count=len(ids))
 
@@ -285,7 +392,8 @@ class Decomposition:
         region's polygon (WKT) and each piece's line (WKT), map units. The lean form stays
         small on large maps (the full one is tens of MB at a few hundred vertices)."""
         table = self.cells._table if type(self.cells) is Cells else None
-        if table is not None:
+        lean = type(self.regions) is Regions and self.regions._table.cells is table
+        if table is not None and not lean:
             table.fill(self.regions)
         out = {
             "map": self.env.name,
@@ -293,7 +401,8 @@ class Decomposition:
             "curve_tolerance": self.curve_tol,
             "unresolved_pieces": self.unresolved_pieces,
             "counts": {k: v for k, v in self.counts.items() if k != "curves"},
-            "regions": [r.to_dict() for r in self.regions],
+            "regions": (self.regions._table.dicts() if lean else
+                        [r.to_dict() for r in self.regions]),
             "cells": ([c.to_dict() for c in self.cells] if table is None else
                       table.dicts()),
         }
@@ -302,7 +411,9 @@ class Decomposition:
             out["pieces"] = ([p.to_dict() for p in self.pieces] if pieces is None else
                              pieces.dicts())
             out["curves"] = [c.to_dict() for c in self.curves]
-            wkt = shapely.to_wkt([r.polygon for r in self.regions], rounding_precision=-1)
+            shapes = shared_holder(self.regions, "_polygon")
+            wkt = shapely.to_wkt(shapes.all() if isinstance(shapes, Shapes) else
+                                 [r.polygon for r in self.regions], rounding_precision=-1)
             for d, w in zip(out["regions"], wkt, strict=True):
                 d["polygon"] = w
             wkt = shapely.to_wkt([p.geometry for p in self.pieces] if pieces is None else
@@ -318,12 +429,27 @@ class Decomposition:
         return plot_decomposition(self, ax, **kw)
 
 
-def region_rows(regions: list[Region], base: int) -> tuple[StructureRows, np.ndarray]:
+def compact_arcs(table: ArcTable, ncodes: int) -> ArcTable:
+    """The arc table ``table`` with its point column in int32 (below 2**31 points) and its
+    feature codes (``-1 .. ncodes - 1``) in int16 (fewer than 2**15 codes) or int32: the same
+    values in 24 bytes a row instead of 40 (the crossings' arcs are the largest columns a
+    decomposition holds, ~16 rows a piece). Columns already that small are kept as they
+    are."""
+    npts = len(table.full)
+    pt = np.int32 if npts < 2**31 else np.int64
+    code = np.int16 if ncodes < 2**15 else np.int32 if ncodes < 2**31 else np.int64
+    return ArcTable(small_ints(table.point, pt), table.start, table.end,
+                    small_ints(table.start_code, code), small_ints(table.end_code, code),
+                    table.full)
+
+
+def region_rows(regions: Sequence[Region], base: int) -> tuple[StructureRows, np.ndarray]:
     """The regions' structures as integer rows (internal codes) and the row of each region:
     the rows of the :class:`Structures` the regions share, as made (else
     :func:`set_rows` of their structures)."""
-    held = regions[0]._structure if regions else None
-    if (type(held) is Structures and held._code_map is None
-            and held.base == base and all(r._structure is held for r in regions)):
-        return held.rows(), held.region[[r.id for r in regions]]
+    held = shared_holder(regions, "_structure")
+    if type(held) is Structures and held._code_map is None and held.base == base:
+        ids = (np.arange(len(regions)) if type(regions) is Regions else
+               [r.id for r in regions])
+        return held.rows(), held.region[ids]
     return set_rows([r.structure for r in regions], base)

@@ -157,7 +157,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     longest = longest_unresolved(arr, chains, cands)
     report("done", 1.0)
     if out is None:
-        dec = Decomposition(env, lss, tuple(curves), tuple(regions), cells, Pieces(pieces),
+        dec = Decomposition(env, lss, tuple(curves), regions, cells, Pieces(pieces),
                             tol, unresolved_pieces, longest, _crossing_arcs=arcs,
                             _cell_codes=codes)
     else:  # the regions' polygons and structures and the pieces to the user's frame
@@ -167,7 +167,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
         if longest is not None:
             longest["length"] /= out.scale
             longest["point"] = out.points(longest["point"])[0].tolist()
-        dec = Decomposition(out.env, out.lss, out.curves(curves), tuple(regions), cells,
+        dec = Decomposition(out.env, out.lss, out.curves(curves), regions, cells,
                             Pieces(pieces), tol / out.scale, unresolved_pieces, longest,
                             _crossing_arcs=out.crossing_arcs(arcs), _cell_codes=codes)
     return dec

@@ -14,7 +14,7 @@ from tether._util.arrays import components, first_max_per_group, ragged_arange
 from tether.arcs import feature_name
 from tether.decomposition.arrangement import Arrangement, Chains
 from tether.decomposition.frame import UserFrame
-from tether.decomposition.model import Region
+from tether.decomposition.model import Region, Regions, RegionTable
 from tether.decomposition.pieces import (
     Candidates,
     crossing_candidates,
@@ -266,10 +266,9 @@ def make_regions(env: Environment, arr: Arrangement, numbering: dict[str, Any],
         start, end = cm[start], cm[end]
         names = [FREE] + [feature_name(out.env, c) for c in range(2 * out.env.n)]
     table = CellTable(region, start, end, names, len(rank))
-    area_l = area.tolist()
-    point_l = point.tolist()
-    regions = [Region(rid, polys, area_l[g], (point_l[g][0], point_l[g][1]), structs, table)
-               for rid, g in enumerate(rank)]
+    g = numbering["rank"]  # region rid is the group g[rid]: its records made when read
+    regions = Regions(RegionTable(area[g], np.asarray(point).reshape(-1, 2)[g], polys,
+                                  structs, table))
     return regions, Cells(table), (region, start, end)
 
 

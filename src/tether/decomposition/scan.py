@@ -29,7 +29,7 @@ import numpy as np
 import shapely
 
 from tether.arcs import feature_name, free_arcs_many
-from tether.decomposition.model import region_rows
+from tether.decomposition.model import region_rows, shared_holder
 from tether.decomposition.structure import FREE, Structures, rows_equal, table_rows
 from tether.tolerances import SCAN_POINTS_PER_DIAMETER
 
@@ -125,10 +125,9 @@ class _Exact:
     def __init__(self, dec: Any) -> None:
         self.dec = dec
         env = dec.env
-        held = dec.regions[0]._structure if dec.regions else None
+        held = shared_holder(dec.regions, "_structure")
         inner = env.internal
-        self.fast = (type(held) is Structures and held.base == 2 * inner.n + 1
-                     and all(r._structure is held for r in dec.regions))
+        self.fast = type(held) is Structures and held.base == 2 * inner.n + 1
         if self.fast:
             self.env, self.frame, self.lss = inner, env.frame, dec.lss * env.frame.scale
             self.regions, self.row_of = held.rows(), held.region

@@ -16,11 +16,14 @@ from __future__ import annotations
 
 import contextlib
 import json
+import operator
 import os
 import shutil
 import tempfile
+import threading
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -30,12 +33,20 @@ import shapely
 from tether._util.files import check_output_dir
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
-from tether.decomposition.model import Decomposition, Region
+from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
 from tether.decomposition.structure import Structure, Structures
-from tether.decomposition.views import Cells, CellTable, Pieces, PieceTable, RegionShapes, Shapes
+from tether.decomposition.views import (
+    Cells,
+    CellTable,
+    Pieces,
+    PieceTable,
+    RegionShapes,
+    Shapes,
+    wkb_geometries,
+)
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "check_store_dir", "read_decomposition",
+__all__ = ["FORMAT", "TABLES", "VERSION", "StoredCurves", "check_store_dir", "read_decomposition",
            "write_decomposition"]
 
 #: The store's format name and version (``index.json``'s ``format`` and ``version``)
@@ -95,20 +106,19 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
         raise InvalidParameterError(f"parts must be >= 1, got {parts}")
     target = check_store_dir(path)
     report = progress or (lambda stage, frac: None)
-    tables = {}
-    for k, (name, fn) in enumerate(_WRITERS.items()):
-        report(name, 0.8 * k / len(_WRITERS))
-        tables[name] = fn(dec)
-    report("files", 0.8)
+    parts = int(parts)
+    total = _table_rows(dec)
+    memo: dict[str, Any] = {}  # the whole-table columns, made once for every part
     with _folder_written_whole(target) as tmp:
         entries = []
-        for k in range(int(parts)):
+        for k in range(parts):  # each part's columns made, written and freed in turn
             name = f"part-{k:05d}"
             (tmp / name).mkdir()
             rows = {}
-            for table, cols in tables.items():
-                lo, hi = _split(_rows(cols), int(parts), k)
-                np.savez(tmp / name / f"{table}.npz", **_slice(cols, lo, hi))
+            for j, (table, fn) in enumerate(_WRITERS.items()):
+                report(table, (k * len(_WRITERS) + j) / (parts * len(_WRITERS)))
+                lo, hi = _split(total[table], parts, k)
+                np.savez(tmp / name / f"{table}.npz", **fn(dec, lo, hi, memo))
                 rows[table] = [lo, hi]
             entries.append({"name": name, "rows": rows})
         index = {"format": FORMAT, "version": VERSION, "map": dec.env.to_dict(),
@@ -120,6 +130,12 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
         (tmp / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
     report("done", 1.0)
     return target
+
+
+def _table_rows(dec: Decomposition) -> dict[str, int]:
+    """The rows of each table of ``dec``'s store."""
+    return {"regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
+            "curves": len(dec.curves), "arcs": len(dec.crossing_arcs().point)}
 
 
 def check_store_dir(path: str | os.PathLike) -> Path:
@@ -167,16 +183,6 @@ def _umask() -> int:
     return mask
 
 
-def _rows(cols: dict[str, np.ndarray]) -> int:
-    """The rows of a table: the length of its first column."""
-    return len(next(iter(cols.values())))
-
-
-def _split(n: int, parts: int, k: int) -> tuple[int, int]:
-    """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
-    return n * k // parts, n * (k + 1) // parts
-
-
 #: The ragged columns: each ``*_ptr`` (one entry per row, plus one) and the columns it indexes
 #: (``vertex_ptr`` is indexed by ``polyline_ptr`` in turn: two levels)
 _RAGGED = {"polygon_ptr": ("polygon_wkb",), "union_ptr": ("face_ptr",),
@@ -191,50 +197,9 @@ _WHOLE = ("desc_kind", "desc_curve_ptr", "desc_curves", "desc_feature_ptr", "des
           "full_points", "structures_ptr", "structures_pairs")
 
 
-def _row_columns(cols: dict[str, np.ndarray]) -> list[str]:
-    """The columns with one entry per row (neither ragged values nor whole-table columns)."""
-    inner = {v for vs in _RAGGED.values() for v in vs}
-    return [k for k in cols if k not in inner and k not in _WHOLE and k not in _RAGGED]
-
-
-def _rows(cols: dict[str, np.ndarray]) -> int:
-    """The rows of a table: the length of its row columns (or of its first ``*_ptr`` less
-    one)."""
-    rows = _row_columns(cols)
-    if rows:
-        return len(cols[rows[0]])
-    return len(next(c for k, c in cols.items() if k in _RAGGED)) - 1
-
-
 def _split(n: int, parts: int, k: int) -> tuple[int, int]:
     """Rows ``lo:hi`` of part ``k`` of ``parts`` (near-equal runs)."""
     return n * k // parts, n * (k + 1) // parts
-
-
-def _slice(cols: dict[str, np.ndarray], lo: int, hi: int) -> dict[str, np.ndarray]:
-    """Rows ``lo:hi`` of a table, its ragged columns' offsets rebased to start at 0."""
-    out = {k: cols[k][lo:hi] for k in _row_columns(cols)}
-    out.update({k: cols[k] for k in _WHOLE if k in cols})
-
-    def ragged(ptr_name: str, a: int, b: int) -> None:
-        ptr = cols[ptr_name]
-        c, d = int(ptr[a]), int(ptr[b])
-        out[ptr_name] = ptr[a:b + 1] - c
-        for v in _RAGGED[ptr_name]:
-            if v in _RAGGED:
-                ragged(v, c, d)
-            else:
-                out[v] = cols[v][c:d]
-
-    for name in cols:
-        if name in _RAGGED and name not in _inner_ptrs() and name not in _WHOLE:
-            ragged(name, lo, hi)
-    return out
-
-
-def _inner_ptrs() -> set[str]:
-    """The ``*_ptr`` columns indexed by another (the second level)."""
-    return {v for vs in _RAGGED.values() for v in vs if v in _RAGGED}
 
 
 def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = float
@@ -256,30 +221,39 @@ def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
 
 
-def _region_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    """The regions' columns: the polygons as held (a multi-face region whose union is not
-    made yet keeps its faces, the union made when read, as :func:`decompose` leaves it), the
-    distinct structures in the file's codes and each region's structure id."""
+def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    """Regions ``lo:hi``'s columns: the polygons as held (a multi-face region whose union is
+    not made yet keeps its faces, the union made when read, as :func:`decompose` leaves it),
+    each region's structure id, and the distinct structures (whole) in the file's codes."""
     regs = dec.regions
-    holder = regs[0]._polygon if regs else None
+    holder = shared_holder(regs, "_polygon")
     if isinstance(holder, RegionShapes):
-        geoms, frame = holder.held()
-        pending = holder.pending_unions()
+        held, frame = holder.held()
+        geoms = held[lo:hi]
+        if "pending" not in memo:
+            memo["pending"] = holder.pending_unions()
+        pending = memo["pending"]
     else:
-        geoms, frame, pending = dec.region_polygons(np.arange(len(regs))), None, {}
+        geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
     wkb, ptr = _wkb(geoms)
-    multi = sorted(pending)
-    count = np.zeros(len(regs), dtype=np.int64)
-    count[multi] = [len(pending[i]) for i in multi]
+    multi = [i for i in sorted(pending) if lo <= i < hi]
+    count = np.zeros(hi - lo, dtype=np.int64)
+    count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
     union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
     face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
                               else np.zeros(0, dtype=object))
-    sid, sptr, spairs = _structure_columns(dec)
-    return {"area": np.array([r.area for r in regs], dtype=float),
-            "point": np.array([r.point for r in regs], dtype=float).reshape(-1, 2),
-            "structure": sid, "polygon_ptr": ptr, "polygon_wkb": wkb,
-            "union_ptr": union_ptr, "face_ptr": face_ptr, "face_wkb": face_wkb,
-            "internal_frame": np.array([frame is not None] * len(regs), dtype=bool),
+    if "structures" not in memo:
+        memo["structures"] = _structure_columns(dec)
+    sid, sptr, spairs = memo["structures"]
+    if type(regs) is Regions:  # the columns as held, no record made
+        area, point = regs._table.area[lo:hi], regs._table.point[lo:hi]
+    else:
+        area = np.array([r.area for r in regs[lo:hi]], dtype=float)
+        point = np.array([r.point for r in regs[lo:hi]], dtype=float).reshape(-1, 2)
+    return {"area": area, "point": point, "structure": sid[lo:hi], "polygon_ptr": ptr,
+            "polygon_wkb": wkb, "union_ptr": union_ptr, "face_ptr": face_ptr,
+            "face_wkb": face_wkb,
+            "internal_frame": np.full(hi - lo, frame is not None, dtype=bool),
             "structures_ptr": sptr, "structures_pairs": spairs}
 
 
@@ -288,8 +262,8 @@ def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.n
     the file's feature codes, sorted; id 0 EMPTY, 1 FULL), read from the shared
     :class:`Structures` when the regions hold one (no frozenset made)."""
     regs = dec.regions
-    held = regs[0]._structure if regs else None
-    if type(held) is Structures and all(r._structure is held for r in regs):
+    held = shared_holder(regs, "_structure")
+    if type(held) is Structures:
         a, b = np.divmod(held.pairs, held.base)
         if held._code_map is not None:
             a, b = held._code_map[a], held._code_map[b]
@@ -305,10 +279,10 @@ def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.n
     return sid, ptr, pairs
 
 
-def _cell_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+def _cell_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     region, start, end = dec.cell_codes()
-    return {"region": np.asarray(region, np.int64), "start": np.asarray(start, np.int64),
-            "end": np.asarray(end, np.int64)}
+    return {"region": np.asarray(region[lo:hi], np.int64),
+            "start": np.asarray(start[lo:hi], np.int64), "end": np.asarray(end[lo:hi], np.int64)}
 
 
 def _feature_names(dec: Decomposition) -> list[str]:
@@ -321,41 +295,48 @@ def _feature_names(dec: Decomposition) -> list[str]:
     return [FREE] + [feature_name(dec.env, c) for c in range(2 * dec.env.n)]
 
 
-def _piece_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    """The pieces' columns (read from the columns :func:`decompose` keeps, lines as held)."""
+def _piece_table(dec: Decomposition, memo: dict) -> tuple:
+    """The pieces' columns and the lines as held (read from the columns :func:`decompose`
+    keeps, else made from the pieces once, for every part)."""
     if type(dec.pieces) is Pieces:
         t = dec.pieces._table
         geoms, frame = t.shapes.held()
-        pair, q, n, eps, ok, desc, dlist = t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs
-    else:
+        return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, geoms, frame
+    if "pieces" not in memo:
         pieces = list(dec.pieces)
         descs: dict[tuple, int] = {}
         desc = np.array([descs.setdefault((p.curves, p.kind, p.features), len(descs))
                          for p in pieces], dtype=np.int64)
-        dlist = list(descs)
-        geoms = np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces))
-        frame = None
-        pair = np.array([p.regions for p in pieces], np.int64).reshape(-1, 2)
-        q = np.array([p.sample for p in pieces], float).reshape(-1, 2)
-        n = np.array([p.normal for p in pieces], float).reshape(-1, 2)
-        eps = np.array([p.eps for p in pieces], float)
-        ok = np.array([p.verified for p in pieces], bool)
-    wkb, ptr = _wkb(geoms)
-    cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
-    fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
-    return {"pair": np.asarray(pair, np.int64), "q": np.asarray(q, float),
-            "n": np.asarray(n, float), "eps": np.asarray(eps, float),
-            "ok": np.asarray(ok, bool), "desc": np.asarray(desc, np.int64),
-            "internal_frame": np.array([frame is not None] * len(pair), dtype=bool),
-            "geometry_ptr": ptr, "geometry_wkb": wkb,
-            # the distinct descriptions (a table of their own, whole in every part)
+        memo["pieces"] = (
+            np.array([p.regions for p in pieces], np.int64).reshape(-1, 2),
+            np.array([p.sample for p in pieces], float).reshape(-1, 2),
+            np.array([p.normal for p in pieces], float).reshape(-1, 2),
+            np.array([p.eps for p in pieces], float),
+            np.array([p.verified for p in pieces], bool), desc, list(descs),
+            np.fromiter((p.geometry for p in pieces), dtype=object, count=len(pieces)), None)
+    return memo["pieces"]
+
+
+def _piece_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    """Pieces ``lo:hi``'s columns and the distinct descriptions (whole)."""
+    pair, q, n, eps, ok, desc, dlist, geoms, frame = _piece_table(dec, memo)
+    wkb, ptr = _wkb(geoms[lo:hi])
+    if "descs" not in memo:
+        cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
+        fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
+        memo["descs"] = {  # the distinct descriptions (a table of their own, in every part)
             "desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
             "desc_curve_ptr": cptr, "desc_curves": cvals,
             "desc_feature_ptr": fptr, "desc_features": fvals}
+    return {"pair": np.asarray(pair[lo:hi], np.int64), "q": np.asarray(q[lo:hi], float),
+            "n": np.asarray(n[lo:hi], float), "eps": np.asarray(eps[lo:hi], float),
+            "ok": np.asarray(ok[lo:hi], bool), "desc": np.asarray(desc[lo:hi], np.int64),
+            "internal_frame": np.full(hi - lo, frame is not None, dtype=bool),
+            "geometry_ptr": ptr, "geometry_wkb": wkb, **memo["descs"]}
 
 
-def _curve_columns(dec: Decomposition) -> dict[str, np.ndarray]:
-    cs = dec.curves
+def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    cs = dec.curves[lo:hi]
     iptr, ivs = _ragged([np.array(c.intervals, float).reshape(-1, 2) for c in cs], 2)
     fptr, feats = _ragged([np.array(c.features, dtype=str) for c in cs], dtype=str)
     pptr = np.zeros(len(cs) + 1, dtype=np.int64)
@@ -381,13 +362,16 @@ def _curve_columns(dec: Decomposition) -> dict[str, np.ndarray]:
             "fam_lss": np.array([f.lss for f in fam], float)}
 
 
-def _arc_columns(dec: Decomposition) -> dict[str, np.ndarray]:
+def _arc_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     t = dec.crossing_arcs()
     # ``full`` has one entry per point, not per row: kept whole (not split by part)
-    return {"point": t.point, "start": t.start, "end": t.end, "start_code": t.start_code,
-            "end_code": t.end_code, "full_points": np.asarray(t.full, bool)}
+    return {"point": t.point[lo:hi], "start": t.start[lo:hi], "end": t.end[lo:hi],
+            "start_code": t.start_code[lo:hi], "end_code": t.end_code[lo:hi],
+            "full_points": np.asarray(t.full, bool)}
 
 
+#: The tables' writers: ``fn(dec, lo, hi, memo)`` gives rows ``lo:hi``'s columns (ragged
+#: offsets from 0) and the whole-table columns (made once, kept in ``memo``)
 _WRITERS = {"regions": _region_columns, "cells": _cell_columns, "pieces": _piece_columns,
             "curves": _curve_columns, "arcs": _arc_columns}
 
@@ -409,8 +393,9 @@ def read_decomposition(path: str | os.PathLike) -> Decomposition:
         from tether.io.polygon import from_dict
 
         env = from_dict(index["map"], "map", index["map"].get("name", ""))
-        tables = {name: _concat([_load(root / part["name"] / f"{name}.npz", shown)
-                                 for part in index["parts"]]) for name in TABLES}
+        tables = {name: _read_table([root / part["name"] / f"{name}.npz"
+                                     for part in index["parts"]], name, shown)
+                  for name in TABLES}
         return _assemble(env, index, tables)
     except InvalidParameterError:
         raise
@@ -440,11 +425,58 @@ def _read_index(root: Path, shown: str) -> dict:
     return index
 
 
-def _load(path: Path, shown: str) -> dict[str, np.ndarray]:
-    """A table's columns (no pickled objects allowed)."""
+#: The columns read only when first used (analysis reads none of them): the polygons' and
+#: lines' WKB and every column of the curves
+_LATER = {"regions": ("polygon_wkb",), "pieces": ("geometry_wkb",),
+          "curves": TABLES["curves"]}
+
+
+def _read_table(paths: list[Path], name: str, shown: str) -> Mapping[str, np.ndarray]:
+    """A table over its parts: the columns of :data:`_LATER` read when first used (every part
+    checked now: readable, with every documented column), the others now."""
+    later = _LATER.get(name, ())
+    for path in paths:
+        files = _load(path, shown, ())
+        missing = sorted(set(TABLES[name]) - set(files))
+        if missing:
+            raise InvalidParameterError(f"{shown}: {path.parent.name}/{path.name} lacks the "
+                                        f"column(s) {', '.join(missing)}")
+    now = _concat([_load(path, shown, None, later) for path in paths])
+    return _Columns(paths, shown, now, later)
+
+
+class _Columns(Mapping):
+    """A table's columns: those read already, and the others read (every part's, joined as
+    :func:`_concat` joins them) on first use."""
+
+    def __init__(self, paths: list[Path], shown: str, now: dict[str, np.ndarray],
+                 later: tuple[str, ...]) -> None:
+        self._paths, self._shown, self._got, self._later = paths, shown, now, later
+
+    def __getitem__(self, k: str) -> np.ndarray:
+        if k not in self._got:
+            if k not in self._later:
+                raise KeyError(k)
+            self._got[k] = _concat([_load(p, self._shown, (k,)) for p in self._paths])[k]
+        return self._got[k]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(dict.fromkeys([*self._got, *self._later]))
+
+    def __len__(self) -> int:
+        return len(set(self._got) | set(self._later))
+
+
+def _load(path: Path, shown: str, only: tuple[str, ...] | None = None,
+          but: tuple[str, ...] = ()) -> Any:
+    """A table's columns (no pickled objects allowed): all, those of ``only``, all but those
+    of ``but``; ``only`` empty: the list of its column names (nothing read but the
+    archive's directory)."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            if only == ():
+                return list(z.files)
+            return {k: z[k] for k in z.files if (only is None or k in only) and k not in but}
     except FileNotFoundError:
         raise InvalidParameterError(f"{shown} is incomplete: {path.parent.name}/{path.name} "
                                     "is missing") from None
@@ -481,21 +513,19 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     nreg = len(reg["area"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    polys = _from_wkb(reg["polygon_wkb"], reg["polygon_ptr"])
-    faces = _from_wkb(reg["face_wkb"], reg["face_ptr"])
+    # the polygons and lines read and decoded on their first read (analysis reads none)
+    faces = wkb_geometries(reg["face_wkb"], reg["face_ptr"])
     uptr = reg["union_ptr"]
     multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
     unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
-    shapes = RegionShapes(polys, unions, frame if _internal(reg) else None, prepare=True)
-    if not unions and not _internal(reg):
-        shapely.prepare(polys)
+    shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
+                          wkb=(partial(operator.getitem, reg, "polygon_wkb"),
+                               reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
     sp = reg["structures_pairs"].astype(np.int64)
     structs = Structures(base, reg["structures_ptr"].astype(np.int64),
                          sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
-    area, point = reg["area"].tolist(), reg["point"].tolist()
-    regions = tuple(Region(i, shapes, area[i], (point[i][0], point[i][1]), structs, table)
-                    for i in range(nreg))
+    regions = Regions(RegionTable(reg["area"], reg["point"], shapes, structs, table))
     pc = t["pieces"]
     descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
                                                          pc["desc_curve_ptr"][j + 1]]),
@@ -505,8 +535,9 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
              for j in range(len(pc["desc_kind"]))]
     pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
                         pc["desc"], descs,
-                        Shapes(_from_wkb(pc["geometry_wkb"], pc["geometry_ptr"]),
-                               frame if _internal(pc) else None))
+                        Shapes(None, frame if _internal(pc) else None,
+                               wkb=(partial(operator.getitem, pc, "geometry_wkb"),
+                                    pc["geometry_ptr"])))
     a = t["arcs"]
     arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])
@@ -515,7 +546,7 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
            "pieces": len(pieces)}
     if got != index["counts"]:
         raise ValueError(f"the parts hold {got}, the index says {index['counts']}")
-    return Decomposition(env, float(index["lss"]), _curves(env, t["curves"]), regions,
+    return Decomposition(env, float(index["lss"]), StoredCurves(env, t["curves"]), regions,
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
                          _crossing_arcs=arcs, _cell_codes=codes)
@@ -529,13 +560,47 @@ def _internal(cols: dict[str, np.ndarray]) -> bool:
     return bool(flag[0]) if len(flag) else False
 
 
-def _from_wkb(raw: np.ndarray, ptr: np.ndarray) -> np.ndarray:
-    """Geometries from a byte column and offsets (an object array)."""
-    data = raw.tobytes()
-    bounds = ptr.tolist()
-    blobs = np.array([data[bounds[i]:bounds[i + 1]] for i in range(len(bounds) - 1)],
-                     dtype=object)
-    return shapely.from_wkb(blobs) if len(blobs) else np.zeros(0, dtype=object)
+class StoredCurves(Sequence):
+    """A store's critical curves (:attr:`Decomposition.curves`): a tuple of :class:`Curve`
+    made from the curves' columns all at once on the first read of any item (their number is
+    known without; analysis reads none), then kept: ``curves[i] is curves[i]``. Equal to the
+    tuple of the same curves and hashed as it; pickled as that tuple."""
+
+    def __init__(self, env: Any, cols: dict[str, np.ndarray]) -> None:
+        self._env, self._cols = env, cols
+        self._n = len(cols["id"])
+        self._done: tuple[Curve, ...] | None = None
+        self._lock = threading.Lock()
+
+    def _all(self) -> tuple[Curve, ...]:
+        with self._lock:
+            if self._done is None:
+                self._done = _curves(self._env, self._cols)
+                self._env = self._cols = None
+            return self._done
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i: Any) -> Any:
+        return self._all()[i]
+
+    def __iter__(self) -> Iterator[Curve]:
+        return iter(self._all())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, StoredCurves)):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all())
+
+    def __repr__(self) -> str:
+        return repr(self._all())
+
+    def __reduce__(self) -> tuple:
+        return (tuple, (self._all(),))
 
 
 def _curves(env: Any, c: dict[str, np.ndarray]) -> tuple[Curve, ...]:

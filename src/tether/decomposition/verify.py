@@ -13,7 +13,7 @@ import numpy as np
 import shapely
 
 from tether.arcs import free_arcs_many
-from tether.decomposition.model import Decomposition
+from tether.decomposition.model import Decomposition, shared_holder
 from tether.decomposition.scan import scan
 from tether.decomposition.structure import structure_names, structures, structures_across
 from tether.decomposition.views import Piece, Pieces, Shapes
@@ -112,9 +112,8 @@ def _polygons(regions: Any) -> list:
     """The polygons of some regions of a decomposition: of a few regions whose polygons are
     not converted to the map's frame yet, only theirs converted (the self-check reads 200 of
     100k), else read as usual (all converted at once on the first read)."""
-    shapes = regions[0]._polygon if len(regions) else None
-    if (not isinstance(shapes, Shapes) or shapes.converted or 4 * len(regions) > len(shapes)
-            or any(r._polygon is not shapes for r in regions)):
+    shapes = shared_holder(regions, "_polygon")
+    if not isinstance(shapes, Shapes) or shapes.converted or 4 * len(regions) > len(shapes):
         return [r.polygon for r in regions]
     return shapes.some([r.id for r in regions]).tolist()
 

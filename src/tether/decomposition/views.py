@@ -17,7 +17,8 @@ import shapely
 
 __all__ = ["PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById", "Piece", "PieceTable",
            "Pieces", "RegionShapes", "RowSequence", "Shapes", "cell_name", "parse_cell_name",
-           "unique_pairs", "valid_polygons"]
+           "small_ints", "unique_pairs", "valid_polygons",
+           "wkb_geometries"]
 
 
 @dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
@@ -61,12 +62,48 @@ class Shapes:
     pay for it, and reading one region's polygon converts the batch once, never one by one.
     ``frame`` None: the geometries are the map's already."""
 
-    __slots__ = ("_geoms", "_frame", "_prepare")
+    __slots__ = ("_held", "_wkb", "_frame", "_prepare")
 
-    def __init__(self, geoms: np.ndarray, frame: Any = None, prepare: bool = False) -> None:
-        self._geoms = geoms  # object array of shapely geometries (None stays None)
+    def __init__(self, geoms: np.ndarray | None, frame: Any = None, prepare: bool = False,
+                 wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        self._held = geoms  # object array of shapely geometries (None stays None)
+        #: or, with ``geoms`` None, the geometries as WKB, decoded on the first read
+        #: (``(bytes, offsets)``: a store's columns, :mod:`tether.decomposition.store`; the
+        #: bytes may be a function reading them, called then)
+        self._wkb = wkb
         self._frame = frame  # tether.environment frame: internal -> map coordinates
         self._prepare = prepare  # shapely.prepare the converted geometries
+
+    def _wkb_column(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The WKB bytes and offsets (the bytes read now if given as a function), None once
+        decoded (by another thread meanwhile: the geometries are then held)."""
+        got = self._wkb
+        if got is None:
+            return None
+        raw, ptr = got
+        if callable(raw):
+            raw = raw()
+            self._wkb = (raw, ptr)
+        return raw, ptr
+
+    @property
+    def _geoms(self) -> np.ndarray:
+        """The geometries as kept (decoded from the WKB column on the first read; two
+        threads reading at once may both decode, to the same geometries)."""
+        held = self._held
+        if held is None:
+            column = self._wkb_column()
+            if column is None:
+                return self._held
+            held = wkb_geometries(*column)
+            if self._frame is None and self._prepare:  # in the map's frame: as read
+                shapely.prepare(held)
+            self._held, self._wkb = held, None
+        return held
+
+    @_geoms.setter
+    def _geoms(self, geoms: np.ndarray) -> None:
+        self._held, self._wkb = geoms, None
 
     @property
     def converted(self) -> bool:
@@ -89,9 +126,12 @@ class Shapes:
         """The geometries ``ids`` in map coordinates, converting only those if the batch is
         not converted yet (not cached: the same numbers, the transform is pointwise; not
         prepared): a few reads need not convert them all."""
-        if self._frame is None:
-            return self._geoms[ids]
-        return self._to_user(self._geoms[ids])
+        column = self._wkb_column() if self._held is None else None
+        if column is not None:  # still WKB: only these decoded
+            geoms = wkb_geometries(*column, np.asarray(ids, dtype=np.int64).reshape(-1))
+        else:
+            geoms = self._geoms[ids]
+        return geoms if self._frame is None else self._to_user(geoms)
 
     def held(self) -> tuple[np.ndarray, Any]:
         """The geometries as kept and the frame they are in (None: the map's), for a store
@@ -104,7 +144,22 @@ class Shapes:
         return self._frame.geometry_to_user(geoms)
 
     def __len__(self) -> int:
-        return len(self._geoms)
+        return len(self._held) if self._held is not None else len(self._wkb[1]) - 1
+
+
+def wkb_geometries(raw: np.ndarray, ptr: np.ndarray, ids: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """Geometries from a byte column and offsets (item ``i`` is
+    ``raw[ptr[i]:ptr[i + 1]]``): all, or those of ``ids`` (an object array)."""
+    if ids is None:
+        data, bounds = raw.tobytes(), ptr.tolist()
+        blobs = [data[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    else:
+        blobs = [raw[a:b].tobytes() for a, b in zip(ptr[ids].tolist(), ptr[ids + 1].tolist(),
+                                                    strict=True)]
+    if not blobs:
+        return np.zeros(0, dtype=object)
+    return shapely.from_wkb(np.array(blobs, dtype=object))
 
 
 class RegionShapes(Shapes):
@@ -115,9 +170,10 @@ class RegionShapes(Shapes):
 
     __slots__ = ("_unions", "_face_tree", "_face_owner")
 
-    def __init__(self, geoms: np.ndarray, unions: dict[int, np.ndarray], frame: Any = None,
-                 prepare: bool = True) -> None:
-        super().__init__(geoms, frame, prepare)
+    def __init__(self, geoms: np.ndarray | None, unions: dict[int, np.ndarray],
+                 frame: Any = None, prepare: bool = True,
+                 wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        super().__init__(geoms, frame, prepare, wkb)
         self._unions = unions or None
 
     @property
@@ -174,7 +230,11 @@ class RegionShapes(Shapes):
         if self._unions is None:
             return super().some(ids)
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
-        geoms = self._geoms[ids]
+        column = self._wkb_column() if self._held is None else None
+        if column is not None:  # still WKB: only these decoded
+            geoms = wkb_geometries(*column, ids)
+        else:
+            geoms = self._geoms[ids]
         for k, i in enumerate(ids.tolist()):
             faces = self._unions.get(i)
             if faces is not None:
@@ -205,7 +265,8 @@ def valid_polygons(geoms: np.ndarray) -> np.ndarray:
 
 
 class CellTable:
-    """The cells of a decomposition as int columns, in cell order (region by region):
+    """The cells of a decomposition as int columns (int32 regions, int16 codes where they
+    fit), in cell order (region by region):
     ``region``, ``start`` and ``end`` feature codes (the reported map's numbering, -1 for both
     ends of a FULL region's cell); ``names[code + 1]`` is a code's feature name (``FREE`` for
     -1); region ``r``'s cells are ``first[r]:first[r + 1]``. :class:`Cell` objects and id
@@ -215,7 +276,13 @@ class CellTable:
 
     def __init__(self, region: np.ndarray, start: np.ndarray, end: np.ndarray,
                  names: list[str], nregions: int) -> None:
-        self.region, self.start, self.end, self.names = region, start, end, names
+        # held in the smallest int types that hold them (:func:`small_ints`): 8 bytes a
+        # cell below 2**31 regions and 2**15 feature codes, instead of 24
+        code_t = np.int16 if len(names) < 2**15 else np.int32 if len(names) < 2**31 \
+            else np.int64
+        self.region = small_ints(region, np.int32 if nregions < 2**31 else np.int64)
+        self.start, self.end = small_ints(start, code_t), small_ints(end, code_t)
+        self.names = names
         count = np.bincount(region, minlength=nregions)
         self.first = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
         self._codes: dict[str, int] | None = None
@@ -290,6 +357,13 @@ class CellTable:
             return -1
         i = lo + int(hit[0])
         return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
+
+
+def small_ints(a: np.ndarray, dtype: type) -> np.ndarray:
+    """``a`` as ``dtype`` (an int type whose range the caller knows holds every value), or
+    as it is if its items are that small already."""
+    a = np.asarray(a)
+    return a if a.dtype.itemsize <= np.dtype(dtype).itemsize else a.astype(dtype)
 
 
 class RowSequence(Sequence):
