@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -11,6 +12,12 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 from tether import Environment
+
+# The fast tier runs often: keep the compiled (and assertion-rewritten) modules in __pycache__
+# (ignored by git) between runs even where PYTHONDONTWRITEBYTECODE is set; this halves the
+# collection (about 12 s to 7 s on the 2-core machine).
+sys.dont_write_bytecode = False
+
 
 # CI runs the property tests on a fixed sequence of examples (HYPOTHESIS_PROFILE=ci, set by
 # .ci/run), so that a landing never depends on luck; locally each run explores new examples and
