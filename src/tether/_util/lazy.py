@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any
 
-__all__ = ["lazy_attributes"]
+__all__ = ["LazyTuple", "lazy_attributes"]
 
 
 def lazy_attributes(package: str, namespace: dict, names: Mapping[str, str],
@@ -37,3 +37,44 @@ def lazy_attributes(package: str, namespace: dict, names: Mapping[str, str],
         return sorted(set(namespace) | set(names) | subs)
 
     return __getattr__, __dir__
+
+
+class LazyTuple(Sequence):
+    """A tuple made on the first read of any item: a subclass gives ``_all()`` (the tuple, made
+    once and kept) and ``__len__`` (known without making it). Equal to the tuple of the same
+    items (and to another ``LazyTuple`` of them) and hashed as it; pickled as that tuple.
+
+    Examples
+    --------
+    >>> class Squares(LazyTuple):
+    ...     def __len__(self): return 3
+    ...     def _all(self): return (0, 1, 4)
+    >>> Squares() == (0, 1, 4), Squares()[2], hash(Squares()) == hash((0, 1, 4))
+    (True, 4, True)
+    """
+
+    def _all(self) -> tuple:  # pragma: no cover - every subclass gives it
+        raise NotImplementedError
+
+    def __len__(self) -> int:  # pragma: no cover - every subclass gives it
+        raise NotImplementedError
+
+    def __getitem__(self, i: Any) -> Any:
+        return self._all()[i]
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter(self._all())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, LazyTuple)):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._all())
+
+    def __repr__(self) -> str:
+        return repr(self._all())
+
+    def __reduce__(self) -> tuple:
+        return (tuple, (self._all(),))

@@ -14,13 +14,13 @@ and structures are left as they are."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 
+from tether._util.lazy import LazyTuple
 from tether.arcs import ArcTable
-from tether.curves import Curve, curves_to_user
+from tether.curves import curves_to_user
 from tether.decomposition.model import shared_holder
 from tether.decomposition.structure import FREE, Structures
 from tether.decomposition.views import PieceTable, Shapes
@@ -145,7 +145,7 @@ class UserFrame:
 
 
 
-class _UserCurves(Sequence):
+class _UserCurves(LazyTuple):
     """The critical curves in the map's frame (a tuple of :class:`Curve`), made all at once
     by :meth:`UserFrame.converted_curves` on the first read of any item (their number is
     known without), then kept: ``curves[i] is curves[i]``. Equal to the tuple of the same
@@ -168,23 +168,3 @@ class _UserCurves(Sequence):
     def __len__(self) -> int:
         with self._lock:
             return len(self._done if self._done is not None else self._inner or ())
-
-    def __getitem__(self, i: Any) -> Any:
-        return self._all()[i]
-
-    def __iter__(self) -> Iterator[Curve]:
-        return iter(self._all())
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, (tuple, _UserCurves)):
-            return tuple(self) == tuple(other)
-        return NotImplemented
-
-    def __hash__(self) -> int:
-        return hash(self._all())
-
-    def __repr__(self) -> str:
-        return repr(self._all())
-
-    def __reduce__(self) -> tuple:
-        return (tuple, (self._all(),))

@@ -22,7 +22,7 @@ import shutil
 import tempfile
 import threading
 import zipfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ import numpy as np
 import shapely
 
 from tether._util.files import check_output_dir
+from tether._util.lazy import LazyTuple
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
 from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
@@ -560,7 +561,7 @@ def _internal(cols: dict[str, np.ndarray]) -> bool:
     return bool(flag[0]) if len(flag) else False
 
 
-class StoredCurves(Sequence):
+class StoredCurves(LazyTuple):
     """A store's critical curves (:attr:`Decomposition.curves`): a tuple of :class:`Curve`
     made from the curves' columns all at once on the first read of any item (their number is
     known without; analysis reads none), then kept: ``curves[i] is curves[i]``. Equal to the
@@ -581,26 +582,6 @@ class StoredCurves(Sequence):
 
     def __len__(self) -> int:
         return self._n
-
-    def __getitem__(self, i: Any) -> Any:
-        return self._all()[i]
-
-    def __iter__(self) -> Iterator[Curve]:
-        return iter(self._all())
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, (tuple, StoredCurves)):
-            return tuple(self) == tuple(other)
-        return NotImplemented
-
-    def __hash__(self) -> int:
-        return hash(self._all())
-
-    def __repr__(self) -> str:
-        return repr(self._all())
-
-    def __reduce__(self) -> tuple:
-        return (tuple, (self._all(),))
 
 
 def _curves(env: Any, c: dict[str, np.ndarray]) -> tuple[Curve, ...]:
