@@ -39,10 +39,12 @@ from tether.decomposition.structure import Structure, Structures
 from tether.decomposition.views import (
     Cells,
     CellTable,
+    PackedFaces,
     Pieces,
     PieceTable,
     RegionShapes,
     Shapes,
+    wkb_column,
     wkb_geometries,
 )
 from tether.errors import InvalidParameterError, OutputPathError
@@ -215,11 +217,9 @@ def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = flo
 
 
 def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Geometries as one byte column and offsets (WKB keeps every double exactly)."""
-    blobs = shapely.to_wkb(geoms, output_dimension=2) if len(geoms) else []
-    ptr = np.zeros(len(blobs) + 1, dtype=np.int64)
-    np.cumsum(np.fromiter(map(len, blobs), dtype=np.int64, count=len(blobs)), out=ptr[1:])
-    return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
+    """Geometries as one byte column and offsets (WKB keeps every double exactly; the
+    bytes a decomposition holds them packed in, :func:`wkb_column`)."""
+    return wkb_column(geoms)
 
 
 def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
@@ -228,21 +228,29 @@ def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[st
     each region's structure id, and the distinct structures (whole) in the file's codes."""
     regs = dec.regions
     holder = shared_holder(regs, "_polygon")
-    if isinstance(holder, RegionShapes):
-        held, frame = holder.held()
-        geoms = held[lo:hi]
-        if "pending" not in memo:
-            memo["pending"] = holder.pending_unions()
-        pending = memo["pending"]
+    packed = holder.held_wkb(lo, hi) if isinstance(holder, RegionShapes) else None
+    unions = holder.held_unions() if isinstance(holder, RegionShapes) else None
+    if packed is not None and (unions is None or type(unions) is PackedFaces):
+        wkb, ptr, frame = packed  # as held, packed: the bytes, no geometry decoded
+        count, face_wkb, face_ptr = (unions.held_wkb(lo, hi) if unions is not None else
+                                     (np.zeros(hi - lo, np.int64), np.zeros(0, np.uint8),
+                                      np.zeros(1, np.int64)))
     else:
-        geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
-    wkb, ptr = _wkb(geoms)
-    multi = [i for i in sorted(pending) if lo <= i < hi]
-    count = np.zeros(hi - lo, dtype=np.int64)
-    count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
+        if isinstance(holder, RegionShapes):
+            held, frame = holder.held()
+            geoms = held[lo:hi]
+            if "pending" not in memo:
+                memo["pending"] = holder.pending_unions()
+            pending = memo["pending"]
+        else:
+            geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
+        wkb, ptr = _wkb(geoms)
+        multi = [i for i in sorted(pending) if lo <= i < hi]
+        count = np.zeros(hi - lo, dtype=np.int64)
+        count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
+        face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
+                                  else np.zeros(0, dtype=object))
     union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
-    face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
-                              else np.zeros(0, dtype=object))
     if "structures" not in memo:
         memo["structures"] = _structure_columns(dec)
     sid, sptr, spairs = memo["structures"]
@@ -301,6 +309,8 @@ def _piece_table(dec: Decomposition, memo: dict) -> tuple:
     keeps, else made from the pieces once, for every part)."""
     if type(dec.pieces) is Pieces:
         t = dec.pieces._table
+        if t.shapes.held_wkb(0, 0) is not None:  # packed: written as held, not decoded
+            return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, t.shapes, None
         geoms, frame = t.shapes.held()
         return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, geoms, frame
     if "pieces" not in memo:
@@ -321,7 +331,13 @@ def _piece_table(dec: Decomposition, memo: dict) -> tuple:
 def _piece_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     """Pieces ``lo:hi``'s columns and the distinct descriptions (whole)."""
     pair, q, n, eps, ok, desc, dlist, geoms, frame = _piece_table(dec, memo)
-    wkb, ptr = _wkb(geoms[lo:hi])
+    packed = geoms.held_wkb(lo, hi) if isinstance(geoms, Shapes) else None
+    if packed is not None:  # packed: its bytes as held
+        wkb, ptr, frame = packed
+    else:
+        if isinstance(geoms, Shapes):  # decoded since (read meanwhile)
+            geoms, frame = geoms.held()
+        wkb, ptr = _wkb(geoms[lo:hi])
     if "descs" not in memo:
         cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
         fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
