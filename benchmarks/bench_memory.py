@@ -85,6 +85,12 @@ def geos(geoms):
     del copy
     return got, coords, len(geoms)
 
+def packed(holder):
+    # the bytes of the WKB column a holder keeps its geometries in (None: it holds them
+    # decoded, as shapely objects; checkouts before the packing)
+    got = holder.held_wkb(0, len(holder)) if hasattr(holder, "held_wkb") else None
+    return None if got is None else got[0].nbytes + got[1].nbytes
+
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 out = {"vertices": n, "load": os.getloadavg()[0]}
@@ -108,10 +114,16 @@ lean = hasattr(regs, "_table")  # Regions: columns, records made when read
 shapes = regs._table.shapes if lean else regs[0]._polygon
 structs = regs._table.structures if lean else regs[0]._structure
 py = deep(regs, seen)  # the records (a tuple of them), points, floats, ints; or the view
-held, _ = shapes.held()
-faces = [f for fs in shapes.pending_unions().values() for f in fs]
-g_b, g_c, g_n = geos(list(held) + faces)
 cols = columns(structs, ("ptr", "pairs", "region"))
+got = packed(shapes)
+if got is not None:  # packed as WKB: its bytes are columns, no geometry to measure
+    unions = shapes.held_unions()
+    cols += got + (0 if unions is None else columns(unions, ("ids", "ptr", "raw", "fptr")))
+    g_b = g_c = g_n = 0
+else:
+    held, _ = shapes.held()
+    faces = [f for fs in shapes.pending_unions().values() for f in fs]
+    g_b, g_c, g_n = geos(list(held) + faces)
 if lean:
     cols += columns(regs._table, ("area", "point"))
 parts["regions"] = {"per": nr, "columns": cols, "python": py + deep(structs._sets, seen),
@@ -120,10 +132,15 @@ table = dec.cells._table
 parts["cells"] = {"per": nc, "columns": columns(table, ("region", "start", "end", "first")),
                   "python": deep(table.names, seen)}
 pt = dec.pieces._table
-pg, _ = pt.shapes.held()
-g_b, g_c, g_n = geos(pg)
-parts["pieces"] = {"per": npc, "columns": columns(pt, ("pair", "q", "n", "eps", "ok", "desc")),
-                   "python": deep(pt.descs, seen), "geos": g_b, "coords": g_c, "geoms": g_n}
+got = packed(pt.shapes)
+if got is not None:
+    g_b = g_c = g_n = 0
+else:
+    pg, _ = pt.shapes.held()
+    g_b, g_c, g_n = geos(pg)
+parts["pieces"] = {"per": npc, "columns": columns(pt, ("pair", "q", "n", "eps", "ok", "desc"))
+                   + (got or 0), "python": deep(pt.descs, seen), "geos": g_b, "coords": g_c,
+                   "geoms": g_n}
 arcs = dec.crossing_arcs()
 parts["crossing arcs"] = {"per": npc, "columns": columns(arcs, ("point", "start", "end",
                           "start_code", "end_code", "full"))}
