@@ -12,9 +12,12 @@ survives (with unbounded observer speed, any start in a surviving cell can be he
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Iterator, Sequence, Set
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -34,12 +37,20 @@ from tether.analysis.connectivity import (
 )
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
+from tether.arcs import feature_name
 from tether.decomposition import Decomposition, decompose, feature_name_rank
+from tether.decomposition.structure import FREE
 from tether.decomposition.views import parse_cell_name, small_ints
 from tether.tolerances import REL_LENGTH_TOL
 
-__all__ = ["CellSet", "Elimination", "Eliminations", "Verdict", "analyze", "eliminate",
-           "escape_story"]
+__all__ = ["JSON_LIST_MAX", "CellSet", "Elimination", "Eliminations", "Verdict", "analyze",
+           "eliminate", "escape_story"]
+
+#: Items a list of :meth:`Verdict.to_dict` holds at most (edges of G, surviving cells,
+#: eliminations): a longer one is given as its count (and the file of its arrays) instead,
+#: which bounds ``tether analyze --json`` on large maps (an edge costs ~300 bytes of Python
+#: objects and ~60 of JSON text: 200,000 of them ~12 MB of text).
+JSON_LIST_MAX = 200_000
 
 
 @dataclass(frozen=True)
@@ -131,26 +142,76 @@ class Verdict:
                 "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
                 "surviving_cells": len(self.surviving)}
 
-    def to_dict(self) -> dict:
-        """The verdict as JSON-ready values (the ``tether analyze --json`` fields)."""
+    def to_dict(self, max_items: float | None = None, arrays: str | None = None) -> dict:
+        """The verdict as JSON-ready values (the ``tether analyze --json`` fields).
+
+        A list longer than ``max_items`` (the edges of G, the surviving cells, the
+        eliminations; None: :data:`JSON_LIST_MAX`, ``math.inf``: no bound) is given as
+        ``{"count": n, "arrays": arrays}`` instead of one JSON value an item (~300 bytes of
+        Python objects each, tens of GB at 4,000 map vertices): ``arrays`` names the file
+        :meth:`save_arrays` wrote them to (None: not written)."""
+        most = JSON_LIST_MAX if max_items is None else max_items
+
+        def bounded(n: int, make: Any) -> Any:
+            return {"count": n, "arrays": arrays} if n > most else make()
+
         return {
             "map": self.dec.env.name,
             "lss": self.dec.lss,
             "counts": self.counts(),
-            "edges": [list(e) for e in self.graph.edges],
+            "edges": bounded(self.graph.n_edges, lambda: [list(e) for e in self.graph.edges]),
             "verdict": {
                 "strategy_exists": self.strategy_exists,
                 "witness_region": None if self.witness_region is None
                 else f"R{self.witness_region}",
                 "rounds": self.rounds,
-                "surviving": sorted(self.surviving),
-                "eliminated": [e.to_dict() for e in self.eliminated],
+                "surviving": bounded(len(self.surviving), lambda: sorted(self.surviving)),
+                "eliminated": bounded(len(self.eliminated),
+                                      lambda: [e.to_dict() for e in self.eliminated]),
                 "story": self.story(),
             },
             "self_check": None if self.self_check is None else self.self_check.to_dict(),
             "verified": self.verified,
             "critical_lss": None if self.critical is None else self.critical.to_dict(),
         }
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The verdict's lists as integer columns (what :meth:`save_arrays` writes): G's
+        edges ``edge_a``, ``edge_b`` (cell indices into ``dec.cells``), ``edge_piece``; the
+        ``surviving`` cells' indices (increasing); the eliminations in order,
+        ``eliminated_cell``, ``eliminated_piece``, ``eliminated_round``,
+        ``eliminated_because`` (-1: none); and the cells' names as ``cell_region``,
+        ``cell_start``, ``cell_end`` feature codes into ``feature_names`` (cell ``i`` is
+        ``(R<cell_region[i]>,<feature_names[cell_start[i] + 1]>,<feature_names[cell_end[i]
+        + 1]>)``, code -1 the free end of a FULL region's cell)."""
+        g, el, dec = self.graph, self.eliminated, self.dec
+        if not isinstance(el, Eliminations):  # a verdict made otherwise: from its records
+            el = _records_as_columns(el)
+        alive = (self.surviving.indices() if isinstance(self.surviving, CellSet) else
+                 np.sort([dec.cell_index(c) for c in self.surviving]).astype(np.int64))
+        region, start, end = dec.cell_codes()
+        names = [feature_name(dec.env, c) for c in range(2 * dec.env.n)]
+        return {"edge_a": g.edge_a, "edge_b": g.edge_b, "edge_piece": g.edge_piece,
+                "surviving": alive, "eliminated_cell": el.cell,
+                "eliminated_piece": el.piece, "eliminated_round": el.round,
+                "eliminated_because": el.because, "cell_region": region,
+                "cell_start": start, "cell_end": end,
+                "feature_names": np.array([FREE, *names], dtype=str)}
+
+    def save_arrays(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`arrays` to the ``.npz`` file ``path`` (numpy's format, no pickled
+        object), whole or not at all; returns its path.
+
+        Raises
+        ------
+        OutputPathError
+            If the file cannot be written.
+        """
+        from tether._util.files import atomic_output
+
+        with atomic_output(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, **self.arrays())
+        return Path(path)
 
     def __repr__(self) -> str:
         return (f"Verdict(strategy_exists={self.strategy_exists}, "
@@ -295,6 +356,14 @@ def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
     return CellSet(dec, alive), Eliminations(
         graph, small_ints(cell, t), graph.slot_piece[slot],  # the pieces: in G's type
         small_ints(rnd, t), small_ints(because, t))
+
+
+def _records_as_columns(records: Iterable[Elimination]) -> Any:
+    """Elimination records as the columns of :class:`Eliminations` (``because`` -1: none)."""
+    rows = [(e.cell, e.piece, e.round, -1 if e.because is None else e.because)
+            for e in records]
+    cell, piece, rnd, because = np.array(rows, dtype=np.int64).reshape(-1, 4).T
+    return SimpleNamespace(cell=cell, piece=piece, round=rnd, because=because)
 
 
 def cell_rank(dec: Decomposition) -> np.ndarray:
