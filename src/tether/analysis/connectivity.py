@@ -313,7 +313,13 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
     if len(got) == 1:
         return got[0]
-    return tuple(np.concatenate([g[i] for g in got]) for i in range(3))
+    cols = [list(c) for c in zip(*got, strict=True)]
+    del got
+    out = []
+    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
+        out.append(np.concatenate(c))
+        c.clear()
+    return out[0], out[1], out[2]
 
 
 #: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
@@ -554,8 +560,8 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
 
 
 #: Edges whose partner entries :func:`partner_entries` places at once (bounds its
-#: temporaries: ~50 bytes an edge of the run, instead of ~40 bytes an edge of G)
-PARTNER_CHUNK = 1 << 22
+#: temporaries: ~100 bytes an edge of the run, ~25 MB)
+PARTNER_CHUNK = 1 << 18
 
 
 def partner_entries(slot_a: np.ndarray, slot_b: np.ndarray, nslot: int
@@ -564,16 +570,18 @@ def partner_entries(slot_a: np.ndarray, slot_b: np.ndarray, nslot: int
     ``slot_b[i]``): ``partner_ptr`` (``nslot + 1``) and ``partner_slot``, the entries
     ``(slot_a[i] -> slot_b[i])`` and ``(slot_b[i] -> slot_a[i])`` of every edge grouped by
     their slot, in edge order within a slot (the stable sort of the entries by slot). Made
-    by a counting sort, :data:`PARTNER_CHUNK` edges at a time (no sort nor index array of
-    every entry: the peak is the result and one run's temporaries)."""
+    by a counting sort, :data:`PARTNER_CHUNK` edges at a time: no sort, index or count
+    array of every entry or slot in 8 bytes, the peak is the result, one int per slot and
+    one run's temporaries."""
     ne = len(slot_a)
     entry_t = index_dtype(2 * ne + 1)
-    count = np.bincount(slot_a, minlength=nslot)
-    count += np.bincount(slot_b, minlength=nslot)
     partner_ptr = np.zeros(nslot + 1, dtype=entry_t)
-    np.cumsum(count, out=partner_ptr[1:])
-    del count
-    cursor = partner_ptr[:-1].astype(np.int64)  # each slot's next free entry
+    count = partner_ptr[1:]  # each slot's entries, counted in place, then summed
+    for lo in range(0, ne, PARTNER_CHUNK):
+        np.add.at(count, slot_a[lo:lo + PARTNER_CHUNK], 1)
+        np.add.at(count, slot_b[lo:lo + PARTNER_CHUNK], 1)
+    np.cumsum(partner_ptr, out=partner_ptr)
+    cursor = partner_ptr[:-1].copy()  # each slot's next free entry
     partner_slot = np.empty(2 * ne, dtype=np.result_type(slot_a.dtype, slot_b.dtype))
     for lo in range(0, ne, PARTNER_CHUNK):
         hi = min(lo + PARTNER_CHUNK, ne)
@@ -582,8 +590,8 @@ def partner_entries(slot_a: np.ndarray, slot_b: np.ndarray, nslot: int
         key = key[order]
         head = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
         size = np.diff(np.r_[head, len(key)])
-        rank = np.arange(len(key)) - np.repeat(head, size)  # position among equal keys
-        at = cursor[key] + rank
+        at = np.arange(len(key)) - np.repeat(head, size)  # position among equal keys
+        at += cursor[key]
         partner_slot[at] = np.column_stack((slot_b[lo:hi], slot_a[lo:hi])).ravel()[order]
-        cursor[key[head]] += size
+        cursor[key[head]] += size.astype(entry_t)
     return partner_ptr, partner_slot
