@@ -82,16 +82,17 @@ TILED_REFERENCE = {"n": 2000, "pairs": 101_901, "vertices": 1_080_875, "regions"
 TILED = {
     "regions_power": 1.117,  # 106,553 -> 459,746 regions as P 27,541 -> 101,901
     "pieces_power": 1.108,  # 209,768 -> 903,014
-    "cells_power": 0.930,  # 624,190 -> 3,735,668 as P²/n 758,507 -> 5,191,863
+    "cells_power": 0.930,  # 624,190 -> 3,735,668 as P²/n 758,507 -> 5,191,907
     "edges_power": 0.924,  # 1,226,425 -> 7,256,658
-    "bytes_per_region": 366.0,  # columns, packed polygon, structure (bench_memory, 2,000)
-    "bytes_per_piece": 600.0,  # columns, packed line, crossings' arcs (393)
-    "bytes_per_cell": 10.0,
-    "bytes_per_vertex": 60.0,  # the curves' polylines and parameters, held
-    "decompose_bytes_per_vertex": 1000.0,  # decompose's peak less what it returns, per V
-    "bytes_per_edge": 40.0,  # G's int32 CSR arrays
-    "graph_build_bytes_per_edge": 17.0,  # G build's tracemalloc peak above what is held
-    "elimination_bytes_per_cell": 132.0,  # eliminations (17) + the elimination's temporaries
+    "bytes_per_region": 303.0,  # columns, packed polygon, structure (bench_memory, 2,000)
+    "bytes_per_piece": 540.0,  # columns and packed line (146), the crossings' arcs (393)
+    "bytes_per_cell": 9.0,
+    "bytes_per_vertex": 82.0,  # the curves, per polyline vertex (85 MB / 1,080,875)
+    # decompose's peak (2,105 MB) less the base and what it returns (714 MB), per vertex
+    "decompose_bytes_per_vertex": 1287.0,
+    "bytes_per_edge": 39.5,  # G's int32 CSR arrays
+    "graph_build_bytes_per_edge": 58.0,  # G build's tracemalloc peak (422 MB) a edge
+    "elimination_bytes_per_cell": 110.0,  # the elimination's (411 MB), the result's included
     "margin": 1.1,  # the estimate over the model, as the untiled estimate's 10 %
     "vertices_per_vertex_step": 6.4,  # V / (n / step): 5.9 at 1,000, 6.4 at 2,000 vertices
     "sent": 1.4,  # input segments sent to the noding tasks over V (docs/scale.md, 2,000)
