@@ -71,3 +71,28 @@ def test_graph_from_small_runs_gives_the_same_verdict(room, monkeypatch):
     for name in ("edge_a", "edge_b", "edge_piece", "partner_ptr", "partner_slot"):
         assert np.array_equal(getattr(whole, name), getattr(runs, name)), name
     assert analyze(room, runs, **QUICK).to_dict() == analyze(room, whole, **QUICK).to_dict()
+
+
+def test_sides_of_a_critical_length_decomposed_in_the_tiles_given(monkeypatch):
+    """A 4 x 4 room at lss 2 (opposite walls 2 lss apart): analyze decomposes the map just
+    below and above; with ``tiles`` those decompositions are tiled too (on the executor
+    given), with the same verdicts and counts as untiled."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import tether.analysis.elimination as E
+
+    env = Environment([(0, 0), (4, 0), (4, 4), (0, 4)])
+    dec = decompose(env, 2.0)
+    seen = []
+    real = E.decompose
+
+    def spy(*args, **kw):
+        seen.append(kw.get("tiles"))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(E, "decompose", spy)
+    plain = analyze(dec, self_check=False)
+    with ThreadPoolExecutor(2) as ex:
+        tiled = analyze(dec, self_check=False, tiles=(2, 2), executor=ex)
+    assert seen == [None, None, (2, 2), (2, 2)]
+    assert tiled.critical.to_dict() == plain.critical.to_dict()

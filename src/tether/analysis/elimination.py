@@ -539,7 +539,8 @@ def _cell_key(cid: str) -> tuple:
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
-            self_check: bool = True, near_critical: bool = True) -> Verdict:
+            self_check: bool = True, near_critical: bool = True, tiles: Any = None,
+            executor: Any = None) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
@@ -547,7 +548,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
     With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
     a critical length of the map (:func:`tether.analysis.critical.near_critical`), the map is also
-    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
+    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`;
+    ``tiles`` and ``executor`` are given to those decompositions (as :func:`decompose` takes
+    them: a map decomposed in tiles for its size is so beside the critical length too).
 
     Examples
     --------
@@ -579,19 +582,21 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
-    critical = _beside_critical(dec, self_check) if near_critical else None
+    critical = _beside_critical(dec, self_check, tiles, executor) if near_critical else None
     return Verdict(dec, graph, surviving, elim, witness, report, critical)
 
 
-def _beside_critical(dec: Decomposition, self_check: bool) -> CriticalLss | None:
-    """The verdicts just below and above ``dec.lss`` if it is near a critical length."""
+def _beside_critical(dec: Decomposition, self_check: bool, tiles: Any = None,
+                     executor: Any = None) -> CriticalLss | None:
+    """The verdicts just below and above ``dec.lss`` if it is near a critical length (the
+    decompositions in ``tiles`` on ``executor`` when given)."""
     rel_tol = dec.curve_tol / dec.env.diameter
     events, value, delta = critical_events(dec.env, dec.lss, rel_tol)
     if not events:
         return None
     sides = []
     for lss in (value - delta, value + delta):
-        side = decompose(dec.env, lss, rel_tol)
+        side = decompose(dec.env, lss, rel_tol, tiles=tiles, executor=executor)
         sides.append(side_summary(analyze(side, self_check=self_check, near_critical=False)))
     on = ON_CRITICAL_TOLS * REL_LENGTH_TOL * dec.env.diameter
     return CriticalLss(dec.lss, value, delta, on, events, sides[0], sides[1])

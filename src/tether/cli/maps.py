@@ -237,7 +237,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         raise InvalidParameterError("analyze needs MAP --lss L, or --from DIR")
     else:
         dec = _decompose(args)
-    verdict = analyze(dec)
+    tiles = args.tiles or ("auto" if args.workers or args.dask else None)
+    verdict = analyze(dec, tiles=tiles)  # beside a critical length: in tiles too
     if args.plot:
         from tether.plot import plot_verdict, save
 

@@ -146,7 +146,7 @@ def estimate_tiled(n: int, pairs: int, vertices: float, plan: TilePlan) -> Tiled
     >>> ref = TILED_REFERENCE
     >>> est = estimate_tiled(ref["n"], ref["pairs"], ref["vertices"], TilePlan(None, 250_000, 64))
     >>> est.counts["regions"], est.tiles, round(est.main / 2**30, 1)
-    (459746, 5, 3.1)
+    (459746, 5, 2.3)
     """
     t, ref = TILED, TILED_REFERENCE
     p = pairs / ref["pairs"]
