@@ -22,7 +22,7 @@ from tether.examples.floorplan import floor_plan
 
 @pytest.fixture(scope="module")
 def plan_map():
-    env = floor_plan(200, seed=0)
+    env = floor_plan(600, seed=0)
     return env, (env.bounds[2] - env.bounds[0]) / 15
 
 

@@ -408,18 +408,23 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     """
     ncell = len(slot_ptr) - 1
     count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
-    slot_cell = np.repeat(np.arange(ncell, dtype=np.int32 if ncell < 2**31 else np.int64),
-                          np.diff(slot_ptr))  # the cell of every slot
+    own_t = np.int32 if ncell < 2**31 else np.int64
+
+    def slot_cell(slots: np.ndarray) -> np.ndarray:
+        """The cell of each of ``slots`` (found in ``slot_ptr``: no column of every slot's
+        cell held, 4 bytes a slot)."""
+        return (np.searchsorted(slot_ptr, slots, side="right") - 1).astype(own_t)
+
     entry_ptr = partner_ptr[slot_ptr]  # a cell's slots' partner entries, one run per cell
     zs = np.flatnonzero(count == 0)
-    zc = slot_cell[zs].astype(np.int64)
+    zc = slot_cell(zs).astype(np.int64)
     head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
     lvl_cell, lvl_slot = zc[head], zs[head]
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
     queued = np.zeros(ncell, dtype=bool)
     queued[lvl_cell] = True
-    slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
-    cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
+    cell_end = np.empty(ncell, np.int64 if len(partner_slot) >= 2**31 else np.int32)
+    # (a scratch column, set where used)
     out_cell, out_slot, out_round, out_because = [], [], [], []
     cell_t, slot_t = index_dtype(ncell), index_dtype(len(count))
     rnd = 0
@@ -435,15 +440,13 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         first = entry_ptr[lvl_cell]
         nentry = entry_ptr[lvl_cell + 1] - first
         done = np.cumsum(nentry)  # entries up to each of the level's cells
-        hit, slot = _emptied(count, partner_slot, slot_cell, queued, first, nentry, done)
-        cell = slot_cell[slot]  # int32 mostly: made int64 once filtered, below
+        hit, slot, cell = _emptied(count, partner_slot, slot_cell, queued, first, nentry,
+                                   done)  # cell: int32 mostly, made int64 once filtered
         # the entry position where each emptied slot reached 0 (its last), and each cell
         # falls through its slot that emptied first
-        slot_end[slot] = -1
-        # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
-        np.maximum.at(slot_end, slot, hit.astype(slot_end.dtype, copy=False))
-        end = slot_end[slot]
+        end = _group_max(slot, hit).astype(cell_end.dtype, copy=False)
         cell_end[cell] = int(done[-1]) if len(done) else 0
+        # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
         np.minimum.at(cell_end, cell, end)
         keep = (hit == end) & (cell_end[cell] == end)
         pos, cell = hit[keep], cell[keep].astype(np.int64)
@@ -464,17 +467,31 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
 ELIM_CHUNK = 1 << 22
 
 
-def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
+def _group_max(key: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """For each item, the largest ``value`` among the items of its ``key`` (one sort of the
+    items: no scratch column over every possible key)."""
+    if len(key) == 0:
+        return value.copy()
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    head = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+    top = np.maximum.reduceat(value[order], head)
+    out = np.empty_like(value)
+    out[order] = np.repeat(top, np.diff(np.r_[head, len(k)]))
+    return out
+
+
+def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: Any,
              queued: np.ndarray, first: np.ndarray, nentry: np.ndarray, done: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray]:
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One round's decrements: every partner entry of the level's cells (``first``,
     ``nentry``, cumulative ``done``), in processing order, run by run of about
     :data:`ELIM_CHUNK` entries. Returns the positions (in the round's entries) at which a
-    slot of a cell not queued yet is left without partners, and those slots: a slot's count
-    never rises, so it reaches 0 within the run holding its last entry of the round, and
-    every entry of it in that run sees 0 (its last among them: the one kept by the
-    caller)."""
-    hits, slots = [], []
+    slot of a cell not queued yet is left without partners, those slots and their cells
+    (``slot_cell``: the cells of slots): a slot's count never rises, so it reaches 0 within
+    the run holding its last entry of the round, and every entry of it in that run sees 0
+    (its last among them: the one kept by the caller)."""
+    hits, slots, cells = [], [], []
     ends = size_runs(done, ELIM_CHUNK)
     for c0, c1 in zip([0, *ends[:-1]], ends, strict=True):
         base = int(done[c0 - 1]) if c0 else 0
@@ -482,12 +499,15 @@ def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
         _decrement(count, tgt)
         hit = np.flatnonzero(count[tgt] == 0)
         slot = tgt[hit]
-        fresh = ~queued[slot_cell[slot]]
+        cell = slot_cell(slot)
+        fresh = ~queued[cell]
         hits.append(hit[fresh] + base)
         slots.append(slot[fresh])
+        cells.append(cell[fresh])
     if not hits:
-        return np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype)
-    return np.concatenate(hits), np.concatenate(slots)
+        return (np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype),
+                slot_cell(np.zeros(0, np.int64)))
+    return np.concatenate(hits), np.concatenate(slots), np.concatenate(cells)
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
