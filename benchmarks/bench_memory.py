@@ -326,6 +326,19 @@ def _estimates(rows: list[dict], label: str, src: str) -> list[str]:
     return out
 
 
+JSON_NOTE = """\
+## `analyze --json` of a large result
+
+`Verdict.to_dict()` (what `tether analyze --json` prints) gives a list longer than
+`tether.analysis.elimination.JSON_LIST_MAX` (200,000) items (the edges of G, the surviving
+cells, the eliminations) as `{"count": n, "arrays": FILE}` instead of one JSON value an item
+(~300 bytes of Python objects an edge: tens of GB at 4,000 vertices); `--arrays FILE.npz`
+(`Verdict.save_arrays`) writes those lists as integer columns (`edge_a`, `edge_b`,
+`edge_piece`, `surviving`, `eliminated_cell`, `eliminated_piece`, `eliminated_round`,
+`eliminated_because`, with the cells' `cell_region`, `cell_start`, `cell_end` codes into
+`feature_names`). Smaller results print as before."""
+
+
 BEGIN, END = "<!-- bench_memory: begin -->", "<!-- bench_memory: end -->"
 
 
@@ -334,7 +347,8 @@ def write_doc(path: Path, rows: list[dict], label: str, src: str) -> None:
     :data:`BEGIN` and :data:`END` in ``path`` (appended at its end the first time)."""
     text = path.read_text()
     body = "\n".join([BEGIN, SECTION, *_table(rows), "", *_projection(rows, label, src), "",
-                      ESTIMATE, *_estimates(rows, label, src), "", ESTIMATE_AFTER, END])
+                      ESTIMATE, *_estimates(rows, label, src), "", ESTIMATE_AFTER, "",
+                      JSON_NOTE, END])
     if BEGIN in text:
         head, rest = text.split(BEGIN, 1)
         text = head + body + rest.split(END, 1)[1]

@@ -60,7 +60,9 @@ class Shapes:
     ``shapely.transform``, the very numbers an eager conversion gives, then cached; the
     internal ones are dropped): building the graph and analyzing read no geometry and never
     pay for it, and reading one region's polygon converts the batch once, never one by one.
-    ``frame`` None: the geometries are the map's already."""
+    ``frame`` None: the geometries are the map's already. Held as shapely objects, or packed
+    as WKB (``wkb``: :func:`wkb_column`'s bytes and offsets, as :func:`decompose` and the
+    store leave them), decoded on the first read."""
 
     __slots__ = ("_held", "_wkb", "_frame", "_prepare")
 
@@ -269,8 +271,9 @@ class PackedFaces(Mapping):
 class RegionShapes(Shapes):
     """The regions' polygons (see :class:`Shapes`), the unions of the multi-face regions made
     on the first read: ``unions[i]`` the faces (an object array) whose ``shapely.union_all``
-    is item ``i``, all made at once on the first read of all (then prepared, converted),
-    only those asked for by :meth:`some`. Building G and analyzing never pay for them."""
+    is item ``i`` (a dict, or the faces packed, :class:`PackedFaces`), all made at once on
+    the first read of all (then prepared, converted), only those asked for by :meth:`some`.
+    Building G and analyzing never pay for them."""
 
     __slots__ = ("_unions", "_face_tree", "_face_owner")
 
