@@ -399,9 +399,9 @@ tiled path (`tether.curves.budget.estimate_tiled`) for each process, before any 
 again after the critical intervals, in one line with what would fit (more tiles, an `lss`,
 a curve tolerance; an untiled refusal also names `--tiles auto` when that fits). The calling
 process holds the result, G and the elimination, whatever the tiles: its peak is the larger
-of its `decompose` stage (what the result holds plus 1,287 bytes a polyline vertex of
+of its `decompose` stage (what the result holds plus 1,314 bytes a polyline vertex of
 temporaries) and its G and elimination stage (the result, G at 39.5 bytes an edge, and the
-larger of G's build, 58 bytes an edge, and the elimination, 110 bytes a cell), from counts
+larger of G's build, 58 bytes an edge, and the elimination, 84 bytes a cell), from counts
 projected from the pairs within lss `P` (regions and pieces grow as `P^1.12` and `P^1.11`,
 cells and edges as `(P²/n)^0.93` from the run at 2,000 vertices) at the bytes per object of
 that run (`tether.curves.budget.TILED`, each constant with its source); a worker's is 100 MB

@@ -64,7 +64,7 @@ BYTES_PER_EXACT_CELL = 1445.0
 #: The reference run of the tiled path's constants (:data:`TILED`): ``floor_plan(2000,
 #: seed=0)``, lss = width / 15, decomposed in tiles on 2 workers, measured by ``python
 #: benchmarks/bench_memory.py --sizes 1000 2000`` (``docs/memory_lean_runs.json``, the rows
-#: ``lean2``) and ``benchmarks/bench_scale.py`` (``docs/scale.md``, the worker's peak); its
+#: ``lean2 2178157``) and ``benchmarks/bench_scale.py`` (``docs/scale.md``, the worker's peak); its
 #: pairs within lss ``P``, estimated cells ``P² / n``, polyline vertices ``V`` (of
 #: :func:`tether.curves.draw.vertex_estimates`'s curves, counted) and counts.
 TILED_REFERENCE = {"n": 2000, "pairs": 101_901, "vertices": 1_080_875, "regions": 459_746,
@@ -88,11 +88,11 @@ TILED = {
     "bytes_per_piece": 540.0,  # columns and packed line (146), the crossings' arcs (393)
     "bytes_per_cell": 9.0,
     "bytes_per_vertex": 82.0,  # the curves, per polyline vertex (85 MB / 1,080,875)
-    # decompose's peak (2,105 MB) less the base and what it returns (714 MB), per vertex
-    "decompose_bytes_per_vertex": 1287.0,
+    # decompose's peak (2,132 MB) less the base and what it returns (714 MB), per vertex
+    "decompose_bytes_per_vertex": 1314.0,
     "bytes_per_edge": 39.5,  # G's int32 CSR arrays
     "graph_build_bytes_per_edge": 58.0,  # G build's tracemalloc peak (422 MB) a edge
-    "elimination_bytes_per_cell": 110.0,  # the elimination's (411 MB), the result's included
+    "elimination_bytes_per_cell": 84.0,  # the elimination's (299 MB), the result's included
     "margin": 1.1,  # the estimate over the model, as the untiled estimate's 10 %
     "vertices_per_vertex_step": 6.4,  # V / (n / step): 5.9 at 1,000, 6.4 at 2,000 vertices
     "sent": 1.4,  # input segments sent to the noding tasks over V (docs/scale.md, 2,000)
