@@ -110,8 +110,8 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     target = check_store_dir(path)
     report = progress or (lambda stage, frac: None)
     parts = int(parts)
-    total = _table_rows(dec)
-    memo: dict[str, Any] = {}  # the whole-table columns, made once for every part
+    memo: dict[str, Any] = {"arcs": dec.crossing_arcs()}  # the whole-table columns, made
+    total = _table_rows(dec, memo)                         # once for every part
     with _folder_written_whole(target) as tmp:
         entries = []
         for k in range(parts):  # each part's columns made, written and freed in turn
@@ -135,10 +135,10 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     return target
 
 
-def _table_rows(dec: Decomposition) -> dict[str, int]:
-    """The rows of each table of ``dec``'s store."""
+def _table_rows(dec: Decomposition, memo: dict) -> dict[str, int]:
+    """The rows of each table of ``dec``'s store (``memo["arcs"]``: its crossings' arcs)."""
     return {"regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
-            "curves": len(dec.curves), "arcs": len(dec.crossing_arcs().point)}
+            "curves": len(dec.curves), "arcs": len(memo["arcs"].point)}
 
 
 def check_store_dir(path: str | os.PathLike) -> Path:
@@ -380,7 +380,7 @@ def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str
 
 
 def _arc_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
-    t = dec.crossing_arcs()
+    t = memo["arcs"]  # read once (from a store, each call reads them)
     # ``full`` has one entry per point, not per row: kept whole (not split by part)
     return {"point": t.point[lo:hi], "start": t.start[lo:hi], "end": t.end[lo:hi],
             "start_code": t.start_code[lo:hi], "end_code": t.end_code[lo:hi],
@@ -445,7 +445,7 @@ def _read_index(root: Path, shown: str) -> dict:
 #: The columns read only when first used (analysis reads none of them): the polygons' and
 #: lines' WKB and every column of the curves
 _LATER = {"regions": ("polygon_wkb",), "pieces": ("geometry_wkb",),
-          "curves": TABLES["curves"]}
+          "curves": TABLES["curves"], "arcs": TABLES["arcs"]}
 
 
 def _read_table(paths: list[Path], name: str, shown: str) -> Mapping[str, np.ndarray]:
@@ -555,9 +555,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                         Shapes(None, frame if _internal(pc) else None,
                                wkb=(partial(operator.getitem, pc, "geometry_wkb"),
                                     pc["geometry_ptr"])))
-    a = t["arcs"]
-    arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
-                    a["full_points"])
+    a = t["arcs"]  # read on each use, never held (G's build reads them once)
+    arcs = partial(_arc_table, a._paths, a._shown)
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
     got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
            "pieces": len(pieces)}
@@ -567,6 +566,16 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
                          _crossing_arcs=arcs, _cell_codes=codes)
+
+
+def _arc_table(paths: list[Path], shown: str) -> ArcTable:
+    """The crossings' arcs of a store, read from its parts now (every call: the
+    decomposition read does not hold them, :meth:`Decomposition.crossing_arcs`)."""
+    a = {}
+    for col in TABLES["arcs"]:  # column by column: one column's parts alive at a time
+        a[col] = _concat([_load(p, shown, (col,)) for p in paths])[col]
+    return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
+                    a["full_points"])
 
 
 def _internal(cols: dict[str, np.ndarray]) -> bool:
