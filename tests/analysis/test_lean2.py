@@ -73,6 +73,7 @@ def test_graph_from_small_runs_gives_the_same_verdict(room, monkeypatch):
     assert analyze(room, runs, **QUICK).to_dict() == analyze(room, whole, **QUICK).to_dict()
 
 
+@pytest.mark.slow
 def test_sides_of_a_critical_length_decomposed_in_the_tiles_given(monkeypatch):
     """A 4 x 4 room at lss 2 (opposite walls 2 lss apart): analyze decomposes the map just
     below and above; with ``tiles`` those decompositions are tiled too (on the executor
