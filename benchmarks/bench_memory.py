@@ -85,6 +85,12 @@ def geos(geoms):
     del copy
     return got, coords, len(geoms)
 
+def packed(holder):
+    # the bytes of the WKB column a holder keeps its geometries in (None: it holds them
+    # decoded, as shapely objects; checkouts before the packing)
+    got = holder.held_wkb(0, len(holder)) if hasattr(holder, "held_wkb") else None
+    return None if got is None else got[0].nbytes + got[1].nbytes
+
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 out = {"vertices": n, "load": os.getloadavg()[0]}
@@ -108,10 +114,16 @@ lean = hasattr(regs, "_table")  # Regions: columns, records made when read
 shapes = regs._table.shapes if lean else regs[0]._polygon
 structs = regs._table.structures if lean else regs[0]._structure
 py = deep(regs, seen)  # the records (a tuple of them), points, floats, ints; or the view
-held, _ = shapes.held()
-faces = [f for fs in shapes.pending_unions().values() for f in fs]
-g_b, g_c, g_n = geos(list(held) + faces)
 cols = columns(structs, ("ptr", "pairs", "region"))
+got = packed(shapes)
+if got is not None:  # packed as WKB: its bytes are columns, no geometry to measure
+    unions = shapes.held_unions()
+    cols += got + (0 if unions is None else columns(unions, ("ids", "ptr", "raw", "fptr")))
+    g_b = g_c = g_n = 0
+else:
+    held, _ = shapes.held()
+    faces = [f for fs in shapes.pending_unions().values() for f in fs]
+    g_b, g_c, g_n = geos(list(held) + faces)
 if lean:
     cols += columns(regs._table, ("area", "point"))
 parts["regions"] = {"per": nr, "columns": cols, "python": py + deep(structs._sets, seen),
@@ -120,10 +132,15 @@ table = dec.cells._table
 parts["cells"] = {"per": nc, "columns": columns(table, ("region", "start", "end", "first")),
                   "python": deep(table.names, seen)}
 pt = dec.pieces._table
-pg, _ = pt.shapes.held()
-g_b, g_c, g_n = geos(pg)
-parts["pieces"] = {"per": npc, "columns": columns(pt, ("pair", "q", "n", "eps", "ok", "desc")),
-                   "python": deep(pt.descs, seen), "geos": g_b, "coords": g_c, "geoms": g_n}
+got = packed(pt.shapes)
+if got is not None:
+    g_b = g_c = g_n = 0
+else:
+    pg, _ = pt.shapes.held()
+    g_b, g_c, g_n = geos(pg)
+parts["pieces"] = {"per": npc, "columns": columns(pt, ("pair", "q", "n", "eps", "ok", "desc"))
+                   + (got or 0), "python": deep(pt.descs, seen), "geos": g_b, "coords": g_c,
+                   "geoms": g_n}
 arcs = dec.crossing_arcs()
 parts["crossing arcs"] = {"per": npc, "columns": columns(arcs, ("point", "start", "end",
                           "start_code", "end_code", "full"))}
@@ -272,9 +289,54 @@ def _projection(rows: list[dict], label: str, src: str) -> list[str]:
         f"{held['G'] / gb:.1f} GB, the eliminations {held['elimination'] / gb:.2f} GB; the "
         f"build of G peaks {g_build / gb:.1f} GB above the decomposition, the elimination "
         f"{g_elim / gb:.1f} GB (G included). Analyzed from a store (`tether analyze --from "
-        f"DIR`), no geometry is read: about "
+        f"DIR`), no geometry is read: at most about "
         f"{(dec - geos + max(g_build, g_elim)) / gb:.1f} GB in all, before the "
-        "map and the interpreter (~50 MB)."]
+        "map and the interpreter (~50 MB; geometry held packed is counted in the bytes per "
+        "object, and a store read for analysis does not read it)."]
+
+
+def _estimates(rows: list[dict], label: str, src: str) -> list[str]:
+    """The tiled estimate (``tether.curves.budget``, the calling process's peak as
+    ``decompose(..., tiles="auto")`` checks it, from the map alone) against the measured
+    peaks of the rows of ``label``, and its projection at twice the largest size."""
+    sys.path.insert(0, src)
+    from tether.curves.budget import AUTO_PLAN, _tiled, estimate_memory
+    from tether.examples.floorplan import floor_plan
+
+    mine = sorted((r for r in rows if r["label"] == label), key=lambda r: r["vertices"])
+    if not mine:
+        return []
+    out = ["| vertices | pairs P | tiles | main estimate MB | main measured MB | ratio | "
+           "decompose stage MB | G + elimination stage MB | worker estimate MB |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    sizes = [r["vertices"] for r in mine] + [2 * mine[-1]["vertices"]]
+    for n in sizes:
+        env = floor_plan(n, seed=0)
+        lss = (env.bounds[2] - env.bounds[0]) / 15
+        est = estimate_memory(env, lss)
+        t = _tiled(env, est, AUTO_PLAN)
+        got = next((r for r in mine if r["vertices"] == n), None)
+        mb = 2.0**20
+        out.append("| " + " | ".join([
+            f"{n:,}", f"{est.pairs:,}", f"{t.tiles}", f"{t.main / mb:,.0f}",
+            "-" if got is None else f"{got['peak_MB']:,.0f}",
+            "-" if got is None else f"{t.main / mb / got['peak_MB']:.2f}",
+            f"{t.decompose / mb:,.0f}", f"{t.analysis / mb:,.0f}",
+            f"{t.worker / mb:,.0f}"]) + " |")
+    return out
+
+
+JSON_NOTE = """\
+## `analyze --json` of a large result
+
+`Verdict.to_dict()` (what `tether analyze --json` prints) gives a list longer than
+`tether.analysis.elimination.JSON_LIST_MAX` (200,000) items (the edges of G, the surviving
+cells, the eliminations) as `{"count": n, "arrays": FILE}` instead of one JSON value an item
+(~300 bytes of Python objects an edge: tens of GB at 4,000 vertices); `--arrays FILE.npz`
+(`Verdict.save_arrays`) writes those lists as integer columns (`edge_a`, `edge_b`,
+`edge_piece`, `surviving`, `eliminated_cell`, `eliminated_piece`, `eliminated_round`,
+`eliminated_because`, with the cells' `cell_region`, `cell_start`, `cell_end` codes into
+`feature_names`). Smaller results print as before."""
 
 
 BEGIN, END = "<!-- bench_memory: begin -->", "<!-- bench_memory: end -->"
@@ -284,7 +346,9 @@ def write_doc(path: Path, rows: list[dict], label: str, src: str) -> None:
     """The section (heading, text, the runs' table and the projection) between
     :data:`BEGIN` and :data:`END` in ``path`` (appended at its end the first time)."""
     text = path.read_text()
-    body = "\n".join([BEGIN, SECTION, *_table(rows), "", *_projection(rows, label, src), END])
+    body = "\n".join([BEGIN, SECTION, *_table(rows), "", *_projection(rows, label, src), "",
+                      ESTIMATE, *_estimates(rows, label, src), "", ESTIMATE_AFTER, "",
+                      JSON_NOTE, END])
     if BEGIN in text:
         head, rest = text.split(BEGIN, 1)
         text = head + body + rest.split(END, 1)[1]
@@ -318,7 +382,46 @@ million (`ELIM_CHUNK`); the surviving cells are one bool a cell; a store read fo
 decodes no geometry and makes no curve (`docs/store.md`). The projection below scales every
 figure of the largest run by its count, the runs' temporaries included: an upper bound
 for the steps done run by run.
+
+Since the rows `lean2`: the regions' polygons and the pieces' lines are held packed as WKB
+(one byte column and offsets, `tether.decomposition.views.wkb_column`: every double kept,
+~16 bytes a coordinate) and decoded on their first read, never as shapely objects (~1 KB
+each: the column *geos* is then 0, the bytes counted as columns); G's edges are found run
+by run from the crossings' arc table as held (no sorted copy of every row) and its partner
+entries placed by a counting sort, runs of 2**18 edges at a time (`PARTNER_CHUNK`: no sort
+of every entry).
 """
+
+ESTIMATE = """## The estimate of a decomposition in tiles
+
+`decompose(..., tiles=...)` (`--tiles`, `--workers`, `--dask`) checks the estimate of the
+tiled path (`tether.curves.budget.estimate_tiled`) for each process, before any work and
+again after the critical intervals, in one line with what would fit (more tiles, an `lss`,
+a curve tolerance; an untiled refusal also names `--tiles auto` when that fits). The calling
+process holds the result, G and the elimination, whatever the tiles: its peak is the larger
+of its `decompose` stage (what the result holds plus 1,314 bytes a polyline vertex of
+temporaries) and its G and elimination stage (the result, G at 39.5 bytes an edge, and the
+larger of G's build, 58 bytes an edge, and the elimination, 84 bytes a cell), from counts
+projected from the pairs within lss `P` (regions and pieces grow as `P^1.12` and `P^1.11`,
+cells and edges as `(P²/n)^0.93` from the run at 2,000 vertices) at the bytes per object of
+that run (`tether.curves.budget.TILED`, each constant with its source); a worker's is 100 MB
+and 3.7 KB a segment of its tile's input (the largest worker's 1,117 MB at 2,000 vertices in
+`docs/scale.md`). Both are raised by 10 %. The estimate (from the map alone, as checked
+before any work) against the measured peaks of the calling process (the column *peak MB*
+above), and at twice the largest size:
+"""
+
+ESTIMATE_AFTER = """\
+At 1,000 vertices the estimate is above the measured peak (its per-vertex term is fitted at
+2,000, where the temporaries per vertex are larger); its worker figure is above the 413 MB
+measured at 1,000 vertices (`docs/scale.md`). At 4,000 vertices the calling process is
+projected over 4 GB, set by what it holds (the result with the crossings' arcs, G, the
+elimination's columns), not by the tiles: refused with a 4 GB budget, accepted on this
+machine's 23 GB. `analyze` near a critical length decomposes the map twice more (in the same
+tiles, `analyze(..., tiles=...)`; the command passes its `--tiles`) while the first result
+and G are held: the estimate does not include those."""
+
+
 
 
 def main() -> None:

@@ -56,6 +56,7 @@ def test_some_polygons_decoded_alone_equal_the_whole(stored):
 
 def test_written_one_part_at_a_time(stored, tmp_path, monkeypatch):
     dec, _ = stored
+    _ = [r.polygon for r in dec.regions], [p.geometry for p in dec.pieces]  # held decoded
     sizes = []
     real = S._wkb
 

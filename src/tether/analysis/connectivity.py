@@ -30,7 +30,8 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["EDGE_CHUNK_ROWS", "ConnectivityGraph", "build_graph", "index_dtype", "size_runs"]
+__all__ = ["EDGE_CHUNK_ROWS", "PARTNER_CHUNK", "ConnectivityGraph", "build_graph", "index_dtype",
+           "partner_entries", "size_runs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -279,16 +280,30 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
-    rows = _arc_rows(dec)
-    first = np.searchsorted(rows["point"], np.arange(2 * m + 1))  # each point's first row
-    per_piece = np.diff(first[:m + 1]) + np.diff(first[m:])  # rows of both sides
+    table = dec.crossing_arcs()
+    if _sorted_by_point(table.point):  # each run's rows read from the table as it is
+        first = np.searchsorted(table.point, np.arange(2 * m + 1))  # each point's first row
+        full = np.asarray(table.full, bool)
+        count = np.diff(first) + full  # rows of each point, a FULL point's full arc counted
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _table_run_rows(table, first, m, p0, p1)
+    else:  # a sorted copy of every row (a table not made by decompose nor the store)
+        rows = _table_arc_rows(table)
+        first = np.searchsorted(rows["point"], np.arange(2 * m + 1))
+        count = np.diff(first)
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _run_rows(rows, first, m, p0, p1)
+    per_piece = count[:m] + count[m:]  # rows of both sides
+    del count
     ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
     regs = piece_regions(dec)
     keys = _cell_keys(dec)
     cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
     got = []
     for p0, p1 in zip([0, *ends[:-1]], ends, strict=True):
-        sub = _run_rows(rows, first, m, p0, p1)
+        sub = run_rows(p0, p1)
         k, ia, ib = _run_pairs(sub, p1 - p0)
         k += p0
         ca = _cell_index(dec, regs[k, 0], sub["start_code"][ia], sub["end_code"][ia], keys)
@@ -298,7 +313,13 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
     if len(got) == 1:
         return got[0]
-    return tuple(np.concatenate([g[i] for g in got]) for i in range(3))
+    cols = [list(c) for c in zip(*got, strict=True)]
+    del got
+    out = []
+    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
+        out.append(np.concatenate(c))
+        c.clear()
+    return out[0], out[1], out[2]
 
 
 #: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
@@ -329,6 +350,43 @@ def _run_rows(rows: dict[str, np.ndarray], first: np.ndarray, m: int, p0: int, p
     shift = np.full(len(out["point"]), -p0, dtype=np.int64)
     shift[a1 - a0:] = -(m + p0) + (p1 - p0)
     out["point"] = out["point"] + shift
+    return out
+
+
+def _sorted_by_point(point: np.ndarray, chunk: int = 1 << 22) -> bool:
+    """Whether ``point`` never decreases (checked ``chunk`` rows at a time: no temporary of
+    every row)."""
+    for lo in range(0, max(len(point) - 1, 0), chunk):
+        hi = min(lo + chunk, len(point) - 1)
+        if np.any(point[lo + 1:hi + 1] < point[lo:hi]):
+            return False
+    return True
+
+
+def _table_run_rows(table: ArcTable, first: np.ndarray, m: int, p0: int, p1: int
+                    ) -> dict[str, np.ndarray]:
+    """:func:`_run_rows` of pieces ``p0:p1`` read from the arc table (sorted by point;
+    ``first`` each point's first row) without the sorted copy of every row
+    :func:`_table_arc_rows` makes: the run's rows of both sides and a full-circle row for
+    each of its FULL points, after that point's rows (as the stable sort there puts them),
+    the same rows as there."""
+    a0, a1, b0, b1 = (int(first[i]) for i in (p0, p1, m + p0, m + p1))
+    fa = np.flatnonzero(table.full[p0:p1]) + p0
+    fb = np.flatnonzero(table.full[m + p0:m + p1]) + m + p0
+    nf = len(fa) + len(fb)
+    point = np.concatenate((table.point[a0:a1], table.point[b0:b1], fa, fb))
+    out = {"point": point.astype(np.int64),
+           "start": np.concatenate((table.start[a0:a1], table.start[b0:b1], np.zeros(nf))),
+           "end": np.concatenate((table.end[a0:a1], table.end[b0:b1], np.full(nf, math.tau))),
+           "full": np.r_[np.zeros(len(point) - nf, bool), np.ones(nf, bool)]}
+    for name in ("start_code", "end_code"):
+        col = getattr(table, name)
+        out[name] = np.concatenate((col[a0:a1], col[b0:b1], np.full(nf, -1, col.dtype)))
+    if nf:  # the full rows among the others, in point order (stable: after its rows)
+        order = np.argsort(out["point"], kind="stable")
+        out = {k: v[order] for k, v in out.items()}
+    shift = np.where(out["point"] < m, -p0, -(m + p0) + (p1 - p0))
+    out["point"] += shift
     return out
 
 
@@ -494,14 +552,46 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     # (made one after the other, each temporary freed when used: a lower peak)
     slot_a = slot_ptr[ea] + side_pos[0, ep]
     slot_b = slot_ptr[eb] + side_pos[1, ep]
-    key = np.column_stack((slot_a, slot_b)).ravel()
-    order = np.argsort(key, kind="stable")
-    entry_t = index_dtype(len(key) + 1)
-    partner_ptr = np.zeros(len(slot_piece) + 1, dtype=entry_t)
-    np.cumsum(np.bincount(key, minlength=len(slot_piece)), out=partner_ptr[1:])
-    del key
-    partner_slot = np.column_stack((slot_b, slot_a)).ravel()[order]
-    del slot_a, slot_b, order
+    partner_ptr, partner_slot = partner_entries(slot_a, slot_b, len(slot_piece))
+    del slot_a, slot_b
     release_memory()  # the temporaries' heap, before the elimination allocates its own
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
                              slot_ptr, slot_piece, partner_ptr, partner_slot)
+
+
+#: Edges whose partner entries :func:`partner_entries` places at once (bounds its
+#: temporaries: ~100 bytes an edge of the run, ~25 MB)
+PARTNER_CHUNK = 1 << 18
+
+
+def partner_entries(slot_a: np.ndarray, slot_b: np.ndarray, nslot: int
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """G's partner CSR from its edges' slots (edge ``i`` joins slot ``slot_a[i]`` and slot
+    ``slot_b[i]``): ``partner_ptr`` (``nslot + 1``) and ``partner_slot``, the entries
+    ``(slot_a[i] -> slot_b[i])`` and ``(slot_b[i] -> slot_a[i])`` of every edge grouped by
+    their slot, in edge order within a slot (the stable sort of the entries by slot). Made
+    by a counting sort, :data:`PARTNER_CHUNK` edges at a time: no sort, index or count
+    array of every entry or slot in 8 bytes, the peak is the result, one int per slot and
+    one run's temporaries."""
+    ne = len(slot_a)
+    entry_t = index_dtype(2 * ne + 1)
+    partner_ptr = np.zeros(nslot + 1, dtype=entry_t)
+    count = partner_ptr[1:]  # each slot's entries, counted in place, then summed
+    for lo in range(0, ne, PARTNER_CHUNK):
+        np.add.at(count, slot_a[lo:lo + PARTNER_CHUNK], 1)
+        np.add.at(count, slot_b[lo:lo + PARTNER_CHUNK], 1)
+    np.cumsum(partner_ptr, out=partner_ptr)
+    cursor = partner_ptr[:-1].copy()  # each slot's next free entry
+    partner_slot = np.empty(2 * ne, dtype=np.result_type(slot_a.dtype, slot_b.dtype))
+    for lo in range(0, ne, PARTNER_CHUNK):
+        hi = min(lo + PARTNER_CHUNK, ne)
+        key = np.column_stack((slot_a[lo:hi], slot_b[lo:hi])).ravel()
+        order = np.argsort(key, kind="stable")
+        key = key[order]
+        head = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        size = np.diff(np.r_[head, len(key)])
+        at = np.arange(len(key)) - np.repeat(head, size)  # position among equal keys
+        at += cursor[key]
+        partner_slot[at] = np.column_stack((slot_b[lo:hi], slot_a[lo:hi])).ravel()[order]
+        cursor[key[head]] += size.astype(entry_t)
+    return partner_ptr, partner_slot

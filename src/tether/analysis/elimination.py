@@ -12,9 +12,12 @@ survives (with unbounded observer speed, any start in a surviving cell can be he
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Iterator, Sequence, Set
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -34,12 +37,20 @@ from tether.analysis.connectivity import (
 )
 from tether.analysis.critical import ON_CRITICAL_TOLS, CriticalLss, side_summary
 from tether.analysis.critical import near_critical as critical_events
+from tether.arcs import feature_name
 from tether.decomposition import Decomposition, decompose, feature_name_rank
+from tether.decomposition.structure import FREE
 from tether.decomposition.views import parse_cell_name, small_ints
 from tether.tolerances import REL_LENGTH_TOL
 
-__all__ = ["CellSet", "Elimination", "Eliminations", "Verdict", "analyze", "eliminate",
-           "escape_story"]
+__all__ = ["JSON_LIST_MAX", "CellSet", "Elimination", "Eliminations", "Verdict", "analyze",
+           "eliminate", "escape_story"]
+
+#: Items a list of :meth:`Verdict.to_dict` holds at most (edges of G, surviving cells,
+#: eliminations): a longer one is given as its count (and the file of its arrays) instead,
+#: which bounds ``tether analyze --json`` on large maps (an edge costs ~300 bytes of Python
+#: objects and ~60 of JSON text: 200,000 of them ~12 MB of text).
+JSON_LIST_MAX = 200_000
 
 
 @dataclass(frozen=True)
@@ -131,26 +142,76 @@ class Verdict:
                 "pieces": len(self.dec.pieces), "edges": self.graph.n_edges,
                 "surviving_cells": len(self.surviving)}
 
-    def to_dict(self) -> dict:
-        """The verdict as JSON-ready values (the ``tether analyze --json`` fields)."""
+    def to_dict(self, max_items: float | None = None, arrays: str | None = None) -> dict:
+        """The verdict as JSON-ready values (the ``tether analyze --json`` fields).
+
+        A list longer than ``max_items`` (the edges of G, the surviving cells, the
+        eliminations; None: :data:`JSON_LIST_MAX`, ``math.inf``: no bound) is given as
+        ``{"count": n, "arrays": arrays}`` instead of one JSON value an item (~300 bytes of
+        Python objects each, tens of GB at 4,000 map vertices): ``arrays`` names the file
+        :meth:`save_arrays` wrote them to (None: not written)."""
+        most = JSON_LIST_MAX if max_items is None else max_items
+
+        def bounded(n: int, make: Any) -> Any:
+            return {"count": n, "arrays": arrays} if n > most else make()
+
         return {
             "map": self.dec.env.name,
             "lss": self.dec.lss,
             "counts": self.counts(),
-            "edges": [list(e) for e in self.graph.edges],
+            "edges": bounded(self.graph.n_edges, lambda: [list(e) for e in self.graph.edges]),
             "verdict": {
                 "strategy_exists": self.strategy_exists,
                 "witness_region": None if self.witness_region is None
                 else f"R{self.witness_region}",
                 "rounds": self.rounds,
-                "surviving": sorted(self.surviving),
-                "eliminated": [e.to_dict() for e in self.eliminated],
+                "surviving": bounded(len(self.surviving), lambda: sorted(self.surviving)),
+                "eliminated": bounded(len(self.eliminated),
+                                      lambda: [e.to_dict() for e in self.eliminated]),
                 "story": self.story(),
             },
             "self_check": None if self.self_check is None else self.self_check.to_dict(),
             "verified": self.verified,
             "critical_lss": None if self.critical is None else self.critical.to_dict(),
         }
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The verdict's lists as integer columns (what :meth:`save_arrays` writes): G's
+        edges ``edge_a``, ``edge_b`` (cell indices into ``dec.cells``), ``edge_piece``; the
+        ``surviving`` cells' indices (increasing); the eliminations in order,
+        ``eliminated_cell``, ``eliminated_piece``, ``eliminated_round``,
+        ``eliminated_because`` (-1: none); and the cells' names as ``cell_region``,
+        ``cell_start``, ``cell_end`` feature codes into ``feature_names`` (cell ``i`` is
+        ``(R<cell_region[i]>,<feature_names[cell_start[i] + 1]>,<feature_names[cell_end[i]
+        + 1]>)``, code -1 the free end of a FULL region's cell)."""
+        g, el, dec = self.graph, self.eliminated, self.dec
+        if not isinstance(el, Eliminations):  # a verdict made otherwise: from its records
+            el = _records_as_columns(el)
+        alive = (self.surviving.indices() if isinstance(self.surviving, CellSet) else
+                 np.sort([dec.cell_index(c) for c in self.surviving]).astype(np.int64))
+        region, start, end = dec.cell_codes()
+        names = [feature_name(dec.env, c) for c in range(2 * dec.env.n)]
+        return {"edge_a": g.edge_a, "edge_b": g.edge_b, "edge_piece": g.edge_piece,
+                "surviving": alive, "eliminated_cell": el.cell,
+                "eliminated_piece": el.piece, "eliminated_round": el.round,
+                "eliminated_because": el.because, "cell_region": region,
+                "cell_start": start, "cell_end": end,
+                "feature_names": np.array([FREE, *names], dtype=str)}
+
+    def save_arrays(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`arrays` to the ``.npz`` file ``path`` (numpy's format, no pickled
+        object), whole or not at all; returns its path.
+
+        Raises
+        ------
+        OutputPathError
+            If the file cannot be written.
+        """
+        from tether._util.files import atomic_output
+
+        with atomic_output(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, **self.arrays())
+        return Path(path)
 
     def __repr__(self) -> str:
         return (f"Verdict(strategy_exists={self.strategy_exists}, "
@@ -297,6 +358,14 @@ def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
         small_ints(rnd, t), small_ints(because, t))
 
 
+def _records_as_columns(records: Iterable[Elimination]) -> Any:
+    """Elimination records as the columns of :class:`Eliminations` (``because`` -1: none)."""
+    rows = [(e.cell, e.piece, e.round, -1 if e.because is None else e.because)
+            for e in records]
+    cell, piece, rnd, because = np.array(rows, dtype=np.int64).reshape(-1, 4).T
+    return SimpleNamespace(cell=cell, piece=piece, round=rnd, because=because)
+
+
 def cell_rank(dec: Decomposition) -> np.ndarray:
     """The rank of every cell in the elimination's processing order: by region, then start
     feature name, then end feature name (as strings; the order of :func:`_cell_key`)."""
@@ -339,18 +408,23 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     """
     ncell = len(slot_ptr) - 1
     count = np.subtract(partner_ptr[1:], partner_ptr[:-1], dtype=np.int32)  # partners left
-    slot_cell = np.repeat(np.arange(ncell, dtype=np.int32 if ncell < 2**31 else np.int64),
-                          np.diff(slot_ptr))  # the cell of every slot
+    own_t = np.int32 if ncell < 2**31 else np.int64
+
+    def slot_cell(slots: np.ndarray) -> np.ndarray:
+        """The cell of each of ``slots`` (found in ``slot_ptr``: no column of every slot's
+        cell held, 4 bytes a slot)."""
+        return (np.searchsorted(slot_ptr, slots, side="right") - 1).astype(own_t)
+
     entry_ptr = partner_ptr[slot_ptr]  # a cell's slots' partner entries, one run per cell
     zs = np.flatnonzero(count == 0)
-    zc = slot_cell[zs].astype(np.int64)
+    zc = slot_cell(zs).astype(np.int64)
     head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
     lvl_cell, lvl_slot = zc[head], zs[head]
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
     queued = np.zeros(ncell, dtype=bool)
     queued[lvl_cell] = True
-    slot_end = np.empty(len(count), np.int64 if len(partner_slot) >= 2**31 else np.int32)
-    cell_end = np.empty(ncell, slot_end.dtype)  # scratch columns, set where used
+    cell_end = np.empty(ncell, np.int64 if len(partner_slot) >= 2**31 else np.int32)
+    # (a scratch column, set where used)
     out_cell, out_slot, out_round, out_because = [], [], [], []
     cell_t, slot_t = index_dtype(ncell), index_dtype(len(count))
     rnd = 0
@@ -366,15 +440,13 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         first = entry_ptr[lvl_cell]
         nentry = entry_ptr[lvl_cell + 1] - first
         done = np.cumsum(nentry)  # entries up to each of the level's cells
-        hit, slot = _emptied(count, partner_slot, slot_cell, queued, first, nentry, done)
-        cell = slot_cell[slot]  # int32 mostly: made int64 once filtered, below
+        hit, slot, cell = _emptied(count, partner_slot, slot_cell, queued, first, nentry,
+                                   done)  # cell: int32 mostly, made int64 once filtered
         # the entry position where each emptied slot reached 0 (its last), and each cell
         # falls through its slot that emptied first
-        slot_end[slot] = -1
-        # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
-        np.maximum.at(slot_end, slot, hit.astype(slot_end.dtype, copy=False))
-        end = slot_end[slot]
+        end = _group_max(slot, hit).astype(cell_end.dtype, copy=False)
         cell_end[cell] = int(done[-1]) if len(done) else 0
+        # (in the scratch column's own dtype: ``ufunc.at`` with a cast is ~10x slower)
         np.minimum.at(cell_end, cell, end)
         keep = (hit == end) & (cell_end[cell] == end)
         pos, cell = hit[keep], cell[keep].astype(np.int64)
@@ -395,17 +467,31 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
 ELIM_CHUNK = 1 << 22
 
 
-def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
+def _group_max(key: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """For each item, the largest ``value`` among the items of its ``key`` (one sort of the
+    items: no scratch column over every possible key)."""
+    if len(key) == 0:
+        return value.copy()
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    head = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+    top = np.maximum.reduceat(value[order], head)
+    out = np.empty_like(value)
+    out[order] = np.repeat(top, np.diff(np.r_[head, len(k)]))
+    return out
+
+
+def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: Any,
              queued: np.ndarray, first: np.ndarray, nentry: np.ndarray, done: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray]:
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One round's decrements: every partner entry of the level's cells (``first``,
     ``nentry``, cumulative ``done``), in processing order, run by run of about
     :data:`ELIM_CHUNK` entries. Returns the positions (in the round's entries) at which a
-    slot of a cell not queued yet is left without partners, and those slots: a slot's count
-    never rises, so it reaches 0 within the run holding its last entry of the round, and
-    every entry of it in that run sees 0 (its last among them: the one kept by the
-    caller)."""
-    hits, slots = [], []
+    slot of a cell not queued yet is left without partners, those slots and their cells
+    (``slot_cell``: the cells of slots): a slot's count never rises, so it reaches 0 within
+    the run holding its last entry of the round, and every entry of it in that run sees 0
+    (its last among them: the one kept by the caller)."""
+    hits, slots, cells = [], [], []
     ends = size_runs(done, ELIM_CHUNK)
     for c0, c1 in zip([0, *ends[:-1]], ends, strict=True):
         base = int(done[c0 - 1]) if c0 else 0
@@ -413,12 +499,15 @@ def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: np.ndarray,
         _decrement(count, tgt)
         hit = np.flatnonzero(count[tgt] == 0)
         slot = tgt[hit]
-        fresh = ~queued[slot_cell[slot]]
+        cell = slot_cell(slot)
+        fresh = ~queued[cell]
         hits.append(hit[fresh] + base)
         slots.append(slot[fresh])
+        cells.append(cell[fresh])
     if not hits:
-        return np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype)
-    return np.concatenate(hits), np.concatenate(slots)
+        return (np.zeros(0, np.int64), np.zeros(0, partner_slot.dtype),
+                slot_cell(np.zeros(0, np.int64)))
+    return np.concatenate(hits), np.concatenate(slots), np.concatenate(cells)
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
@@ -470,7 +559,8 @@ def _cell_key(cid: str) -> tuple:
 
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
-            self_check: bool = True, near_critical: bool = True) -> Verdict:
+            self_check: bool = True, near_critical: bool = True, tiles: Any = None,
+            executor: Any = None) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
@@ -478,7 +568,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     :func:`tether.decomposition.self_check`); :attr:`Verdict.verified` says whether it passed.
     With ``near_critical`` (the default), when ``dec.lss`` lies within tether's resolution of
     a critical length of the map (:func:`tether.analysis.critical.near_critical`), the map is also
-    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`.
+    decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`;
+    ``tiles`` and ``executor`` are given to those decompositions (as :func:`decompose` takes
+    them: a map decomposed in tiles for its size is so beside the critical length too).
 
     Examples
     --------
@@ -510,19 +602,21 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
-    critical = _beside_critical(dec, self_check) if near_critical else None
+    critical = _beside_critical(dec, self_check, tiles, executor) if near_critical else None
     return Verdict(dec, graph, surviving, elim, witness, report, critical)
 
 
-def _beside_critical(dec: Decomposition, self_check: bool) -> CriticalLss | None:
-    """The verdicts just below and above ``dec.lss`` if it is near a critical length."""
+def _beside_critical(dec: Decomposition, self_check: bool, tiles: Any = None,
+                     executor: Any = None) -> CriticalLss | None:
+    """The verdicts just below and above ``dec.lss`` if it is near a critical length (the
+    decompositions in ``tiles`` on ``executor`` when given)."""
     rel_tol = dec.curve_tol / dec.env.diameter
     events, value, delta = critical_events(dec.env, dec.lss, rel_tol)
     if not events:
         return None
     sides = []
     for lss in (value - delta, value + delta):
-        side = decompose(dec.env, lss, rel_tol)
+        side = decompose(dec.env, lss, rel_tol, tiles=tiles, executor=executor)
         sides.append(side_summary(analyze(side, self_check=self_check, near_critical=False)))
     on = ON_CRITICAL_TOLS * REL_LENGTH_TOL * dec.env.diameter
     return CriticalLss(dec.lss, value, delta, on, events, sides[0], sides[1])

@@ -227,19 +227,26 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from tether.analysis import analyze
 
     check_plot_arg(args)
+    if args.arrays is not None:  # checked before any computation
+        from tether._util.files import check_output_path
+
+        check_output_path(args.arrays, (".npz",))
     if args.from_dir is not None:
         dec = _stored(args)
     elif args.map is None or args.lss is None:
         raise InvalidParameterError("analyze needs MAP --lss L, or --from DIR")
     else:
         dec = _decompose(args)
-    verdict = analyze(dec)
+    tiles = args.tiles or ("auto" if args.workers or args.dask else None)
+    verdict = analyze(dec, tiles=tiles)  # beside a critical length: in tiles too
     if args.plot:
         from tether.plot import plot_verdict, save
 
         save(plot_verdict(verdict), args.plot)
+    if args.arrays is not None:  # G's edges, the survivors and eliminations as columns
+        verdict.save_arrays(args.arrays)
     if args.json:
-        print_json(verdict.to_dict())
+        print_json(verdict.to_dict(arrays=args.arrays))
         return 0 if verdict.verified is not False else 1
     print(format_verdict(verdict))
     return 0 if verdict.verified is not False else 1
@@ -372,6 +379,10 @@ def register(add) -> None:
                     "DIR' (instead of MAP --lss L)")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", metavar="FILE", help="draw the verdict figure to an image file")
+    sp.add_argument("--arrays", metavar="FILE.npz",
+                    help="also write G's edges, the surviving cells and the eliminations as "
+                    "integer columns to FILE.npz (--json lists them only up to 200,000 items "
+                    "each; docs/memory.md)")
     _add_tile_options(sp)
 
     sp = add("check", cmd_check, "verify a decomposition by sampling (exit 1 on disagreement)")

@@ -97,12 +97,15 @@ class UserFrame:
         """Convert the pieces' columns to the user's frame, in place (they were just made in
         the internal frame and nothing else holds them): samples and offsets vectorized,
         features renamed in the small table of distinct descriptions. Their lines are kept as
-        made, in the shared holder, now converting them all at once on the first read
+        made (packed as WKB), in the shared holder, now converting them all at once on the
+        first read
         (:class:`~tether.decomposition.views.Shapes`). Normals are unchanged (the frame scales
         and translates)."""
         if not len(table):
             return
-        table.shapes = self.shapes(table.shapes.all())
+        packed = table.shapes.held_wkb(0, len(table))
+        table.shapes = (self.shapes(table.shapes.all()) if packed is None else
+                        Shapes(None, self.frame, wkb=packed[:2]))
         table.q = self.points(table.q)
         table.eps = table.eps / self.scale
         if not self.same:

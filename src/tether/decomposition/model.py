@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -222,14 +222,17 @@ class Decomposition:
     #: values known when :func:`decompose` built it (else computed on the first read): the
     #: exact free arcs at the pieces' crossings (:meth:`crossing_arcs`) and the cells' codes
     #: (:meth:`cell_codes`)
-    _crossing_arcs: ArcTable | None = field(default=None, repr=False, compare=False)
+    #: (the arcs may also be given as a function reading them, as the store does: called on
+    #: each use, never held, so that G's build frees them)
+    _crossing_arcs: ArcTable | Callable[[], ArcTable] | None = field(
+        default=None, repr=False, compare=False)
     _cell_codes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(
         default=None, repr=False, compare=False)
     #: values derived on demand and kept (indexes, name tables): see :class:`Memo`
     memo: Memo = memo_field()
 
     def __post_init__(self) -> None:
-        if self._crossing_arcs is not None:  # held for G: in the smallest int columns
+        if type(self._crossing_arcs) is ArcTable:  # held for G: in the smallest int columns
             object.__setattr__(self, "_crossing_arcs",
                                compact_arcs(self._crossing_arcs, 2 * self.env.n))
         if self._cell_codes is not None and type(self.cells) is Cells:
@@ -322,8 +325,13 @@ class Decomposition:
         """The exact free arcs at both sides of every piece's crossing (the points
         :func:`crossing_points` of :meth:`piece_crossings`: point ``k`` is ``sample + eps
         normal`` of piece ``k``, point ``m + k`` the other side), as found while the
-        crossings were chosen (computed now if the decomposition was built otherwise)."""
-        return self._crossing_arcs if self._crossing_arcs is not None else self._found_arcs
+        crossings were chosen (computed now if the decomposition was built otherwise; read
+        again on each call from a store, :func:`tether.decomposition.store.read_decomposition`:
+        not kept)."""
+        got = self._crossing_arcs
+        if got is None:
+            return self._found_arcs
+        return got if type(got) is ArcTable else compact_arcs(got(), 2 * self.env.n)
 
     @cached_property
     def _found_arcs(self) -> ArcTable:

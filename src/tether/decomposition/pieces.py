@@ -23,7 +23,7 @@ from tether.decomposition.structure import (
     rows_equal,
     table_rows,
 )
-from tether.decomposition.views import PieceTable, Shapes
+from tether.decomposition.views import PieceTable, Shapes, packed_geometries
 from tether.environment import Environment
 from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs, z_order
 
@@ -285,10 +285,11 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     arcs = _crossing_table(tables, got["at"][kept])
     del tables
     release_memory()
-    geoms = _chain_geometries(arr, chains, kept)
+    # the lines packed as WKB, made a batch at a time (no shapely object kept)
+    lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
     desc, descs = _describe_chains(sptr, ssrc, kept, curves)
     table = PieceTable(chains.pair[kept].astype(np.int64), got["q"][kept], got["n"][kept],
-                       got["eps"][kept], got["ok"][kept], desc, descs, Shapes(geoms))
+                       got["eps"][kept], got["ok"][kept], desc, descs, Shapes(None, wkb=lines))
     return table, len(chains) - len(kept), arcs
 
 

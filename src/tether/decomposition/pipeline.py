@@ -13,7 +13,11 @@ from shapely.errors import GEOSException
 from tether._util.memory import gc_paused, release_memory
 from tether.arcs import check_lss
 from tether.curves import critical_curves
-from tether.curves.budget import check_memory  # issue 25: the memory estimate, checked first
+from tether.curves.budget import (  # issue 25: the memory estimate, checked first
+    TilePlan,
+    check_memory,
+    tiled_checks,
+)
 from tether.decomposition.arrangement import arrangement
 from tether.decomposition.faces import FaceRings
 from tether.decomposition.frame import UserFrame
@@ -22,7 +26,13 @@ from tether.decomposition.noding import geos_message
 from tether.decomposition.pieces import longest_unresolved, make_pieces
 from tether.decomposition.regions import face_regions, make_regions
 from tether.decomposition.structure import face_arcs, structure_ids_of
-from tether.decomposition.tiles import check_tiles, process_executor, tiled_noder
+from tether.decomposition.tiles import (
+    MAX_TILES,
+    TILE_SEGMENTS,
+    check_tiles,
+    process_executor,
+    tiled_noder,
+)
 from tether.decomposition.views import Pieces
 from tether.environment import Environment
 from tether.errors import ArrangementError
@@ -88,8 +98,10 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     [9]
     """
     lss = check_lss(lss, env)
-    check_memory(env, lss, rel_tol)  # issue 25: refused in milliseconds if it cannot fit
     shape = None if tiles is None else check_tiles(tiles)
+    plan = None if shape is None else TilePlan(
+        None if shape == "auto" else shape[0] * shape[1], TILE_SEGMENTS, MAX_TILES)
+    check_memory(env, lss, rel_tol, plan)  # issue 25: refused in milliseconds if it cannot fit
     own = process_executor() if shape is not None and executor is None else None
     tiling = None if shape is None else (shape, executor or own)
     out, inner_lss = None, lss
@@ -97,7 +109,7 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         out = UserFrame(env, lss)
         inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
-        with gc_paused():
+        with gc_paused(), tiled_checks(plan):  # the late check: the tiled estimate
             dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "

@@ -22,7 +22,13 @@ from tether.decomposition.pieces import (
     part_candidates,
 )
 from tether.decomposition.structure import FREE, Structures, feature_name_rank, feature_names
-from tether.decomposition.views import Cells, CellTable, RegionShapes
+from tether.decomposition.views import (
+    Cells,
+    CellTable,
+    PackedFaces,
+    RegionShapes,
+    packed_geometries,
+)
 from tether.environment import Environment
 
 __all__ = ["face_regions", "make_regions"]
@@ -275,19 +281,23 @@ def make_regions(env: Environment, arr: Arrangement, numbering: dict[str, Any],
 def _region_shapes(arr: Arrangement, flat: np.ndarray, size: np.ndarray, rank: np.ndarray,
                    out: UserFrame | None) -> RegionShapes:
     """The regions' polygons (region ``i`` is the group ``rank[i]`` of the faces ``flat``,
-    group after group, ``size`` faces each): single faces as they are, unions of several
-    made on the first read (their faces gathered at once, each region's a slice)."""
+    group after group, ``size`` faces each), held packed as WKB (:func:`packed_geometries`,
+    made and encoded a batch of faces at a time: no shapely object kept): single faces as
+    they are, unions of several made on the first read from their faces
+    (:class:`PackedFaces`)."""
     first = (np.cumsum(size) - size)[rank]  # each region's first face, in ``flat``
     count = size[rank]
-    made = arr.faces[flat]  # each face once (made here from ragged arrays: FaceRings)
-    polys = made[first]
+    faces = arr.faces  # made here from ragged arrays (FaceRings), or an object array
+
+    def make(ids: np.ndarray) -> np.ndarray:
+        return faces[ids]
+
+    polys = packed_geometries(make, flat[first])
     multi = np.flatnonzero(count > 1)
     k = count[multi]
-    faces = made[ragged_arange(first[multi], k)]
-    end = np.cumsum(k)
-    unions = {rid: faces[a:b] for rid, a, b in zip(multi.tolist(), (end - k).tolist(),
-                                                    end.tolist(), strict=True)}
-    return RegionShapes(polys, unions, None if out is None else out.frame)
+    members = packed_geometries(make, flat[ragged_arange(first[multi], k)])
+    unions = PackedFaces(multi, np.r_[0, np.cumsum(k)], *members)
+    return RegionShapes(None, unions, None if out is None else out.frame, wkb=polys)
 
 
 def _structure_cells(env: Environment, structs: Structures, sid: np.ndarray

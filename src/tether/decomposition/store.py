@@ -39,10 +39,12 @@ from tether.decomposition.structure import Structure, Structures
 from tether.decomposition.views import (
     Cells,
     CellTable,
+    PackedFaces,
     Pieces,
     PieceTable,
     RegionShapes,
     Shapes,
+    wkb_column,
     wkb_geometries,
 )
 from tether.errors import InvalidParameterError, OutputPathError
@@ -108,8 +110,8 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     target = check_store_dir(path)
     report = progress or (lambda stage, frac: None)
     parts = int(parts)
-    total = _table_rows(dec)
-    memo: dict[str, Any] = {}  # the whole-table columns, made once for every part
+    memo: dict[str, Any] = {"arcs": dec.crossing_arcs()}  # the whole-table columns, made
+    total = _table_rows(dec, memo)                         # once for every part
     with _folder_written_whole(target) as tmp:
         entries = []
         for k in range(parts):  # each part's columns made, written and freed in turn
@@ -133,10 +135,10 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
     return target
 
 
-def _table_rows(dec: Decomposition) -> dict[str, int]:
-    """The rows of each table of ``dec``'s store."""
+def _table_rows(dec: Decomposition, memo: dict) -> dict[str, int]:
+    """The rows of each table of ``dec``'s store (``memo["arcs"]``: its crossings' arcs)."""
     return {"regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
-            "curves": len(dec.curves), "arcs": len(dec.crossing_arcs().point)}
+            "curves": len(dec.curves), "arcs": len(memo["arcs"].point)}
 
 
 def check_store_dir(path: str | os.PathLike) -> Path:
@@ -215,11 +217,9 @@ def _ragged(arrays: list[np.ndarray], width: int | None = None, dtype: Any = flo
 
 
 def _wkb(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Geometries as one byte column and offsets (WKB keeps every double exactly)."""
-    blobs = shapely.to_wkb(geoms, output_dimension=2) if len(geoms) else []
-    ptr = np.zeros(len(blobs) + 1, dtype=np.int64)
-    np.cumsum(np.fromiter(map(len, blobs), dtype=np.int64, count=len(blobs)), out=ptr[1:])
-    return np.frombuffer(b"".join(blobs), dtype=np.uint8), ptr
+    """Geometries as one byte column and offsets (WKB keeps every double exactly; the
+    bytes a decomposition holds them packed in, :func:`wkb_column`)."""
+    return wkb_column(geoms)
 
 
 def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
@@ -228,21 +228,29 @@ def _region_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[st
     each region's structure id, and the distinct structures (whole) in the file's codes."""
     regs = dec.regions
     holder = shared_holder(regs, "_polygon")
-    if isinstance(holder, RegionShapes):
-        held, frame = holder.held()
-        geoms = held[lo:hi]
-        if "pending" not in memo:
-            memo["pending"] = holder.pending_unions()
-        pending = memo["pending"]
+    packed = holder.held_wkb(lo, hi) if isinstance(holder, RegionShapes) else None
+    unions = holder.held_unions() if isinstance(holder, RegionShapes) else None
+    if packed is not None and (unions is None or type(unions) is PackedFaces):
+        wkb, ptr, frame = packed  # as held, packed: the bytes, no geometry decoded
+        count, face_wkb, face_ptr = (unions.held_wkb(lo, hi) if unions is not None else
+                                     (np.zeros(hi - lo, np.int64), np.zeros(0, np.uint8),
+                                      np.zeros(1, np.int64)))
     else:
-        geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
-    wkb, ptr = _wkb(geoms)
-    multi = [i for i in sorted(pending) if lo <= i < hi]
-    count = np.zeros(hi - lo, dtype=np.int64)
-    count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
+        if isinstance(holder, RegionShapes):
+            held, frame = holder.held()
+            geoms = held[lo:hi]
+            if "pending" not in memo:
+                memo["pending"] = holder.pending_unions()
+            pending = memo["pending"]
+        else:
+            geoms, frame, pending = dec.region_polygons(np.arange(lo, hi)), None, {}
+        wkb, ptr = _wkb(geoms)
+        multi = [i for i in sorted(pending) if lo <= i < hi]
+        count = np.zeros(hi - lo, dtype=np.int64)
+        count[np.asarray(multi, dtype=np.int64) - lo] = [len(pending[i]) for i in multi]
+        face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
+                                  else np.zeros(0, dtype=object))
     union_ptr = np.concatenate(([0], np.cumsum(count))).astype(np.int64)
-    face_wkb, face_ptr = _wkb(np.concatenate([pending[i] for i in multi]) if multi
-                              else np.zeros(0, dtype=object))
     if "structures" not in memo:
         memo["structures"] = _structure_columns(dec)
     sid, sptr, spairs = memo["structures"]
@@ -301,6 +309,8 @@ def _piece_table(dec: Decomposition, memo: dict) -> tuple:
     keeps, else made from the pieces once, for every part)."""
     if type(dec.pieces) is Pieces:
         t = dec.pieces._table
+        if t.shapes.held_wkb(0, 0) is not None:  # packed: written as held, not decoded
+            return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, t.shapes, None
         geoms, frame = t.shapes.held()
         return t.pair, t.q, t.n, t.eps, t.ok, t.desc, t.descs, geoms, frame
     if "pieces" not in memo:
@@ -321,7 +331,13 @@ def _piece_table(dec: Decomposition, memo: dict) -> tuple:
 def _piece_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
     """Pieces ``lo:hi``'s columns and the distinct descriptions (whole)."""
     pair, q, n, eps, ok, desc, dlist, geoms, frame = _piece_table(dec, memo)
-    wkb, ptr = _wkb(geoms[lo:hi])
+    packed = geoms.held_wkb(lo, hi) if isinstance(geoms, Shapes) else None
+    if packed is not None:  # packed: its bytes as held
+        wkb, ptr, frame = packed
+    else:
+        if isinstance(geoms, Shapes):  # decoded since (read meanwhile)
+            geoms, frame = geoms.held()
+        wkb, ptr = _wkb(geoms[lo:hi])
     if "descs" not in memo:
         cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
         fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
@@ -364,7 +380,7 @@ def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str
 
 
 def _arc_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
-    t = dec.crossing_arcs()
+    t = memo["arcs"]  # read once (from a store, each call reads them)
     # ``full`` has one entry per point, not per row: kept whole (not split by part)
     return {"point": t.point[lo:hi], "start": t.start[lo:hi], "end": t.end[lo:hi],
             "start_code": t.start_code[lo:hi], "end_code": t.end_code[lo:hi],
@@ -429,7 +445,7 @@ def _read_index(root: Path, shown: str) -> dict:
 #: The columns read only when first used (analysis reads none of them): the polygons' and
 #: lines' WKB and every column of the curves
 _LATER = {"regions": ("polygon_wkb",), "pieces": ("geometry_wkb",),
-          "curves": TABLES["curves"]}
+          "curves": TABLES["curves"], "arcs": TABLES["arcs"]}
 
 
 def _read_table(paths: list[Path], name: str, shown: str) -> Mapping[str, np.ndarray]:
@@ -539,9 +555,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                         Shapes(None, frame if _internal(pc) else None,
                                wkb=(partial(operator.getitem, pc, "geometry_wkb"),
                                     pc["geometry_ptr"])))
-    a = t["arcs"]
-    arcs = ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
-                    a["full_points"])
+    a = t["arcs"]  # read on each use, never held (G's build reads them once)
+    arcs = partial(_arc_table, a._paths, a._shown)
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
     got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
            "pieces": len(pieces)}
@@ -551,6 +566,16 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                          Cells(table), Pieces(pieces), float(index["curve_tol"]),
                          int(index["unresolved_pieces"]), index["unresolved_longest"],
                          _crossing_arcs=arcs, _cell_codes=codes)
+
+
+def _arc_table(paths: list[Path], shown: str) -> ArcTable:
+    """The crossings' arcs of a store, read from its parts now (every call: the
+    decomposition read does not hold them, :meth:`Decomposition.crossing_arcs`)."""
+    a = {}
+    for col in TABLES["arcs"]:  # column by column: one column's parts alive at a time
+        a[col] = _concat([_load(p, shown, (col,)) for p in paths])[col]
+    return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
+                    a["full_points"])
 
 
 def _internal(cols: dict[str, np.ndarray]) -> bool:

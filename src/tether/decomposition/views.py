@@ -8,17 +8,17 @@ they make, :class:`Cell` and :class:`Piece`, with the cells' names (:func:`cell_
 from __future__ import annotations
 
 import operator
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import shapely
 
-__all__ = ["PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById", "Piece", "PieceTable",
-           "Pieces", "RegionShapes", "RowSequence", "Shapes", "cell_name", "parse_cell_name",
-           "small_ints", "unique_pairs", "valid_polygons",
-           "wkb_geometries"]
+__all__ = ["PACK_BATCH", "PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById",
+           "PackedFaces", "Piece", "PieceTable", "Pieces", "RegionShapes", "RowSequence",
+           "Shapes", "cell_name", "packed_geometries", "parse_cell_name", "small_ints",
+           "unique_pairs", "valid_polygons", "wkb_column", "wkb_geometries"]
 
 
 @dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
@@ -60,7 +60,9 @@ class Shapes:
     ``shapely.transform``, the very numbers an eager conversion gives, then cached; the
     internal ones are dropped): building the graph and analyzing read no geometry and never
     pay for it, and reading one region's polygon converts the batch once, never one by one.
-    ``frame`` None: the geometries are the map's already."""
+    ``frame`` None: the geometries are the map's already. Held as shapely objects, or packed
+    as WKB (``wkb``: :func:`wkb_column`'s bytes and offsets, as :func:`decompose` and the
+    store leave them), decoded on the first read."""
 
     __slots__ = ("_held", "_wkb", "_frame", "_prepare")
 
@@ -138,6 +140,16 @@ class Shapes:
         to write them as made (:mod:`tether.decomposition.store`)."""
         return self._geoms, self._frame
 
+    def held_wkb(self, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray, Any] | None:
+        """Items ``lo:hi`` as still held in WKB (:func:`wkb_column`: bytes and offsets from
+        0) and their frame, without decoding them; None once they are decoded (or when the
+        bytes are still to be read from a store)."""
+        got = self._wkb
+        if got is None or callable(got[0]):
+            return None
+        raw, ptr = got
+        return raw[ptr[lo]:ptr[hi]], ptr[lo:hi + 1] - ptr[lo], self._frame
+
     def _to_user(self, geoms: np.ndarray) -> np.ndarray:
         """Geometries converted to the map's frame (:class:`RegionShapes` also repairs
         polygons that rounding made invalid)."""
@@ -150,27 +162,122 @@ class Shapes:
 def wkb_geometries(raw: np.ndarray, ptr: np.ndarray, ids: np.ndarray | None = None
                    ) -> np.ndarray:
     """Geometries from a byte column and offsets (item ``i`` is
-    ``raw[ptr[i]:ptr[i + 1]]``): all, or those of ``ids`` (an object array)."""
+    ``raw[ptr[i]:ptr[i + 1]]``, None where that is empty): all, or those of ``ids`` (an
+    object array)."""
     if ids is None:
         data, bounds = raw.tobytes(), ptr.tolist()
-        blobs = [data[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+        blobs = [data[a:b] if b > a else None for a, b in zip(bounds[:-1], bounds[1:],
+                                                               strict=True)]
     else:
-        blobs = [raw[a:b].tobytes() for a, b in zip(ptr[ids].tolist(), ptr[ids + 1].tolist(),
-                                                    strict=True)]
+        blobs = [raw[a:b].tobytes() if b > a else None for a, b in zip(
+            ptr[ids].tolist(), ptr[ids + 1].tolist(), strict=True)]
     if not blobs:
         return np.zeros(0, dtype=object)
     return shapely.from_wkb(np.array(blobs, dtype=object))
 
 
+def wkb_column(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Geometries (an object array) as one WKB byte column and offsets (item ``i`` is
+    ``raw[ptr[i]:ptr[i + 1]]``; None an empty item): every double kept exactly, a linestring
+    of 3 points in 57 bytes instead of ~0.28 KB as a shapely object, a polygon of 9 points in
+    157 instead of ~0.93 KB. :func:`wkb_geometries` reads it back.
+
+    Examples
+    --------
+    >>> import shapely
+    >>> raw, ptr = wkb_column(np.array([shapely.box(0, 0, 1, 1), None], dtype=object))
+    >>> ptr.tolist(), wkb_geometries(raw, ptr)[0].area
+    ([0, 93, 93], 1.0)
+    """
+    blobs = shapely.to_wkb(geoms, output_dimension=2) if len(geoms) else []
+    ptr = np.zeros(len(blobs) + 1, dtype=np.int64)
+    np.cumsum(np.fromiter((0 if b is None else len(b) for b in blobs), dtype=np.int64,
+                          count=len(blobs)), out=ptr[1:])
+    return np.frombuffer(b"".join(b for b in blobs if b is not None), dtype=np.uint8), ptr
+
+
+#: Geometries made and encoded per batch by :func:`packed_geometries`: bounds the shapely
+#: objects alive at once (~1 KB each) while a decomposition's geometries are packed.
+PACK_BATCH = 65_536
+
+
+def packed_geometries(make: Callable[[np.ndarray], np.ndarray], ids: np.ndarray,
+                      batch: int = PACK_BATCH) -> tuple[np.ndarray, np.ndarray]:
+    """The :func:`wkb_column` of ``make(ids)`` (``make`` turns an id array into an object
+    array of geometries, e.g. :class:`~tether.decomposition.faces.FaceRings` indexing), made
+    ``batch`` ids at a time: at most one batch of shapely objects alive, the same bytes."""
+    ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+    raws, sizes = [], []
+    for lo in range(0, len(ids), batch):
+        raw, ptr = wkb_column(np.asarray(make(ids[lo:lo + batch]), dtype=object))
+        raws.append(raw)
+        sizes.append(np.diff(ptr))
+    ptr = np.zeros(len(ids) + 1, dtype=np.int64)
+    if raws:
+        np.cumsum(np.concatenate(sizes), out=ptr[1:])
+    raw = (raws[0] if len(raws) == 1 else np.concatenate(raws) if raws
+           else np.zeros(0, np.uint8))
+    return raw, ptr
+
+
+class PackedFaces(Mapping):
+    """The faces of the multi-face regions, packed (:func:`wkb_column`): region
+    ``ids[j]``'s faces (``ids`` increasing) are items ``ptr[j]:ptr[j + 1]`` of the column
+    ``(raw, fptr)``; read as a mapping from region id to its faces (an object array,
+    decoded when read; :meth:`items` decodes all at once)."""
+
+    __slots__ = ("ids", "ptr", "raw", "fptr")
+
+    def __init__(self, ids: np.ndarray, ptr: np.ndarray, raw: np.ndarray,
+                 fptr: np.ndarray) -> None:
+        self.ids, self.ptr = np.asarray(ids, np.int64), np.asarray(ptr, np.int64)
+        self.raw, self.fptr = raw, fptr
+
+    def __getitem__(self, rid: Any) -> np.ndarray:
+        j = int(np.searchsorted(self.ids, rid))
+        if j >= len(self.ids) or self.ids[j] != rid:
+            raise KeyError(rid)
+        return wkb_geometries(self.raw, self.fptr, np.arange(self.ptr[j], self.ptr[j + 1]))
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(self.ids.tolist())
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def items(self) -> list[tuple[int, np.ndarray]]:  # type: ignore[override]
+        """Every ``(region id, faces)``, the faces all decoded at once."""
+        faces = wkb_geometries(self.raw, self.fptr)
+        bounds = self.ptr.tolist()
+        return [(i, faces[a:b]) for i, a, b in zip(self.ids.tolist(), bounds[:-1],
+                                                    bounds[1:], strict=True)]
+
+    def values(self) -> list[np.ndarray]:  # type: ignore[override]
+        """Every region's faces, in :attr:`ids` order (decoded at once)."""
+        return [f for _, f in self.items()]
+
+    def held_wkb(self, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The faces of the regions ``lo <= id < hi`` without decoding them: each of those
+        regions' face count (``hi - lo``, 0 for a single-face region), the faces' bytes
+        and offsets (from 0)."""
+        a, b = np.searchsorted(self.ids, [lo, hi]).tolist()
+        count = np.zeros(hi - lo, dtype=np.int64)
+        count[self.ids[a:b] - lo] = np.diff(self.ptr[a:b + 1])
+        f0, f1 = int(self.ptr[a]), int(self.ptr[b])
+        fptr = self.fptr[f0:f1 + 1] - self.fptr[f0]
+        return count, self.raw[self.fptr[f0]:self.fptr[f1]], fptr
+
+
 class RegionShapes(Shapes):
     """The regions' polygons (see :class:`Shapes`), the unions of the multi-face regions made
     on the first read: ``unions[i]`` the faces (an object array) whose ``shapely.union_all``
-    is item ``i``, all made at once on the first read of all (then prepared, converted),
-    only those asked for by :meth:`some`. Building G and analyzing never pay for them."""
+    is item ``i`` (a dict, or the faces packed, :class:`PackedFaces`), all made at once on
+    the first read of all (then prepared, converted), only those asked for by :meth:`some`.
+    Building G and analyzing never pay for them."""
 
     __slots__ = ("_unions", "_face_tree", "_face_owner")
 
-    def __init__(self, geoms: np.ndarray | None, unions: dict[int, np.ndarray],
+    def __init__(self, geoms: np.ndarray | None, unions: Mapping[int, np.ndarray],
                  frame: Any = None, prepare: bool = True,
                  wkb: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         super().__init__(geoms, frame, prepare, wkb)
@@ -196,7 +303,12 @@ class RegionShapes(Shapes):
     def pending_unions(self) -> dict[int, np.ndarray]:
         """The faces of each multi-face region whose union is not made yet (its item in
         :meth:`held` is then a placeholder)."""
-        return dict(self._unions or {})
+        return dict(self._unions.items()) if self._unions else {}
+
+    def held_unions(self) -> Mapping[int, np.ndarray] | None:
+        """The pending unions' faces as held (a dict, or :class:`PackedFaces`), None when
+        made."""
+        return self._unions
 
     def crossing(self, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The pairs ``(i, region)`` where region's polygon intersects ``geoms[i]`` (map
@@ -214,8 +326,9 @@ class RegionShapes(Shapes):
         if got is None:
             items, owner = [self._geoms], [np.arange(len(self._geoms))]
             if self._unions:
-                items += list(self._unions.values())
-                owner += [np.full(len(f), i) for i, f in self._unions.items()]
+                got = list(self._unions.items())  # decoded once
+                items += [f for _, f in got]
+                owner += [np.full(len(f), i) for i, f in got]
             geoms, owner_arr = np.concatenate(items), np.concatenate(owner)
             keep = ~shapely.is_missing(geoms)
             self._face_owner = owner_arr[keep]
