@@ -10,6 +10,10 @@ at those shared vertices, so the union of the two nodings is a noding of the who
 lines, the same intersections (up to the rounding of an intersection computed on a segment's
 half rather than the whole segment), with one more degree-2 vertex where a line crosses the
 cut. Whether the input is split depends on its size only, never on the number of threads.
+
+Snap rounding (:func:`node_snapped`) is local: a part depends only on the input within a few
+grid cells of it, so tiles can snap round an input and deliver the whole's parts bit for bit
+(:mod:`tether.decomposition.tiles`).
 """
 
 from __future__ import annotations

@@ -39,10 +39,42 @@ The exactness holds for GEOS's first noding pass. GEOS repeats the noding on its
 until no new crossing appears (new crossings arise only within a few units in the last place
 of clustered nodes); a later pass sees the parts of the whole input only within the margin of
 the part, so it could differ where a node-free stretch of a line longer than the margin runs
-through such a cluster near a tile's border. If GEOS's floating-point noder fails in any task,
-the whole input is noded as without tiles (snap rounding then applies to the whole, never to
-one tile); where the whole's floating-point noder would fail but every tile's succeeds, the
-tiled result is the floating-point noding and the untiled one snap rounded.
+through such a cluster near a tile's border. Where the whole's floating-point noder would
+fail but every tile's succeeds, the tiled result is the floating-point noding and the
+untiled one snap rounded.
+
+**Snap rounding in tiles.** If GEOS's floating-point noder fails in any task, the tasks not
+started are cancelled and the input is snap rounded in tiles, never noded whole in this
+process: the input's own segments (no strip cut: the untiled fallback rounds the whole
+input), on the grid ``SNAP_GRIDS[0] * tol`` of
+:func:`tether.decomposition.noding.node_lines`, the same for every task (a coarser one, for
+all tasks again, only if a task fails on a finer one). Each task rounds its runs' vertices
+to the grid and nodes them with GEOS's fixed-precision union
+(:func:`tether.decomposition.noding.node_snapped`, as the whole): *hot pixels* (grid cells)
+at every rounded vertex and at every crossing of two rounded segments, each segment noded at
+every hot pixel it passes through and at vertices within a fraction of a pixel, in one pass
+(snap rounding does not iterate), duplicate edges made one keeping the first's direction, and
+one part per edge, from node to node (a line's own ends stay nodes, lines are never merged at
+a degree-2 node). A part therefore depends only on the input segments it comes from (within
+0.71 pixel of it) and on the hot pixels within a pixel of those, which vertices and crossings
+of segments within about two pixels of the part make. The margin is at least
+:data:`SNAP_MARGIN_PIXELS` pixels (and ``4 reach``, the sources' reach ``1e-3 tol + 2 grid``
+as for the whole), so a part in the trust region sees exactly the whole's segments near it,
+whole and in the input's order: its vertices and ends are the whole's, bit for bit, and so is
+its direction (the first copy of a duplicated edge is the first line's in both). A run's ends
+(a line's ends in the task only) lie beyond the margin of the trust region, so no node made
+by the cut lies in it and no part is split there that the whole does not split. The parts
+delivered, with the same ownership and retries as above, are the untiled snap-rounded
+noding's parts (``node_lines`` on the same input, when it snap rounds on the same grid) bit
+for bit, with the same sources, in another order; the faces, regions, pieces and G follow as
+for the whole, the noding's grid passed on to the faces' points
+(:func:`tether.decomposition.structure.face_arcs`) and to the arrangement
+(:attr:`tether.decomposition.arrangement.Arrangement.grid`). The two can differ only where the
+whole and the tiles do not round on the same grid or do not both round: the whole's
+floating-point noder succeeding where a task's fails (then the whole is the floating-point
+noding), or GEOS's snap rounding failing on a grid in a task but not in the whole, or the
+reverse. If a task fails even on the coarsest grid, :class:`tether.errors.ArrangementError`
+(as the whole's noding would raise).
 
 A task gets only its runs and returns compact arrays (part coordinates and counts, part
 sources as CSR arrays, the anchors to retry): never the map's objects. Tasks run on any
