@@ -25,7 +25,7 @@ from tether.analysis import analyze, build_graph
 from tether.curves import REL_CURVE_TOL, critical_curves
 from tether.decomposition import check, decompose
 from tether.decomposition.arrangement import arrangement
-from tether.decomposition.noding import SNAP_GRIDS, node_snapped
+from tether.decomposition.noding import SNAP_GRIDS, node_lines, node_snapped
 from tether.decomposition.tiles import tiled_noder
 from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
@@ -275,3 +275,55 @@ def test_random_maps_equal(env, frac, nx, ny):
         mp.setattr(shapely, "node", _fail)
         a, b = _both(env, frac * env.diameter, (nx, ny))
     assert_equal_up_to_renumbering(a, b)
+
+
+# ------------------------------------------------------------- a real failure, pinned
+_OFF = 3.2e6  # map units: far from the origin, a unit in the last place is ~5e-10
+
+
+def near_coincident_lines(seed: int, centers: list[tuple[float, float]], n: int = 21,
+                          spread: float = 6e-10) -> np.ndarray:
+    """Bundles of ``n`` nearly coincident polylines (directions and positions within
+    ``spread``, about a unit in the last place here) around ``centers`` (offsets from
+    ``(_OFF, 1.3 _OFF)``), crossed by a lattice of straight lines: GEOS's floating-point
+    noder fails on them ("Iterated noding failed to converge")."""
+    rng = np.random.default_rng(seed)
+    pts = []
+    for cx, cy in centers:
+        for _ in range(n):
+            t = 0.37 + rng.normal(0, spread)
+            c = np.array([_OFF + cx, 1.3 * _OFF + cy]) + rng.normal(0, spread, 2)
+            s = np.sort(rng.uniform(-1, 1, int(rng.integers(2, 8))))
+            pts.append(c + s[:, None] * np.array([np.cos(t), np.sin(t)])
+                       + rng.normal(0, 0.1 * spread, (len(s), 2)))
+    for k in np.linspace(-1.3, 4.3, 4):
+        pts.append(np.array([[_OFF + k, 1.3 * _OFF - 1.5], [_OFF + k, 1.3 * _OFF + 4.5]]))
+        pts.append(np.array([[_OFF - 1.5, 1.3 * _OFF + k], [_OFF + 4.5, 1.3 * _OFF + k]]))
+    return np.asarray([shapely.LineString(p) for p in pts], dtype=object)
+
+
+@_SLOW
+@pytest.mark.parametrize("executor", ["serial", "processes"])
+def test_real_float_failure_snap_rounded_in_tiles(executor):
+    """No replaced noder: GEOS's floating-point noder really fails on the whole and in
+    tiles; the tiles snap round on the whole's grid and deliver its parts bit for bit, on
+    this thread or on spawned worker processes."""
+    from tether.decomposition.tiles import process_executor
+
+    lines = near_coincident_lines(0, [(0, 0), (3, 3)], 12)
+    with pytest.raises(GEOSException, match="noding"):
+        shapely.node(shapely.multilinestrings(lines))
+    tol = 1e-6
+    whole, grid = node_lines(lines, tol)
+    assert grid == SNAP_GRIDS[0] * tol
+    xy, idx = shapely.get_coordinates(lines, return_index=True)
+    k = np.flatnonzero(idx[1:] == idx[:-1])
+    ex = _Serial() if executor == "serial" else process_executor(2)
+    try:
+        log = {}
+        got = tiled_noder((3, 3), ex, tol, log=log)(lines, np.arange(len(lines)),
+                                                    (xy[k], xy[k + 1], idx[k]))
+    finally:
+        ex.shutdown()
+    assert log["float_failed"] and got[4] == grid and log["retries"] > 0
+    assert _wkb(got[0].lines()) == _wkb(whole)
