@@ -24,7 +24,11 @@ same counts, regions matched one to one by representative point with equal struc
 same pieces (regions, kind, features) and the same eliminations (cell, round) in that
 numbering. The untiled run is made after the tiled one
 in the same process: ``main MB`` is read before it, ``untiled MB`` after it (the process's
-peak with both decompositions held).
+peak with both decompositions held). The last column, ``noder``, says how the tiles noded the
+input: ``float`` (GEOS's floating-point noder in every task) or ``snap F tol`` (a task's
+floating-point noding failed, so every tile snap rounded the input on a grid of ``F`` curve
+tolerances, as the untiled noding would: :mod:`tether.decomposition.tiles`; with the number
+of grids that failed before it), ``-`` in rows measured before the column existed.
 
 ``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
 between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
@@ -67,6 +71,11 @@ _noder = pipeline.tiled_noder
 def _logged(tiles, executor, tol, progress=None, log=None, **kw):
     return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
+def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
+    if not log.get("float_failed"):
+        return "whole" if log.get("fallback") else "float"
+    k = log["snap_grids_failed"]
+    return f"snap {noding.SNAP_GRIDS[k]:g} tol" + (f" ({k} grids failed)" if k else "")
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 marks = []
@@ -137,6 +146,7 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "face sent": noder_log["face_parts_sent"], "face retries": noder_log["face_retries"],
        "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
        "verdict": "strategy" if v.strategy_exists else "none",
+       "noder": noder_name(noder_log),
        "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
        "stages": {k: round(v_) for k, v_ in peaks.items()},
        "held": None if held is None else round(held)}
@@ -169,7 +179,7 @@ print(json.dumps(row))
 COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", "stitch",
            "rest", "G+elim", "total", "main MB", "worker MB", "sent", "retries", "face sent",
            "face retries", "regions", "cells", "pieces", "verdict", "equal untiled",
-           "untiled MB")
+           "untiled MB", "noder")
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:
@@ -240,6 +250,8 @@ def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     old = {}  # rows of other sizes in this table's columns (others were another noder's)
     for ln in block.splitlines():
         cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) == len(cols) - 1 and cells[0].isdigit():  # before the noder column
+            cells.insert(len(cols) - 2, "-")
         if len(cells) == len(cols) and cells[0].isdigit():
             old[int(cells[0]), int(cells[2])] = cells
     run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
