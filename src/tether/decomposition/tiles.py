@@ -87,7 +87,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 from collections.abc import Callable
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
@@ -694,15 +694,19 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     stage = f"tiles ({nx}x{ny})"
     while futures:
         pending = {}
-        for t, f in futures.items():
-            r = f.result()
+        # a failed task is seen as soon as it ends (the others are cancelled: a failing
+        # floating-point task can take minutes); the results are then taken in task order
+        tile_of_future = {f: t for t, f in futures.items()}
+        for f in as_completed(tile_of_future):
             finished += 1
             shown = max(shown, finished / total)  # retries add tasks: never backwards
             report(stage, 0.3 + 0.15 * shown)
-            if r is None:
+            if f.result() is None:
                 for g in futures.values():
                     g.cancel()
                 return None
+        for t, f in futures.items():
+            r = f.result()
             got.append(r)
             log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
             if len(r[4]):
