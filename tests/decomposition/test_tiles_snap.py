@@ -327,3 +327,49 @@ def test_real_float_failure_snap_rounded_in_tiles(executor):
         ex.shutdown()
     assert log["float_failed"] and got[4] == grid and log["retries"] > 0
     assert _wkb(got[0].lines()) == _wkb(whole)
+
+
+#: Five pieces of curves of the 4,000-vertex floor plan (``floor_plan(4000, 0)``, lss = width /
+#: 15, internal frame) within 1e-6 of (-0.280469, -0.105263), where GEOS's floating-point noder
+#: failed in noding tiles ("Iterated noding failed to converge"): polylines nearly tangent
+#: at one point (their middle vertices share a y exactly and differ in x by about 1e-11),
+#: clipped to a 2e-6 box and reduced to a set that still fails (as hexadecimal floats).
+_PLAN_4000_KNOT = [
+    [("-0x1.1f3300de4c512p-2", "-0x1.af281399b48fdp-4"),
+     ("-0x1.1f333332d9dd8p-2", "-0x1.af281397e0af7p-4"),
+     ("-0x1.1f3387160956cp-2", "-0x1.af28139aec7c7p-4")],
+    [("-0x1.1f3300de4c512p-2", "-0x1.af28139aa84aap-4"),
+     ("-0x1.1f333332e3b84p-2", "-0x1.af281397e0af7p-4"),
+     ("-0x1.1f3387160956cp-2", "-0x1.af28139c82b60p-4")],
+    [("-0x1.1f3300de4c512p-2", "-0x1.af28139c5adf3p-4"),
+     ("-0x1.1f333332f855fp-2", "-0x1.af281397e0af7p-4"),
+     ("-0x1.1f3387160956cp-2", "-0x1.af28139f57027p-4")],
+    [("-0x1.1f3300de4c512p-2", "-0x1.af2813a17764fp-4"),
+     ("-0x1.1f3333330ada5p-2", "-0x1.af281397e0af7p-4"),
+     ("-0x1.1f3387160956cp-2", "-0x1.af2813a7dbe31p-4")],
+    [("-0x1.1f3300de4c512p-2", "-0x1.af2813d4629c9p-4"),
+     ("-0x1.1f3333331f780p-2", "-0x1.af281397e0af7p-4"),
+     ("-0x1.1f3387160956cp-2", "-0x1.af2813fcb95a8p-4")],
+]
+
+
+def test_real_floor_plan_knot_snap_rounded_in_tiles():
+    """The noding failure found in the 4,000-vertex plan, pinned: GEOS's floating-point
+    noder fails on it; tiles cutting through the knot snap round it on the whole's grid and
+    deliver the whole's parts bit for bit."""
+    lines = np.asarray([shapely.LineString([(float.fromhex(x), float.fromhex(y))
+                                            for x, y in pts]) for pts in _PLAN_4000_KNOT],
+                       dtype=object)
+    with pytest.raises(GEOSException, match="noding"):
+        shapely.node(shapely.multilinestrings(lines))
+    tol = 8.643675998417859e-07  # the plan's curve tolerance (internal units)
+    whole, grid = node_lines(lines, tol)
+    assert grid == SNAP_GRIDS[0] * tol
+    xy, idx = shapely.get_coordinates(lines, return_index=True)
+    k = np.flatnonzero(idx[1:] == idx[:-1])
+    for tiles in [(2, 2), (3, 1)]:
+        log = {}
+        got = tiled_noder(tiles, _Serial(), tol, log=log)(lines, np.arange(len(lines)),
+                                                          (xy[k], xy[k + 1], idx[k]))
+        assert log["float_failed"] and got[4] == grid
+        assert _wkb(got[0].lines()) == _wkb(whole)
