@@ -537,15 +537,22 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
     reach is ``1e-3 tol`` as for the whole). The parts' faces are then traced in tiles too
     (:func:`trace_tile`, on a grid of the parts chosen alike), and the noder returns ``(parts,
-    ptr, src, traced)`` (``parts``: :class:`tether.decomposition.faces.PartLines`, no
-    linestring made; ``traced``: the faces and the parts' faces, None to trace them whole).
+    ptr, src, traced, grid)`` (``parts``: :class:`tether.decomposition.faces.PartLines`, no
+    linestring made; ``traced``: the faces and the parts' faces, None to trace them whole;
+    ``grid``: the snap-rounding grid, map units, 0 for floating-point noding). If a task's
+    floating-point noder fails, every tile snap rounds the input instead, as the untiled noder
+    would (module docstring; :class:`tether.errors.ArrangementError` if even the coarsest
+    grid fails).
     ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
     then ``("stitch", 0.45)``, then ``("face tiles (NXxNY)", fraction)`` as face tasks
     finish; ``log``, if given, gets ``tiles`` (the grid's shape, per strip), ``strips`` (1 or
     2), ``margin`` (map units), ``retries`` (tasks run again in a larger region),
     ``segments_sent`` (input segments sent to the tasks, over the input's count),
     ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
-    ``fallback`` (True if the input was noded whole), and for the faces ``face_tiles``,
+    ``fallback`` (True if the input was noded whole: no longer happens), ``float_failed``
+    (True if a task's floating-point noder failed and the tiles snap rounded), ``grid`` (the
+    snap-rounding grid, map units; 0: floating-point), ``snap_grids_failed`` (grids a task
+    failed on before ``grid``), and for the faces ``face_tiles``,
     ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
     count) and ``face_fallback`` (True if they were traced whole), and the counts ``parts``
     and ``faces``. With ``arcs = (env,
