@@ -80,7 +80,7 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
 
 def node_floating(lines: np.ndarray) -> np.ndarray:
     """GEOS's floating-point noding of ``lines`` (linestrings, map units): the noded parts,
-    no snap rounding (raises GEOSException: the tiles' noder, which then nodes the whole)."""
+    no snap rounding (raises GEOSException: the tiles' noder, which then snap rounds in tiles)."""
     return _node_floating(lines)
 
 
