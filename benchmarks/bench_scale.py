@@ -1,7 +1,7 @@
 """Benchmark: one floor plan decomposed in tiles on worker processes, then analyzed.
 
 Run: ``python benchmarks/bench_scale.py [--sizes 1000 2000 4000] [--workers 2] [--tiles auto]
-[--compare 1000 2000] [--doc docs/scale.md]``. Each size runs in a fresh process:
+[--compare 1000 2000] [--stop-at GB] [--doc docs/scale.md]``. Each size runs in a fresh process:
 ``floor_plan(n, seed=0)``, ``lss = width / 15`` (the rule of ``bench_decompose.py``),
 ``decompose(env, lss, tiles=..., executor=process_executor(workers))``, then G and the
 elimination. The workers are spawned processes: their peak resident memory is the parent's
@@ -24,7 +24,17 @@ same counts, regions matched one to one by representative point with equal struc
 same pieces (regions, kind, features) and the same eliminations (cell, round) in that
 numbering. The untiled run is made after the tiled one
 in the same process: ``main MB`` is read before it, ``untiled MB`` after it (the process's
-peak with both decompositions held).
+peak with both decompositions held). The last column, ``noder``, says how the tiles noded the
+input: ``float`` (GEOS's floating-point noder in every task) or ``snap F tol`` (a task's
+floating-point noding failed, so every tile snap rounded the input on a grid of ``F`` curve
+tolerances, as the untiled noding would: :mod:`tether.decomposition.tiles`; with the number
+of grids that failed before it), ``-`` in rows measured before the column existed.
+
+``--stop-at GB`` stops a run (its workers killed) once its main process or one of its workers
+holds more than ``GB`` of resident memory (Linux): its row's verdict then says in which
+stage, after how many seconds and with how much memory, and the noder column says how far
+the noding had got (so a size that does not fit, forced past the memory check with
+``TETHER_MEMORY_LIMIT``, cannot take the machine's memory).
 
 ``--doc FILE`` also writes the rows into the Markdown table of ``FILE`` (``docs/scale.md``)
 between the lines ``<!-- bench_scale: begin -->`` and ``<!-- bench_scale: end -->``: a size
@@ -48,7 +58,7 @@ import sys
 from pathlib import Path
 
 CHILD = r"""
-import collections, json, resource, sys, time
+import collections, json, os, resource, sys, threading, time
 import numpy as np
 from tether.examples.floorplan import floor_plan
 from tether.decomposition import decompose
@@ -57,6 +67,7 @@ from tether.analysis import analyze, build_graph
 
 n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
+stop_at = float(sys.argv[6]) * 1e9  # bytes of resident memory in one process; 0: never
 import tether.curves
 import tether.decomposition.noding as noding
 import tether.decomposition.pipeline as pipeline
@@ -67,6 +78,11 @@ _noder = pipeline.tiled_noder
 def _logged(tiles, executor, tol, progress=None, log=None, **kw):
     return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
+def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
+    if not log.get("float_failed"):
+        return "whole" if log.get("fallback") else "float"
+    k = log["snap_grids_failed"]
+    return f"snap {noding.SNAP_GRIDS[k]:g} tol" + (f" ({k} grids failed)" if k else "")
 env = floor_plan(n, seed=0)
 lss = (env.bounds[2] - env.bounds[0]) / 15
 marks = []
@@ -98,8 +114,43 @@ def progress(stage, frac):
     if key != last[0]:
         stage_peak(key)
 
+def _children_rss():  # the largest resident memory of this process's children, bytes (Linux)
+    big = 0
+    for d in os.listdir("/proc"):
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                st = f.read().rsplit(")", 1)[1].split()
+            if int(st[1]) == os.getpid():
+                big = max(big, int(st[21]) * os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, IndexError):
+            pass
+    return big
+def _stopper():  # the run stopped, its row written, once a process passes stop_at
+    while True:
+        main, worker = (_vm("VmRSS") or 0) * 2**20, _children_rss()
+        if max(main, worker) > stop_at:
+            t = time.perf_counter() - w0
+            row = {"vertices": n, "tiles": tiles, "workers": workers,
+                   "verdict": f"stopped in {last[0]} after {t:.0f} s: main {main / 1e9:.1f} GB, "
+                              f"worker {worker / 1e9:.1f} GB (--stop-at)",
+                   "noder": noder_name(noder_log) if "float_failed" in noder_log else None,
+                   "parts": noder_log.get("parts"), "faces": noder_log.get("faces")}
+            for stage, at in marks:
+                row.setdefault("at " + stage.split(" (")[0], round(at - w0, 1))
+            print(json.dumps(row), flush=True)
+            for pid in [d for d in os.listdir("/proc") if d.isdigit()]:
+                try:
+                    with open(f"/proc/{pid}/stat") as f:
+                        if int(f.read().rsplit(")", 1)[1].split()[1]) == os.getpid():
+                            os.kill(int(pid), 9)
+                except (OSError, ValueError, IndexError):
+                    pass
+            os._exit(0)
+        time.sleep(0.5)
 ex = process_executor(workers)
 w0 = time.perf_counter()
+if stop_at > 0:
+    threading.Thread(target=_stopper, daemon=True).start()
 dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex)
 w1 = time.perf_counter()
 ex.shutdown()
@@ -137,6 +188,7 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "face sent": noder_log["face_parts_sent"], "face retries": noder_log["face_retries"],
        "regions": len(dec.regions), "cells": len(dec.cells), "pieces": len(dec.pieces),
        "verdict": "strategy" if v.strategy_exists else "none",
+       "noder": noder_name(noder_log),
        "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
        "stages": {k: round(v_) for k, v_ in peaks.items()},
        "held": None if held is None else round(held)}
@@ -169,13 +221,15 @@ print(json.dumps(row))
 COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", "stitch",
            "rest", "G+elim", "total", "main MB", "worker MB", "sent", "retries", "face sent",
            "face retries", "regions", "cells", "pieces", "verdict", "equal untiled",
-           "untiled MB")
+           "untiled MB", "noder")
 
 
-def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str) -> dict:
+def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str,
+        stop_at: float = 0.0) -> dict:
     env = dict(os.environ, PYTHONPATH=src)
     out = subprocess.run([sys.executable, "-c", CHILD, str(n), str(workers), tiles,
-                          "1" if compare else "0", untiled], capture_output=True, text=True,
+                          "1" if compare else "0", untiled, str(stop_at)], capture_output=True,
+                         text=True,
                          env=env, check=False)
     if out.returncode != 0:
         return {"vertices": n, "tiles": tiles, "workers": workers,
@@ -200,6 +254,9 @@ def main() -> None:
                     help="how the input is noded, tiled and untiled: as decompose does "
                     "(default: two strips from 100,000 segments, each tiled on its own), or "
                     "whole (no strip cut)")
+    ap.add_argument("--stop-at", type=float, default=0.0, metavar="GB",
+                    help="stop a run once one of its processes holds more than GB of "
+                    "resident memory (Linux), its row saying in which stage (default: never)")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
     args = ap.parse_args()
@@ -208,7 +265,8 @@ def main() -> None:
     print("  ".join(f"{c:>9}" for c in COLUMNS), flush=True)
     rows = []
     for n in args.sizes:
-        row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src)
+        row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src,
+                  args.stop_at)
         rows.append(row)
         print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
     if args.doc:
@@ -240,6 +298,8 @@ def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     old = {}  # rows of other sizes in this table's columns (others were another noder's)
     for ln in block.splitlines():
         cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) == len(cols) - 1 and cells[0].isdigit():  # before the noder column
+            cells.insert(len(cols) - 2, "-")
         if len(cells) == len(cols) and cells[0].isdigit():
             old[int(cells[0]), int(cells[2])] = cells
     run_note = f"`bench_scale.py {argv}`, load {load:.1f}"

@@ -201,9 +201,10 @@ def arrangement(env: Environment, curves: list[Curve], tol: float,
     ``noder``, if given, nodes the input tile by tile
     (:func:`tether.decomposition.tiles.tiled_noder`): called as ``noder(lines, source,
     (la, lb, lowner))`` with the input lines, each line's source curve (-1: a ring) and the
-    lines' segments, it returns the parts, their sources as CSR arrays and the faces traced
-    tile by tile ``(parts, ptr, src, traced)`` (``traced``: None to trace them here), or None
-    to node the input whole (as without it)."""
+    lines' segments, it returns the parts, their sources as CSR arrays, the faces traced
+    tile by tile and the snap-rounding grid ``(parts, ptr, src, traced, grid)`` (``traced``:
+    None to trace them here; ``grid`` 0: floating-point noding), or None to node the input
+    whole (as without it)."""
     lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
     if noder is not None:
         got = noder(lines, np.asarray(source, dtype=np.int64), (la, lb, lowner))
@@ -257,16 +258,16 @@ def _faces(parts: np.ndarray, ends: tuple) -> tuple[np.ndarray, np.ndarray, tupl
 
 
 def traced_arrangement(parts: np.ndarray | PartLines, ptr: np.ndarray, src: np.ndarray,
-                       traced: tuple | None = None) -> Arrangement:
+                       traced: tuple | None = None, grid: float = 0.0) -> Arrangement:
     """The arrangement of parts noded elsewhere (tile by tile: exact floating-point noding,
-    grid 0; linestrings, or :class:`PartLines`, their lengths kept in the memo as
-    ``"part_length"``), each part's sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``,
-    increasing, -1 = wall): its faces traced as :func:`arrangement` traces them, or
-    ``traced`` (the faces (:class:`FaceRings`, their areas kept in the memo as
-    ``"face_area"``) and the faces on the two sides of each part, traced tile by tile:
-    :func:`tether.decomposition.tiles.trace_tile`, and the faces' points and free arcs,
-    :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the memo as
-    ``"face_arcs"`` for the decomposition)."""
+    ``grid`` 0, or snap rounded on a ``grid`` of that many map units; linestrings, or
+    :class:`PartLines`, their lengths kept in the memo as ``"part_length"``), each part's
+    sources given as CSR arrays (``src[ptr[k]:ptr[k + 1]]``, increasing, -1 = wall): its faces
+    traced as :func:`arrangement` traces them, or ``traced`` (the faces (:class:`FaceRings`,
+    their areas kept in the memo as ``"face_area"``) and the faces on the two sides of each
+    part, traced tile by tile: :func:`tether.decomposition.tiles.trace_tile`, and the faces'
+    points and free arcs, :class:`tether.decomposition.structure.FaceArcs`, or None: kept in the
+    memo as ``"face_arcs"`` for the decomposition)."""
     ends = part_ends(parts)
     fa = None
     if traced is None:  # traced whole, here: on linestrings
@@ -274,7 +275,7 @@ def traced_arrangement(parts: np.ndarray | PartLines, ptr: np.ndarray, src: np.n
             parts.lines() if isinstance(parts, PartLines) else parts, ends)
     else:
         (faces, part_faces, fa), segs = traced, part_segments(ends)
-    arr = Arrangement(parts, part_faces, ptr, src, faces, 0.0)
+    arr = Arrangement(parts, part_faces, ptr, src, faces, grid)
     arr.memo["end_ids"] = (ends[4][: len(parts)], ends[4][len(parts):])  # as end_ids()
     arr.memo["part_segments"] = segs  # for segments(): not made again
     if fa is not None:

@@ -10,6 +10,10 @@ at those shared vertices, so the union of the two nodings is a noding of the who
 lines, the same intersections (up to the rounding of an intersection computed on a segment's
 half rather than the whole segment), with one more degree-2 vertex where a line crosses the
 cut. Whether the input is split depends on its size only, never on the number of threads.
+
+Snap rounding (:func:`node_snapped`) is local: a part depends only on the input within a few
+grid cells of it, so tiles can snap round an input and deliver the whole's parts bit for bit
+(:mod:`tether.decomposition.tiles`).
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from tether._util.threads import in_background
 from tether.errors import ArrangementError
 
 __all__ = ["CUT_WINDOW", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "cut_position", "geos_message",
-           "node_floating", "node_lines", "strip_cut"]
+           "node_floating", "node_lines", "node_snapped", "strip_cut"]
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
 #: tolerance: coarser grids only if a finer one fails too.
@@ -66,8 +70,7 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
     for frac in SNAP_GRIDS:
         grid = frac * tol
         try:
-            snapped = shapely.set_precision(lines, grid)
-            return shapely.get_parts(shapely.union_all(snapped, grid_size=grid)), grid
+            return node_snapped(lines, grid), grid
         except GEOSException as exc:
             err = exc
     raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
@@ -77,8 +80,20 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
 
 def node_floating(lines: np.ndarray) -> np.ndarray:
     """GEOS's floating-point noding of ``lines`` (linestrings, map units): the noded parts,
-    no snap rounding (raises GEOSException: the tiles' noder, which then nodes the whole)."""
+    no snap rounding (raises GEOSException: the tiles' noder, which then snap rounds in tiles)."""
     return _node_floating(lines)
+
+
+def node_snapped(lines: np.ndarray, grid: float) -> np.ndarray:
+    """The snap-rounded noding of ``lines`` (linestrings, map units) on a ``grid`` (map
+    units): every vertex rounded to the grid, then GEOS's fixed-precision union (OverlayNG
+    with its snap-rounding noder), which nodes the lines at every *hot pixel* (grid cell
+    holding a vertex or an intersection) they pass through and makes duplicate edges one,
+    keeping the first's direction. The parts are the edges of that graph, one linestring
+    from node to node: a line's own ends stay nodes (as with :func:`node_floating`), lines
+    are never merged at a degree-2 node. Raises GEOSException if GEOS fails."""
+    snapped = shapely.set_precision(lines, grid)
+    return shapely.get_parts(shapely.union_all(snapped, grid_size=grid))
 
 
 def _node_floating(lines: np.ndarray) -> np.ndarray:

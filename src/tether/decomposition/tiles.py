@@ -39,10 +39,42 @@ The exactness holds for GEOS's first noding pass. GEOS repeats the noding on its
 until no new crossing appears (new crossings arise only within a few units in the last place
 of clustered nodes); a later pass sees the parts of the whole input only within the margin of
 the part, so it could differ where a node-free stretch of a line longer than the margin runs
-through such a cluster near a tile's border. If GEOS's floating-point noder fails in any task,
-the whole input is noded as without tiles (snap rounding then applies to the whole, never to
-one tile); where the whole's floating-point noder would fail but every tile's succeeds, the
-tiled result is the floating-point noding and the untiled one snap rounded.
+through such a cluster near a tile's border. Where the whole's floating-point noder would
+fail but every tile's succeeds, the tiled result is the floating-point noding and the
+untiled one snap rounded.
+
+**Snap rounding in tiles.** If GEOS's floating-point noder fails in any task, the tasks not
+started are cancelled and the input is snap rounded in tiles, never noded whole in this
+process: the input's own segments (no strip cut: the untiled fallback rounds the whole
+input), on the grid ``SNAP_GRIDS[0] * tol`` of
+:func:`tether.decomposition.noding.node_lines`, the same for every task (a coarser one, for
+all tasks again, only if a task fails on a finer one). Each task rounds its runs' vertices
+to the grid and nodes them with GEOS's fixed-precision union
+(:func:`tether.decomposition.noding.node_snapped`, as the whole): *hot pixels* (grid cells)
+at every rounded vertex and at every crossing of two rounded segments, each segment noded at
+every hot pixel it passes through and at vertices within a fraction of a pixel, in one pass
+(snap rounding does not iterate), duplicate edges made one keeping the first's direction, and
+one part per edge, from node to node (a line's own ends stay nodes, lines are never merged at
+a degree-2 node). A part therefore depends only on the input segments it comes from (within
+0.71 pixel of it) and on the hot pixels within a pixel of those, which vertices and crossings
+of segments within about two pixels of the part make. The margin is at least
+:data:`SNAP_MARGIN_PIXELS` pixels (and ``4 reach``, the sources' reach ``1e-3 tol + 2 grid``
+as for the whole), so a part in the trust region sees exactly the whole's segments near it,
+whole and in the input's order: its vertices and ends are the whole's, bit for bit, and so is
+its direction (the first copy of a duplicated edge is the first line's in both). A run's ends
+(a line's ends in the task only) lie beyond the margin of the trust region, so no node made
+by the cut lies in it and no part is split there that the whole does not split. The parts
+delivered, with the same ownership and retries as above, are the untiled snap-rounded
+noding's parts (``node_lines`` on the same input, when it snap rounds on the same grid) bit
+for bit, with the same sources, in another order; the faces, regions, pieces and G follow as
+for the whole, the noding's grid passed on to the faces' points
+(:func:`tether.decomposition.structure.face_arcs`) and to the arrangement
+(:attr:`tether.decomposition.arrangement.Arrangement.grid`). The two can differ only where the
+whole and the tiles do not round on the same grid or do not both round: the whole's
+floating-point noder succeeding where a task's fails (then the whole is the floating-point
+noding), or GEOS's snap rounding failing on a grid in a task but not in the whole, or the
+reverse. If a task fails even on the coarsest grid, :class:`tether.errors.ArrangementError`
+(as the whole's noding would raise).
 
 A task gets only its runs and returns compact arrays (part coordinates and counts, part
 sources as CSR arrays, the anchors to retry): never the map's objects. Tasks run on any
@@ -55,7 +87,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 from collections.abc import Callable
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
@@ -74,12 +106,13 @@ from tether.decomposition.faces import (
     part_ends,
     part_segments,
 )
-from tether.decomposition.noding import node_floating
+from tether.decomposition.noding import SNAP_GRIDS, node_floating, node_snapped
 from tether.decomposition.structure import FaceArcs, face_arcs
-from tether.errors import InvalidParameterError
+from tether.errors import ArrangementError, InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "TILE_MARGIN", "TILE_SEGMENTS",
+__all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "SNAP_MARGIN_PIXELS",
+           "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
            "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile"]
@@ -108,6 +141,12 @@ TILE_MARGIN = 0.125
 #: sent 1.60, 1.32 and 1.21 times the parts (retries included), in 8.3, 6.9 and 6.4 s of
 #: task work (the tasks run one after the other in one process).
 FACE_MARGIN = 0.03125
+
+#: The least margin of a tile's trust box in snap-rounding tasks, in grid cells (pixels): a
+#: snap-rounded part depends on the hot pixels within a pixel of the input segments it comes
+#: from (themselves within 0.71 pixel of it), made by vertices and crossings of segments
+#: within about two pixels of it; eight leave room for GEOS's nearness tests.
+SNAP_MARGIN_PIXELS = 8
 
 #: The most cells along a side of a retry's trust region (:class:`CellMask`).
 MASK_CELLS = 256
@@ -388,12 +427,13 @@ def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
               trust: np.ndarray | CellMask, reach: float,
               own: tuple[TileGrid, int] | np.ndarray,
               done: tuple[np.ndarray | CellMask, ...] = (),
-              sources: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-              ) -> tuple | None:
+              sources: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+              grid: float = 0.0) -> tuple | None:
     """A tile's task: its runs (vertices ``xy``, CSR ``ptr``: every input segment whose box
     meets the trust region grown by the margin, whole; each run's source curve ``run_src``,
-    -1 for a wall) noded by GEOS's floating-point noder, and the parts it owns and can vouch
-    for.
+    -1 for a wall) noded by GEOS's floating-point noder (``grid`` 0) or snap rounded on a
+    ``grid`` (map units, :func:`tether.decomposition.noding.node_snapped`), and the parts it
+    owns and can vouch for.
 
     A part is vouched for (*trusted*) if its bounding box lies in ``trust`` (a closed box
     ``(xmin, ymin, xmax, ymax)``, or a retry's :class:`CellMask`): every input segment that
@@ -418,7 +458,8 @@ def node_tile(xy: np.ndarray, ptr: np.ndarray, run_src: np.ndarray,
                 np.zeros((0, 4)), _peak_rss(), np.zeros(0))
     lines = shapely.linestrings(xy, indices=np.repeat(np.arange(n), np.diff(ptr)))
     try:
-        parts = node_floating(np.asarray(lines, dtype=object))
+        lines = np.asarray(lines, dtype=object)
+        parts = node_snapped(lines, grid) if grid > 0 else node_floating(lines)
     except GEOSException:
         return None
     del lines
@@ -496,15 +537,22 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     and each strip tiled on its own. ``tol``: the curve tolerance (map units; the sources'
     reach is ``1e-3 tol`` as for the whole). The parts' faces are then traced in tiles too
     (:func:`trace_tile`, on a grid of the parts chosen alike), and the noder returns ``(parts,
-    ptr, src, traced)`` (``parts``: :class:`tether.decomposition.faces.PartLines`, no
-    linestring made; ``traced``: the faces and the parts' faces, None to trace them whole).
+    ptr, src, traced, grid)`` (``parts``: :class:`tether.decomposition.faces.PartLines`, no
+    linestring made; ``traced``: the faces and the parts' faces, None to trace them whole;
+    ``grid``: the snap-rounding grid, map units, 0 for floating-point noding). If a task's
+    floating-point noder fails, every tile snap rounds the input instead, as the untiled noder
+    would (module docstring; :class:`tether.errors.ArrangementError` if even the coarsest
+    grid fails).
     ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
     then ``("stitch", 0.45)``, then ``("face tiles (NXxNY)", fraction)`` as face tasks
     finish; ``log``, if given, gets ``tiles`` (the grid's shape, per strip), ``strips`` (1 or
     2), ``margin`` (map units), ``retries`` (tasks run again in a larger region),
     ``segments_sent`` (input segments sent to the tasks, over the input's count),
     ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
-    ``fallback`` (True if the input was noded whole), and for the faces ``face_tiles``,
+    ``fallback`` (True if the input was noded whole: no longer happens), ``float_failed``
+    (True if a task's floating-point noder failed and the tiles snap rounded), ``grid`` (the
+    snap-rounding grid, map units; 0: floating-point), ``snap_grids_failed`` (grids a task
+    failed on before ``grid``), and for the faces ``face_tiles``,
     ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
     count) and ``face_fallback`` (True if they were traced whole), and the counts ``parts``
     and ``faces``. With ``arcs = (env,
@@ -519,25 +567,14 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
         la, lb, lowner = segs
         if len(la) == 0:
             return None
-        reach = max(1e-3 * tol, 1e-12)
         log.update(retries=0, fallback=False, worker_peak_bytes=0, segments_sent=0.0,
-                   strips=1)
-        strips = noding.strip_cut(lines) if len(la) >= noding.STRIP_MIN_SEGMENTS else None
-        if strips is None:  # the input's own segments, each run's sources its line's
-            groups, ref = [(la, lb, lowner, source)], None
-        else:  # the strips' pieces; the sources among the input's own segments
-            groups = [_segments_of(np.asarray(p, dtype=object)) for p in strips]
-            ref = (la, lb, source[lowner])
-            log["strips"] = 2
-        del strips
-        got, sent = [], 0
-        for g in groups:
-            r = _node_in_tiles(g, ref, tiles, executor, reach, report, log)
-            if r is None:
-                log["fallback"] = True
-                return None
-            got.extend(r[0])
-            sent += r[1]
+                   strips=1, grid=0.0, float_failed=False, snap_grids_failed=0)
+        got, sent, grid = _floating_in_tiles(lines, source, segs, tiles, executor, tol,
+                                             report, log)
+        if got is None:  # snap rounded as the whole would be, in tiles
+            log["float_failed"] = True
+            got, sent, grid = _snapped_in_tiles(source, segs, tiles, executor, tol, report,
+                                                log)
         report("stitch", 0.45)
         log["segments_sent"] = sent / len(la)
         coords, count, ptr, src, length = _stitched(got)
@@ -545,10 +582,67 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
         log["parts"] = len(count)
         parts = PartLines(coords, count, length)  # no linestring made here
         traced = _faces_in_tiles(coords, count, tiles, executor, report, log,
-                                 None if arcs is None else (*arcs, tol))
-        return parts, ptr, src, traced
+                                 None if arcs is None else (*arcs, tol, grid))
+        return parts, ptr, src, traced, grid
 
     return noder
+
+
+def _floating_in_tiles(lines: np.ndarray, source: np.ndarray, segs: tuple,
+                       tiles: tuple[int, int] | str, executor: Executor, tol: float,
+                       report: Callable, log: dict) -> tuple[list | None, int, float]:
+    """The input (``lines``, each line's ``source``, their segments ``segs``) noded in tiles
+    by GEOS's floating-point noder, in two strips as the whole from
+    :data:`tether.decomposition.noding.STRIP_MIN_SEGMENTS` segments: the tasks' results, the
+    input segments sent and the grid (0); results None if a task's noder failed."""
+    la, lb, lowner = segs
+    reach = max(1e-3 * tol, 1e-12)
+    strips = noding.strip_cut(lines) if len(la) >= noding.STRIP_MIN_SEGMENTS else None
+    if strips is None:  # the input's own segments, each run's sources its line's
+        groups, ref = [(la, lb, lowner, source)], None
+    else:  # the strips' pieces; the sources among the input's own segments
+        groups = [_segments_of(np.asarray(p, dtype=object)) for p in strips]
+        ref = (la, lb, source[lowner])
+        log["strips"] = 2
+    del strips
+    got, sent = [], 0
+    for g in groups:
+        r = _node_in_tiles(g, ref, tiles, executor, reach, report, log)
+        if r is None:
+            return None, 0, 0.0
+        got.extend(r[0])
+        sent += r[1]
+    return got, sent, 0.0
+
+
+def _snapped_in_tiles(source: np.ndarray, segs: tuple, tiles: tuple[int, int] | str,
+                      executor: Executor, tol: float, report: Callable, log: dict
+                      ) -> tuple[list, int, float]:
+    """The input (each line's ``source``, the lines' segments ``segs``) snap rounded in
+    tiles as :func:`tether.decomposition.noding.node_lines` rounds the whole: no strips, the
+    grids ``SNAP_GRIDS * tol`` in turn, the same for all tiles, a coarser one only if a task
+    fails on a finer; the sources within ``1e-3 tol + 2 grid`` of a part. Returns the tasks'
+    results, the input segments sent and the grid (map units).
+
+    Raises
+    ------
+    ArrangementError
+        If a task fails even on the coarsest grid (as the whole's noding then fails).
+    """
+    la, lb, lowner = segs
+    for frac in SNAP_GRIDS:
+        grid = frac * tol
+        log["grid"] = grid
+        log["strips"] = 1
+        r = _node_in_tiles((la, lb, lowner, source), None, tiles, executor,
+                           max(1e-3 * tol + 2 * grid, 1e-12), report, log, grid)
+        if r is not None:
+            return r[0], r[1], grid
+        log["snap_grids_failed"] += 1
+    raise ArrangementError(f"the arrangement of {len(source)} curves could not be noded in "
+                           f"tiles even on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the "
+                           f"curve tolerance {tol:.2g}): GEOS's snap rounding failed in a "
+                           f"tile")
 
 
 def _segments_of(lines: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -560,12 +654,14 @@ def _segments_of(lines: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str,
-                   executor: Executor, reach: float, report: Callable, log: dict
-                   ) -> tuple[list, int] | None:
+                   executor: Executor, reach: float, report: Callable, log: dict,
+                   grid_size: float = 0.0) -> tuple[list, int] | None:
     """One noding input (``group``: its segments ``(la, lb, lowner)`` and each line's source)
     in tiles, with retries: the tasks' results and the number of input segments sent; None
-    if a task's noder failed. ``ref``: the segments ``(a, b, source)`` the sources are found
-    among (None: the input's own)."""
+    if a task's noder failed (the tasks not yet started are cancelled). ``ref``: the
+    segments ``(a, b, source)`` the sources are found among (None: the input's own);
+    ``grid_size``: the snap-rounding grid (map units; 0: floating-point noding), which
+    widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells."""
     la, lb, lowner, source = group
     if len(la) == 0:
         return [], 0
@@ -574,7 +670,8 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]))
     grid = tile_grid(np.vstack((la, lb)), shape)
     nx, ny = grid.shape
-    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach)
+    margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach,
+                 SNAP_MARGIN_PIXELS * grid_size)
     log["tiles"], log["margin"] = grid.shape, margin
     rlo = rhi = None
     if ref is not None:
@@ -588,7 +685,7 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         xy, ptr, line = runs_of(seg, la, lb, lowner)
         sources = None if rseg is None else tuple(np.take(c, rseg, axis=0) for c in ref)
         return executor.submit(node_tile, xy, ptr, source[line], trust, reach, own, done,
-                               sources)
+                               sources, grid_size)
 
     near, nptr = segments_by_tile(lo, hi, grid, 2 * margin)
     rnear = rptr = None
@@ -604,13 +701,19 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     stage = f"tiles ({nx}x{ny})"
     while futures:
         pending = {}
-        for t, f in futures.items():
-            r = f.result()
+        # a failed task is seen as soon as it ends (the others are cancelled: a failing
+        # floating-point task can take minutes); the results are then taken in task order
+        tile_of_future = {f: t for t, f in futures.items()}
+        for f in as_completed(tile_of_future):
             finished += 1
             shown = max(shown, finished / total)  # retries add tasks: never backwards
             report(stage, 0.3 + 0.15 * shown)
-            if r is None:
+            if f.result() is None:
+                for g in futures.values():
+                    g.cancel()
                 return None
+        for t, f in futures.items():
+            r = f.result()
             got.append(r)
             log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
             if len(r[4]):
@@ -663,9 +766,9 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     ``complete`` has all its parts here), the trust region ``trust`` (a box ``(xmin, ymin,
     xmax, ymax)`` or a :class:`CellMask`), the anchors owned (``own = (grid, tile)``: those
     in the tile; or points (m, 2)) and the earlier trust regions of this tile (``done``:
-    their faces were delivered there). With ``arcs = (env, lss, tol)`` (the internal map,
-    the rod length and the curve tolerance), the faces' points and free arcs too
-    (:func:`tether.decomposition.structure.face_arcs`, noding grid 0).
+    their faces were delivered there). With ``arcs = (env, lss, tol[, grid])`` (the internal
+    map, the rod length, the curve tolerance and the noding's snap grid, 0 if left out), the
+    faces' points and free arcs too (:func:`tether.decomposition.structure.face_arcs`).
 
     Returns the faces delivered as ragged arrays (coordinates, and the offsets of rings and
     of polygons, as ``shapely.from_ragged_array`` reads them), the half-edges on their rings
@@ -698,8 +801,9 @@ def trace_tile(coords: np.ndarray, count: np.ndarray, trust: np.ndarray | CellMa
     fa = None
     polys = _polygons(got[0], got[1])
     if arcs is not None:
-        env, lss, tol = arcs
-        fa = face_arcs(env, polys, tol, 0.0, lss) if len(polys) else _no_arcs()
+        env, lss, tol, *rest = arcs
+        fa = face_arcs(env, polys, tol, rest[0] if rest else 0.0, lss) if len(polys) \
+            else _no_arcs()
     return (*got, _peak_rss(), fa, shapely.area(polys) if len(polys) else np.zeros(0))
 
 
