@@ -111,9 +111,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InvalidParameterError(f"--dt must be > 0 (got {args.dt:g})")
     if args.duration is not None and not (args.duration >= 0 and math.isfinite(args.duration)):
         raise InvalidParameterError(f"--duration must be >= 0 (got {args.duration:g})")
-    if args.kernel and args.controller != "kernel" and args.target != "kernel-evader":
-        raise InvalidParameterError("--kernel applies to --controller kernel or "
+    if (args.kernel and args.controller not in ("kernel", "certified")
+            and args.target != "kernel-evader"):
+        raise InvalidParameterError("--kernel applies to --controller kernel or certified, or "
                                     "--target kernel-evader only")
+    if args.kernel and args.controller == "certified" and args.target == "kernel-evader":
+        raise InvalidParameterError("--kernel is either a certified field (--controller "
+                                    "certified) or a grid kernel (--target kernel-evader)")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
     _check_replay_options(args)
@@ -128,7 +132,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     kernel = _load_kernel(args) if args.kernel else None
     world = _world(args, args.start, rod=True)
     if kernel is not None:
-        world.extra["kernel"] = kernel
+        world.extra["certified" if args.controller == "certified" else "kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
     if target is None:
         target = make_target(args.target, world, **opts)
@@ -262,17 +266,21 @@ def _replay_line(rep: dict, vt: float) -> str:
 
 
 def _load_kernel(args: argparse.Namespace):
-    """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``), checked against the
-    map, ``--lss`` and the speeds of the run (before the decomposition)."""
+    """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``; with ``--controller
+    certified`` a field of ``tether kernel --certified --save``, certified again on reading),
+    checked against the map, ``--lss`` and the speeds of the run (before the
+    decomposition)."""
     from pathlib import Path
 
     from tether.game import load_kernel
+    from tether.game.certified import load_certified
 
     path = Path(args.kernel)
     if not path.is_file():
         raise InvalidParameterError(f"--kernel: no such file {args.kernel!r}")
+    certified = args.controller == "certified"
     try:
-        k = load_kernel(path)
+        k = load_certified(path) if certified else load_kernel(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error
         raise InvalidParameterError(f"--kernel: cannot read {args.kernel!r} ({exc})") from exc
     env = load_map_lss(args)
@@ -281,8 +289,8 @@ def _load_kernel(args: argparse.Namespace):
         if not math.isclose(mine, theirs, rel_tol=1e-9, abs_tol=1e-12):
             raise InvalidParameterError(f"--kernel was computed with {name}={mine:g}, the run "
                                         f"has {name}={theirs:g}")
-    if tuple(round(b, 9) for b in k.grid.env.bounds) != tuple(
-            round(b, 9) for b in env.bounds):
+    k_env = k.env if certified else k.grid.env
+    if tuple(round(b, 9) for b in k_env.bounds) != tuple(round(b, 9) for b in env.bounds):
         raise InvalidParameterError("--kernel was computed on another map")
     return k
 
@@ -324,11 +332,14 @@ def register(add) -> None:
     sp.add_argument("--speed", type=float_arg, help="desired walking speed of --target "
                     "pedestrian, map units/s (default vt)")
     sp.add_argument("--controller", default="paper",
-                    help="paper, follow, translate or kernel (the surveillance kernel's "
-                    "controller; the kernel is computed on a coarse grid unless --kernel)")
+                    help="paper, follow, translate, kernel (the surveillance kernel's "
+                    "controller; the kernel is computed on a coarse grid unless --kernel) or "
+                    "certified (keeps the state in the certified kernel; computed unless "
+                    "--kernel)")
     sp.add_argument("--kernel", metavar="FILE.npz",
                     help="kernel for --controller kernel / --target kernel-evader, saved by "
-                    "'tether kernel --save' with the same map, lss and speeds")
+                    "'tether kernel --save' with the same map, lss and speeds (for "
+                    "--controller certified: 'tether kernel --certified --save')")
     sp.add_argument("--duration", type=float_arg, help="seconds (default 20; a replayed "
                     "track's own duration)")
     sp.add_argument("--dt", type=float_arg, default=0.02, help="step in seconds (0.02)")
