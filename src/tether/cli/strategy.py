@@ -70,15 +70,28 @@ def cmd_assess(args: argparse.Namespace) -> int:
     x, y, a = args.at
     world = _world(args, args.at, rod=False)
     res = assess(world.verdict, args.vt, args.vo, x, y, a)
+    cert = _certified_answer(world, x, y, a) if args.certified else None
     if args.plot:
         from tether.plot import plot_assessment
 
         _save_fig(plot_assessment(res, world).figure, args.plot)
     if args.json:
-        print_json(res.to_dict())
+        out = res.to_dict()
+        if cert is not None:
+            out = {"certified": cert, **out}
+        print_json(out)
         return 0
-    print(f"start ({x:g}, {y:g}, a={a:g}) lss={args.lss:g} vt={args.vt:g} vo={args.vo:g}: "
-          f"{'SAFE' if res.safe else 'UNSAFE'}")
+    if cert is not None:
+        if not cert["field_certified"]:
+            why = f"no certified field found at h {cert['h']:g}: nothing is claimed safe"
+        elif cert["margin"] >= math.pi:
+            why = "every orientation is certified at this point"
+        else:
+            why = f"margin {cert['margin']:+.3f} rad to the certified arc's nearest end"
+        print(f"certified: {cert['answer'].upper()} ({why})")
+    label = "paper's conditions (Props. 2-3): " if cert is not None else ""
+    print(f"{label}start ({x:g}, {y:g}, a={a:g}) lss={args.lss:g} vt={args.vt:g} "
+          f"vo={args.vo:g}: {'SAFE' if res.safe else 'UNSAFE'}")
     print(f"  cell: {res.cell} ({'survives' if res.survives else 'does not survive'})")
     for r in res.reasons:
         print(f"  - {r}")
@@ -91,6 +104,25 @@ def cmd_assess(args: argparse.Namespace) -> int:
                   f"{e.distance:7.3f} {math.degrees(e.sweep):6.1f}° {e.L:7.3f} {e.L_g:7.3f} "
                   f"{e.margin:7.3f}")
     return 0
+
+
+def _certified_answer(world, x: float, y: float, a: float) -> dict:
+    """``assess --certified``: safe / undecided / unsafe at ``(x, y, a)`` from the certified
+    kernel (default mesh) and the optimistic grid kernel on the same lattice."""
+    from tether._util.progress import Progress
+    from tether.game import surveillance_kernel
+    from tether.game.certified import certified_kernel, classify
+
+    bar = Progress("certified kernel")
+    ck = certified_kernel(world.env, world.lss, world.vt, world.vo,
+                          progress=lambda e: bar(f"LP round {e['round']}",
+                                                 min(e["round"] / 60, 0.99)))
+    bar("done", 1.0)
+    outer = surveillance_kernel(world.env, world.lss, world.vt, world.vo, h=ck.h,
+                                scheme="outer")
+    return {"answer": str(classify(ck, outer, [[x, y]], a)[0]),
+            "margin": float(ck.margin([[x, y]], a)[0]), "field_certified": ck.certified,
+            "h": ck.h, "seconds": ck.seconds}
 
 
 # ---------------------------------------------------------------------- simulate
@@ -306,6 +338,9 @@ def register(add) -> None:
                     help="target position and rod orientation (radians)")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", help="figure of the start over the decomposition (.png, ...)")
+    sp.add_argument("--certified", action="store_true",
+                    help="first the certified answer (safe / undecided / unsafe, from the "
+                         "certified kernel: seconds to minutes), then the paper's conditions")
 
     sp = add("simulate", cmd_simulate, "simulate a controller against a target kind, with "
              "an independent monitor")

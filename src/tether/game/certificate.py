@@ -119,9 +119,10 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A Delaunay mesh of the free space on the ``lattice`` points (map units) at least ``h/2``
     from every wall and points along every wall every ``h/2`` or closer (the walls' vertices
-    included). Dense wall points make every wall piece an edge of the mesh (a Gabriel edge),
-    so the mesh conforms: each triangle lies in the free space or outside it, and the kept
-    ones cover it (checked: their areas sum to the free area).
+    included). Dense wall points make every wall piece an edge of the mesh (its diametral
+    disc holds no other point, so it is in every Delaunay triangulation), and this is checked
+    exactly: then the mesh conforms (each triangle lies in the free space or outside it) and
+    the triangles whose centroid is free tile the free space.
 
     Returns ``(points, tri, source)``: ``source[i]`` is the index in ``lattice`` of vertex
     ``i`` (-1 for a wall point).
@@ -129,28 +130,42 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     Raises
     ------
     ValueError
-        If the kept triangles do not cover the free space (a passage narrower than ``h/2``).
+        If some wall piece is not an edge (a wall angle or passage too sharp for ``h``).
     """
     A, B, _, _ = env.oriented_edges
     pieces = []
     for a, b in zip(A, B, strict=True):
         n = max(1, math.ceil(float(np.hypot(*(b - a))) / (h / 2)))
-        pieces.append(a + (np.arange(n)[:, None] / n) * (b - a))
-    wall = np.unique(np.concatenate(pieces), axis=0)
+        pieces.append(a + (np.arange(n + 1)[:, None] / n) * (b - a))
+    wall, inverse = np.unique(np.concatenate(pieces), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
     d = env.boundary_distance(lattice[:, 0], lattice[:, 1])
     keep = np.flatnonzero(d >= h / 2)
     pts = np.concatenate([lattice[keep], wall])
     source = np.concatenate([keep, np.full(len(wall), -1)])
     tri = Delaunay(pts).simplices
+    # every wall piece (consecutive wall points) must be an edge: then no triangle crosses a
+    # wall, and those whose centroid is free tile the free space exactly
+    ends = len(keep) + inverse
+    first = np.cumsum([len(q) for q in pieces]) - np.array([len(q) for q in pieces])
+    at = np.concatenate([f + np.arange(len(q) - 1) for f, q in zip(first, pieces, strict=True)])
+    need = np.sort(np.stack([ends[at], ends[at + 1]], axis=1), axis=1)
+    have = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]), axis=1)
+    key = len(pts)
+    missing = ~np.isin(need[:, 0] * key + need[:, 1], have[:, 0] * key + have[:, 1])
+    if missing.any():
+        x, y = pts[need[np.argmax(missing), 0]]
+        raise ValueError(f"the mesh at h = {h:g} does not follow the wall near ({x:.6g}, "
+                         f"{y:.6g}) (an angle or passage too sharp for this spacing)")
     cen = pts[tri].mean(axis=1)
     tri = tri[shapely.contains_xy(env.polygon, cen[:, 0], cen[:, 1])]
     p = pts[tri]
     det = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
            - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
     area = 0.5 * np.abs(det).sum()
-    if abs(area - env.polygon.area) > 1e-6 * env.polygon.area:
-        raise ValueError(f"the mesh covers {area:.6g} of the free area {env.polygon.area:.6g}: "
-                         f"a passage is narrower than h/2 = {h / 2:g}")
+    if abs(area - env.polygon.area) > 1e-6 * env.polygon.area:  # a sanity check only
+        raise ValueError(f"the mesh covers {area:.6g} of the free area {env.polygon.area:.6g} "
+                         f"at h = {h:g}")
     tri = np.where((det < 0)[:, None], tri[:, [0, 2, 1]], tri)  # counter-clockwise
     return pts, tri, source
 
