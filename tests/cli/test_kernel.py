@@ -99,7 +99,10 @@ def test_certified_json_at_save_and_simulate(capsys, tmp_path):
     """``--certified --at --json --save``: the answer at a state, the file re-certified on
     reading by ``simulate --controller certified --kernel``, which holds against ``wall``."""
     npz = tmp_path / "room.npz"
-    assert main([*ROOM, "--json", "--at", "5", "5", "0", "--save", str(npz)]) == 0
+    png = tmp_path / "room.png"
+    assert main([*ROOM, "--json", "--at", "5", "5", "0", "--save", str(npz), "--plot",
+                 str(png)]) == 0
+    assert png.stat().st_size > 0
     out = json.loads(capsys.readouterr().out)
     assert out["certified"] is True and out["scheme"] == "certified"
     assert out["failing_triangles"] == {"free": 0, "open": 0, "lo": 0, "hi": 0}
@@ -116,7 +119,7 @@ def test_certified_json_at_save_and_simulate(capsys, tmp_path):
 
 
 @pytest.mark.parametrize("extra,message", [
-    (["--plot", "k.png"], "--plot is not available with --certified"),
+    (["--plot", "k.xyz"], "extension"),
     (["--scheme", "outer"], "--certified has none"),
     (["--h", "nan"], "h must be"),
 ])

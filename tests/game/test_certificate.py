@@ -111,6 +111,7 @@ def test_blocked_check_agrees_with_the_windows():
     assert (blocked | ~meets).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("upper", [False, True])
 def test_end_slack_is_a_lower_bound(upper):
     """_end_slack never exceeds the minimum of the end condition over a dense grid of target
@@ -161,6 +162,7 @@ def test_lift_is_the_same_on_both_sides_of_an_edge():
     assert winds.all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sgn", [-1.0, 1.0])
 def test_lp_rate_bound_is_a_lower_bound(sgn):
     """The LP's bound S (a sparse table of minima over the circle) is never above the minimum

@@ -118,11 +118,12 @@ def test_a_field_wider_than_certified_fails_its_checks(room):
     the ends' rates): the checks are not vacuous."""
     f = room.field
     wide = ArcField(f.points, f.tri, f.lo - 0.15, np.minimum(f.w + 0.3, math.tau))
-    checks = certify(wide, ROOM, LSS, VT, VO)
+    env, lss, vt, vo = room.game  # the field's own (normalized) frame
+    checks = certify(wide, env, lss, vt, vo)
     assert not checks.passed
     assert checks.counts()["free"] > 0
     # the same field at a faster target fails the end checks
-    fast = certify(f, ROOM, LSS, 0.9, VO).counts()
+    fast = certify(f, env, lss, 0.9, vo).counts()
     assert fast["lo"] + fast["hi"] > 0
 
 
@@ -167,3 +168,26 @@ def test_bad_parameters_are_one_line_errors():
         certified_kernel(ROOM, LSS, 1.0, 0.5, h=0.5)
     with pytest.raises(InvalidParameterError, match="h must be"):
         certified_kernel(ROOM, LSS, VT, VO, h=float("nan"))
+
+
+@pytest.mark.slow
+def test_moved_and_scaled_map_gives_the_same_answer(room):
+    """The room moved far from the origin (by (1e5, -3e4)) and scaled by 4 (lss, h and speeds
+    with it), and mirrored: still certified, the same mesh size, and states answer as the
+    original's images (away from the field's boundary, where the two may round apart)."""
+    s, off = 4.0, np.array([1e5, -3e4])
+    moved = Environment([tuple(off + s * np.array(q)) for q in [(0, 0), (10, 0), (10, 10),
+                                                                (0, 10)]])
+    ck = certified_kernel(moved, s * LSS, s * VT, s * VO, h=s * 0.5)
+    assert ck.certified
+    assert len(ck.field.points) == len(room.field.points)
+    rng = np.random.default_rng(5)
+    pts, a = _field_states(room, 2000, rng)
+    deep = room.margin(pts, a) > 0.05
+    assert ck.contains(off + s * pts[deep], a[deep]).mean() > 0.99
+    mirror = Environment([(0, 0), (0, 10), (10, 10), (10, 0)])  # listed clockwise
+    mk = certified_kernel(Environment([(-x, y) for x, y in mirror.polygon.exterior.coords[:-1]]),
+                          LSS, VT, VO, h=0.5)
+    assert mk.certified
+    flip = np.column_stack([-pts[:, 0], pts[:, 1]])
+    assert mk.contains(flip[deep], (math.pi - a[deep])).mean() > 0.99

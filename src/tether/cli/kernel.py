@@ -82,9 +82,6 @@ def _certified(args: argparse.Namespace, env) -> int:
     from tether.game import surveillance_kernel
     from tether.game.certified import certified_kernel, classify
 
-    if args.plot:
-        raise InvalidParameterError("--plot is not available with --certified yet "
-                                    "(use --json, --at or --save)")
     if args.scheme != "inner" or args.directions != 8:
         raise InvalidParameterError("--scheme and --directions choose a grid game; "
                                     "--certified has none")
@@ -97,10 +94,12 @@ def _certified(args: argparse.Namespace, env) -> int:
     out = ck.to_dict()
     frac, err = ck.safe_fraction(samples=20_000)
     out["safe_fraction"], out["safe_fraction_error"] = frac, err
-    if args.at is not None:
-        x, y, a = args.at
+    outer = None
+    if args.at is not None or args.plot:
         outer = surveillance_kernel(env, args.lss, args.vt, args.vo, h=ck.h,
                                     orientations=args.orientations, scheme="outer")
+    if args.at is not None:
+        x, y, a = args.at
         answer = str(classify(ck, outer, [[x, y]], a)[0])
         out["at"] = {"x": x, "y": y, "a": a, "certified": answer,
                      "margin": float(ck.margin([[x, y]], a)[0])}
@@ -110,6 +109,10 @@ def _certified(args: argparse.Namespace, env) -> int:
         with atomic_output(args.save) as tmp:
             with open(tmp, "wb") as fh:
                 ck.save(fh)
+    if args.plot:
+        from tether.plot import certified_figure, save
+
+        save(certified_figure(ck, outer), args.plot)
     if args.json:
         print_json(out)
         return 0

@@ -23,6 +23,7 @@ import shapely
 from tether.arcs import rod_is_free_many
 from tether.bounds import check_speeds
 from tether.environment import Environment
+from tether.environment.frame import Frame, identity_frame
 from tether.errors import InvalidParameterError
 from tether.game.certificate import FULL, ArcField, Checks, lifted_ends
 from tether.game.field_lp import solve_field
@@ -51,6 +52,13 @@ class CertifiedKernel:
         The search's record, one entry per try.
     seconds : float
         Wall time of the computation.
+    frame : Frame
+        The similarity from the map to the frame the field lives in (``field.points`` are in
+        it): :func:`certified_kernel` works in the map's normalized frame
+        (:attr:`Environment.frame`, a power-of-two scale, so that a map moved or scaled by a
+        power of two gets the same field), with time scaled so that ``vo`` = 1.
+    space : Environment, optional
+        The map in that frame (default: ``env`` itself, for the identity frame).
     """
 
     env: Environment
@@ -62,6 +70,16 @@ class CertifiedKernel:
     checks: Checks | None
     log: list = field(default_factory=list)
     seconds: float = 0.0
+    frame: Frame = field(default_factory=identity_frame)
+    space: Environment | None = None
+
+    @property
+    def game(self) -> tuple[Environment, float, float, float]:
+        """The map, rod length and speeds of the field's frame (``vo`` = 1 there, unless the
+        frame is the identity)."""
+        if self.space is None:
+            return self.env, self.lss, self.vt, self.vo
+        return self.space, self.lss * self.frame.scale, self.vt / self.vo, 1.0
 
     @property
     def certified(self) -> bool:
@@ -75,7 +93,7 @@ class CertifiedKernel:
     def locate(self, points: Any) -> np.ndarray:
         """The mesh triangle holding each point (map units; -1 outside the free space): the
         first of the triangles that intersect it (a point on an edge lies in both)."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        pts = self.frame.to_internal(np.asarray(points, dtype=float).reshape(-1, 2))
         hit_pt, hit_tri = self._tree.query(shapely.points(pts), predicate="intersects")
         out = np.full(len(pts), -1, dtype=np.int64)
         order = np.argsort(hit_pt, kind="stable")[::-1]  # the first hit of each point wins
@@ -87,6 +105,7 @@ class CertifiedKernel:
         circle), and whether the point lies in the mesh (NaN ends where it does not)."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         t = self.locate(pts)
+        pts = self.frame.to_internal(pts)
         ok = t >= 0
         lo = np.full(len(pts), np.nan)
         hi = np.full(len(pts), np.nan)
@@ -127,7 +146,7 @@ class CertifiedKernel:
         holds, by Monte Carlo over uniform ``(x, y, a)``: ``(fraction, standard error)``."""
         rng = np.random.default_rng(seed)
         x0, y0, x1, y1 = self.env.bounds
-        pts = np.empty((0, 2))
+        pts = np.empty((0, 2))  # map units
         while len(pts) < samples:
             q = rng.uniform([x0, y0], [x1, y1], size=(2 * samples, 2))
             pts = np.concatenate([pts, q[self.env.contains(q[:, 0], q[:, 1])]])[:samples]
@@ -163,6 +182,8 @@ class CertifiedKernel:
         f = self.field
         np.savez_compressed(path, points=f.points, tri=f.tri, lo=f.lo, w=f.w,
                             params=np.array([self.lss, self.vt, self.vo, self.h]),
+                            frame=np.array([*self.frame.origin, self.frame.scale,
+                                            float(self.space is not None)]),
                             log=np.array(json.dumps(self.log)),
                             map=np.array(json.dumps(self.env.to_dict())))
 
@@ -179,10 +200,18 @@ def load_certified(path: str | Path) -> CertifiedKernel:
     with np.load(path, allow_pickle=False) as d:
         f = ArcField(d["points"], d["tri"], d["lo"], d["w"])
         lss, vt, vo, h = (float(x) for x in d["params"])
+        ox, oy, scale, internal = (float(x) for x in d["frame"])
         log = json.loads(str(d["log"]))
         env = from_dict(json.loads(str(d["map"])))
-    checks = certify(f, env, lss, vt, vo)
-    return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0)
+    frame = Frame(np.array([ox, oy]), scale)
+    if internal and not (np.array_equal(env.frame.origin, frame.origin)
+                         and env.frame.scale == scale):
+        raise ValueError("the field's frame is not the map's normalized frame")
+    ck = CertifiedKernel(env, lss, vt, vo, h, f, None, log, 0.0, frame,
+                         env.internal if internal else None)
+    ck.checks = certify(f, *ck.game)
+    ck.seconds = time.perf_counter() - t0
+    return ck
 
 
 def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -231,12 +260,16 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
     if not (math.isfinite(h) and h > 0):
         raise InvalidParameterError(f"the mesh spacing h must be a finite number > 0, got {h}")
     t0 = time.perf_counter()
-    kern = surveillance_kernel(env, lss, vt, vo, h=h, orientations=orientations)
+    frame, space = env.frame, env.internal
+    lss_i, vt_i, vo_i = lss * frame.scale, vt / vo, 1.0
+    kern = surveillance_kernel(space, lss_i, vt_i, vo_i, h=h * frame.scale,
+                               orientations=orientations)
     try:
-        f, checks, log = solve_field(env, kern, lss, vt, vo, progress=progress)
-    except ValueError as exc:  # the mesh cannot cover the free space at this spacing
+        f, checks, log = solve_field(space, kern, lss_i, vt_i, vo_i, progress=progress)
+    except ValueError as exc:  # the mesh cannot follow the walls at this spacing
         raise InvalidParameterError(f"no certified kernel at h = {h:g}: {exc}") from None
-    return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0)
+    return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0,
+                           frame, space)
 
 
 def classify(certified: CertifiedKernel, optimistic: Any, points: Any,
