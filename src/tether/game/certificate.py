@@ -173,8 +173,8 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
 def first_field(kern) -> ArcField:
     """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
     (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
-    vertex the run of ``kern``'s orientations (at its nearest lattice point) free from every
-    point of the vertex's star that holds, or comes next counter-clockwise of, the direction
+    vertex the run of ``kern``'s orientations (at its nearest lattice point; all orientations
+    where none of them is) free from every point of the vertex's star that holds, or comes next counter-clockwise of, the direction
     away from the nearest wall; the gap places of whole-circle vertices from the harmonic
     extension of the gap centres around them (:func:`_smooth_gaps`)."""
     grid = kern.grid
@@ -202,6 +202,10 @@ def first_field(kern) -> ArcField:
     pref = np.mod(np.round(np.arctan2(away[:, 1], away[:, 0]) / grid.delta),
                   grid.n_a).astype(int)
     start, length, full = _runs_toward(bins, pref)
+    thin = length <= 1  # the grid kernel leaves no arc free from the whole star here: start
+    if thin.any():  # from the free bins alone (the search and the checks decide)
+        s2, l2, f2 = _runs_toward(star_free[thin], pref[thin])
+        start[thin], length[thin], full[thin] = s2, l2, f2
     lo = start * grid.delta
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
     edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
