@@ -242,13 +242,12 @@ def triangle_blocked_any(env: Environment, tri: np.ndarray, a0: np.ndarray, a1: 
     for s in range(0, len(piece), _BATCH):
         pc, wl = piece[s:s + _BATCH], wall[s:s + _BATCH]
         lo, hi, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
-        t = owner[pc]
-        lo, hi = lo - ANGLE_MARGIN, hi + ANGLE_MARGIN
+        t = owner[pc][hit]  # the pairs with a blocked span (finite ends)
+        lo, hi = lo[hit] - ANGLE_MARGIN, hi[hit] + ANGLE_MARGIN
         full = (a1[t] - a0[t]) >= math.tau
         # shift the blocked interval so that it starts within [a0, a0 + 2π)
         k = np.floor((lo - a0[t]) / math.tau)
         lo, hi = lo - k * math.tau, hi - k * math.tau
         meet = (lo <= a1[t]) | (hi >= a0[t] + math.tau)
-        hit = hit & (full | meet)
-        blocked[t[hit]] = True
+        blocked[t[full | meet]] = True
     return blocked, meets
