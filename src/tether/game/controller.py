@@ -148,7 +148,7 @@ class CertifiedController:
         lo, hi, ok = self.certified.arcs(np.vstack([p, p + v * dt]))
         if not ok[1]:  # the target leaves the free space: nothing to aim at
             rate = min(max(0.0, r_lo), r_hi)
-            return Command(rate, observer_velocity(v, a, rate, lss), Mode.KERNEL)
+            return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
         width = hi[1] - lo[1]
         w0 = hi[0] - lo[0]
         if ok[0] and w0 < _FULL:  # the state's relative place in its arc (an end if outside)
@@ -159,7 +159,7 @@ class CertifiedController:
             aim = a
         end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo[1], width, aim)
         rate = (end - a) / dt
-        return Command(rate, observer_velocity(v, a, rate, lss), Mode.KERNEL)
+        return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
 
 
 _FULL = math.tau - 1e-9
