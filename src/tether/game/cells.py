@@ -1,7 +1,7 @@
-"""Which rod orientations are free from *every* point of a square cell (``docs/kernel.md``,
-"Free cells").
+"""Which rod orientations are free from *every* point of a square or a triangle
+(``docs/certified.md``, "The checks", check 1).
 
-For a square ``Q`` (a cell of the certified game, possibly enlarged by the sensing delay) and an
+For a square ``Q`` (the star of a mesh vertex, or a triangle of the certified field) and an
 orientation bin ``B = [a − δ/2, a + δ/2]``, the cell is *free* when the rod
 ``[p, p + lss·u(θ)]`` lies in the free space for every target point ``p ∈ Q ∩ free space`` and
 every ``θ ∈ B``. The test is exact up to a stated, conservative tolerance:

@@ -1,6 +1,6 @@
 """The arc field and its certificate: the checks that make a field of orientation arcs a
-sound under-approximation of the surveillance kernel (``docs/kernel.md``, "The certified
-kernel", where the argument is written out line by line).
+sound under-approximation of the surveillance kernel (``docs/certified.md``, where the
+argument is written out line by line).
 
 **The field.** A triangle mesh of the free space (:func:`free_mesh`, conforming: every triangle
 lies in the free space) carries at each vertex ``i`` an arc of orientations ``[lo_i, lo_i + w_i]``
@@ -173,9 +173,10 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
 def first_field(kern) -> ArcField:
     """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
     (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
-    vertex the run of ``kern``'s orientations (at its nearest lattice point; all orientations
-    where none of them is) free from every point of the vertex's star that holds, or comes next counter-clockwise of, the direction
-    away from the nearest wall; the gap places of whole-circle vertices from the harmonic
+    vertex the run of orientations free from every point of the vertex's star and in
+    ``kern`` at its nearest lattice point (free ones alone where that run is at most one
+    bin) that holds, or comes next counter-clockwise of, the direction away from the nearest
+    wall; the gap places of whole-circle vertices from the harmonic
     extension of the gap centres around them (:func:`_smooth_gaps`)."""
     grid = kern.grid
     env = grid.env

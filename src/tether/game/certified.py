@@ -1,7 +1,7 @@
 """The certified surveillance kernel: a field of orientation arcs the exact checks pass
 (:mod:`tether.game.certificate`), found by sequential LP (:mod:`tether.game.field_lp`) from the
 conservative grid kernel, and the answer a user reads: from a state in it, no target of speed
-at most ``vt`` breaks the line of sight (``docs/kernel.md``, "The certified kernel").
+at most ``vt`` breaks the line of sight (``docs/certified.md``).
 
 A state outside the certified kernel is not thereby unsafe: :func:`classify` calls it
 *undecided* where the optimistic grid kernel (scheme ``"outer"``) holds it, *unsafe* where

@@ -113,7 +113,7 @@ class CertifiedController:
     that lie in the field's arc at the target's next position, as near as possible to the
     state's relative place in the arc (``s = (a − lo)/(hi − lo)``; where the arc is the whole
     circle, as near as possible to ``a``). From a state of a certified field such an
-    orientation always exists (``docs/kernel.md``, "The certified kernel": a continuous
+    orientation always exists (``docs/certified.md``, "The argument", (A6): a continuous
     trajectory that stays in the field has a chord of at most ``vo·dt``), so the state is in
     the field, and the rod free, at every step. A state outside the field (or a field that is
     not certified) gets the reachable orientation nearest to the arc, and no promise.
