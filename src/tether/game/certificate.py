@@ -143,7 +143,9 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     keep = np.flatnonzero(d >= h / 2)
     pts = np.concatenate([lattice[keep], wall])
     source = np.concatenate([keep, np.full(len(wall), -1)])
-    tri = Delaunay(pts).simplices
+    # in lattice units from the map's corner: the same coordinates, hence the same choice of
+    # diagonals in the lattice's cocircular squares, for the map moved or scaled
+    tri = Delaunay((pts - pts.min(axis=0)) / h).simplices
     # every wall piece (consecutive wall points) must be an edge: then no triangle crosses a
     # wall, and those whose centroid is free tile the free space exactly
     ends = len(keep) + inverse

@@ -54,8 +54,13 @@ from tether.game.certificate import (
 
 __all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "vortex_radius"]
 
-#: Price of one unit of elastic slack (per triangle end) against one radian·area of width.
+#: Price of one unit of elastic slack (per triangle end) against one radian of width at a
+#: vertex of mean area (the widths are priced by area relative to the mean, times
+#: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
 PENALTY = 1e4
+#: Price of one radian of width at a vertex of mean area (the regime in which the search was
+#: tuned: meshes of spacing 0.25 to 0.5 in units where lss = vo = 1).
+WIDTH_PRICE = 0.1
 #: Distance (radians) the field keeps from the ends of every free window (the exact check
 #: counts a touching end as blocked).
 WINDOW_GAP = 1e-6
@@ -198,6 +203,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     hat = hat_gradients(xy)  # (nt, 3, 2)
     area_v = np.zeros(nv)
     np.add.at(area_v, tri.ravel(), np.repeat(np.abs(det) / 6, 3))
+    area_v *= WIDTH_PRICE / area_v.mean()  # the widths' prices, scale-free
     th_all = np.linspace(0, _TAU, headings, endpoint=False)
     U_all = np.stack([np.cos(th_all), np.sin(th_all)], 1)
     k = lss * vt
