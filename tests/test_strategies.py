@@ -13,7 +13,7 @@ from tether.strategies import CONTROLLERS, TARGETS, make_target
 
 
 def test_registries_name_the_players_of_sim_and_game():
-    assert list(CONTROLLERS) == ["paper", "follow", "translate", "kernel"]
+    assert list(CONTROLLERS) == ["paper", "follow", "translate", "kernel", "certified"]
     assert list(TARGETS) == ["path", "random", "wall", "tangential", "dash", "escape",
                              "search", "kernel-evader", "track", "pedestrian"]
     with pytest.raises(InvalidParameterError, match="unknown target kind 'nope'"):

@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from tether.errors import InvalidParameterError
-from tether.game.controller import KernelController
+from tether.game.controller import CertifiedController, KernelController
 from tether.game.evader import KernelEvader
 from tether.sim.controller import FollowController, PaperController, TranslateController
 from tether.sim.protocols import World
@@ -36,6 +36,14 @@ def _kernel_controller(world: World | None = None, **options: Any) -> Any:
     return KernelController(**options)
 
 
+def _certified_controller(world: World | None = None, **options: Any) -> Any:
+    """The certified kernel's controller (:class:`tether.game.controller.CertifiedController`):
+    follows ``world.extra["certified"]``, computed there on demand (see
+    :func:`tether.game.controller.certified_of`) unless ``certified=`` is given or the caller
+    stored one (``tether simulate --controller certified --kernel FILE.npz``)."""
+    return CertifiedController(**options)
+
+
 def _kernel_evader(world: World, **options: Any) -> Any:
     """The surveillance kernel's evader (:class:`tether.game.evader.KernelEvader`); reads the
     kernel from ``world.extra["kernel"]`` unless ``kernel=`` is given."""
@@ -48,6 +56,7 @@ CONTROLLERS: dict[str, Any] = {
     "follow": FollowController,
     "translate": TranslateController,
     "kernel": _kernel_controller,
+    "certified": _certified_controller,
 }
 
 #: Target kinds by name: ``TARGETS[kind](world, **options)``.

@@ -88,3 +88,59 @@ def test_simulate_kernel_speed_mismatch(capsys, tmp_path):
     args[args.index("--vt") + 1] = "0.5"
     assert main(args) == 2
     assert "vt=0.6" in capsys.readouterr().err
+
+
+ROOM = ["kernel", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3", "--vo",
+        "1", "--h", "0.5", "--certified"]
+
+
+@pytest.mark.slow
+def test_certified_json_at_save_and_simulate(capsys, tmp_path):
+    """``--certified --at --json --save``: the answer at a state, the file re-certified on
+    reading by ``simulate --controller certified --kernel``, which holds against ``wall``."""
+    npz = tmp_path / "room.npz"
+    png = tmp_path / "room.png"
+    assert main([*ROOM, "--json", "--at", "5", "5", "0", "--save", str(npz), "--plot",
+                 str(png)]) == 0
+    assert png.stat().st_size > 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["certified"] is True and out["scheme"] == "certified"
+    assert out["failing_triangles"] == {"free": 0, "open": 0, "lo": 0, "hi": 0}
+    assert 0.5 < out["safe_fraction"] < 1.0
+    assert out["at"]["certified"] == "safe" and out["at"]["margin"] > 0
+    sim = ["simulate", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3",
+           "--vo", "1", "--controller", "certified", "--kernel", str(npz), "--target",
+           "wall", "--start", "5", "5", "0", "--duration", "5", "--json"]
+    assert main(sim) == 0
+    assert json.loads(capsys.readouterr().out)["outcome"] == "held"
+    sim[5] = "0.6"  # a field certified at vt 0.3 is refused for a run at 0.6
+    assert main(sim) == 2
+    assert "vt" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--plot", "k.xyz"], "extension"),
+    (["--scheme", "outer"], "--certified has none"),
+    (["--h", "nan"], "h must be"),
+])
+def test_certified_bad_input_exit_2(capsys, extra, message, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main([*ROOM, *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+@pytest.mark.slow
+def test_assess_certified_answer_first(capsys):
+    """``assess --certified``: the certified answer is the first line (and the first JSON
+    key), the paper's conditions follow, labelled as the paper's."""
+    base = ["assess", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3",
+            "--vo", "1", "--certified"]
+    assert main([*base, "--at", "5", "5", "0"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("certified: SAFE")
+    assert lines[1].startswith("paper's conditions (Props. 2-3): ")
+    assert main([*base, "--at", "0.5", "5", "3.14159", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert list(out)[0] == "certified"
+    assert out["certified"]["answer"] == "unsafe" and out["certified"]["field_certified"]

@@ -35,6 +35,8 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         from tether.errors import InvalidParameterError
 
         raise InvalidParameterError(f"--h must be a finite number > 0, got {args.h}")
+    if args.certified:
+        return _certified(args, env)
     k = surveillance_kernel(env, args.lss, args.vt, args.vo, h=args.h,
                             orientations=args.orientations, directions=args.directions,
                             scheme=args.scheme)
@@ -72,6 +74,66 @@ def cmd_kernel(args: argparse.Namespace) -> int:
     return 0
 
 
+def _certified(args: argparse.Namespace, env) -> int:
+    """``tether kernel --certified``: the certified kernel, and at ``--at`` the answer
+    safe / undecided / unsafe (with the optimistic grid kernel on the same lattice)."""
+    from tether._util.progress import Progress
+    from tether.errors import InvalidParameterError
+    from tether.game import surveillance_kernel
+    from tether.game.certified import certified_kernel, classify
+
+    if args.scheme != "inner" or args.directions != 8:
+        raise InvalidParameterError("--scheme and --directions choose a grid game; "
+                                    "--certified has none")
+    bar = Progress("certified kernel")
+    ck = certified_kernel(env, args.lss, args.vt, args.vo, h=args.h,
+                          orientations=args.orientations,
+                          progress=lambda e: bar(f"LP round {e['round']}",
+                                                 min(e["round"] / 60, 0.99)))
+    bar("done", 1.0)
+    out = ck.to_dict()
+    frac, err = ck.safe_fraction(samples=20_000)
+    out["safe_fraction"], out["safe_fraction_error"] = frac, err
+    outer = None
+    if args.at is not None or args.plot:
+        outer = surveillance_kernel(env, args.lss, args.vt, args.vo, h=ck.h,
+                                    orientations=args.orientations, scheme="outer")
+    if args.at is not None:
+        x, y, a = args.at
+        answer = str(classify(ck, outer, [[x, y]], a)[0])
+        out["at"] = {"x": x, "y": y, "a": a, "certified": answer,
+                     "margin": float(ck.margin([[x, y]], a)[0])}
+    if args.save is not None:
+        from tether._util.files import atomic_output
+
+        with atomic_output(args.save) as tmp:
+            with open(tmp, "wb") as fh:
+                ck.save(fh)
+    if args.plot:
+        from tether.plot import certified_figure, save
+
+        save(certified_figure(ck, outer), args.plot)
+    if args.json:
+        print_json(out)
+        return 0
+    m = out["mesh"]
+    print(f"map {out['map']!r}, lss {ck.lss:g}, vt {ck.vt:g}, vo {ck.vo:g} (certified)")
+    print(f"  mesh h {ck.h:.4g}: {m['vertices']} vertices, {m['triangles']} triangles")
+    if ck.certified:
+        print(f"  CERTIFIED: {100 * frac:.1f}% of the free states (+/- {100 * err:.1f}, "
+              f"Monte Carlo), mean arc {100 * out['mean_arc_fraction']:.1f}% of the circle")
+    else:
+        fail = out["failing_triangles"] or {}
+        bad = sum(fail.values()) if fail else "all"
+        print(f"  NOT certified ({bad} triangles fail the checks): no state is claimed safe; "
+              f"try a finer --h or a lower vt/vo")
+    print(f"  {out['seconds']:.2f} s")
+    if "at" in out:
+        at = out["at"]
+        print(f"  ({at['x']:g}, {at['y']:g}, {at['a']:g} rad) is {at['certified'].upper()}")
+    return 0
+
+
 def register(add) -> None:
     """Add this group's subcommands; ``add(name, fn, help)`` returns the subparser."""
     sp = add("kernel", cmd_kernel,
@@ -90,6 +152,10 @@ def register(add) -> None:
     sp.add_argument("--scheme", choices=("inner", "outer"), default="inner",
                     help="rounding of the observer's rates: inner = conservative (default), "
                          "outer = optimistic")
+    sp.add_argument("--certified", action="store_true",
+                    help="the certified kernel: an arc field proven by exact checks (safe "
+                         "means no target within the speeds can break the line of sight); "
+                         "--h is then the mesh spacing (default 1/40 of the larger side)")
     sp.add_argument("--at", nargs=3, type=finite_arg, metavar=("X", "Y", "A"),
                     help="also report whether (x, y, a) (a in radians) is in the kernel")
     sp.add_argument("--json", action="store_true", help="print JSON")

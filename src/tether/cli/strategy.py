@@ -70,15 +70,28 @@ def cmd_assess(args: argparse.Namespace) -> int:
     x, y, a = args.at
     world = _world(args, args.at, rod=False)
     res = assess(world.verdict, args.vt, args.vo, x, y, a)
+    cert = _certified_answer(world, x, y, a) if args.certified else None
     if args.plot:
         from tether.plot import plot_assessment
 
         _save_fig(plot_assessment(res, world).figure, args.plot)
     if args.json:
-        print_json(res.to_dict())
+        out = res.to_dict()
+        if cert is not None:
+            out = {"certified": cert, **out}
+        print_json(out)
         return 0
-    print(f"start ({x:g}, {y:g}, a={a:g}) lss={args.lss:g} vt={args.vt:g} vo={args.vo:g}: "
-          f"{'SAFE' if res.safe else 'UNSAFE'}")
+    if cert is not None:
+        if not cert["field_certified"]:
+            why = f"no certified field found at h {cert['h']:g}: nothing is claimed safe"
+        elif cert["margin"] >= math.pi:
+            why = "every orientation is certified at this point"
+        else:
+            why = f"margin {cert['margin']:+.3f} rad to the certified arc's nearest end"
+        print(f"certified: {cert['answer'].upper()} ({why})")
+    label = "paper's conditions (Props. 2-3): " if cert is not None else ""
+    print(f"{label}start ({x:g}, {y:g}, a={a:g}) lss={args.lss:g} vt={args.vt:g} "
+          f"vo={args.vo:g}: {'SAFE' if res.safe else 'UNSAFE'}")
     print(f"  cell: {res.cell} ({'survives' if res.survives else 'does not survive'})")
     for r in res.reasons:
         print(f"  - {r}")
@@ -91,6 +104,25 @@ def cmd_assess(args: argparse.Namespace) -> int:
                   f"{e.distance:7.3f} {math.degrees(e.sweep):6.1f}° {e.L:7.3f} {e.L_g:7.3f} "
                   f"{e.margin:7.3f}")
     return 0
+
+
+def _certified_answer(world, x: float, y: float, a: float) -> dict:
+    """``assess --certified``: safe / undecided / unsafe at ``(x, y, a)`` from the certified
+    kernel (default mesh) and the optimistic grid kernel on the same lattice."""
+    from tether._util.progress import Progress
+    from tether.game import surveillance_kernel
+    from tether.game.certified import certified_kernel, classify
+
+    bar = Progress("certified kernel")
+    ck = certified_kernel(world.env, world.lss, world.vt, world.vo,
+                          progress=lambda e: bar(f"LP round {e['round']}",
+                                                 min(e["round"] / 60, 0.99)))
+    bar("done", 1.0)
+    outer = surveillance_kernel(world.env, world.lss, world.vt, world.vo, h=ck.h,
+                                scheme="outer")
+    return {"answer": str(classify(ck, outer, [[x, y]], a)[0]),
+            "margin": float(ck.margin([[x, y]], a)[0]), "field_certified": ck.certified,
+            "h": ck.h, "seconds": ck.seconds}
 
 
 # ---------------------------------------------------------------------- simulate
@@ -111,9 +143,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InvalidParameterError(f"--dt must be > 0 (got {args.dt:g})")
     if args.duration is not None and not (args.duration >= 0 and math.isfinite(args.duration)):
         raise InvalidParameterError(f"--duration must be >= 0 (got {args.duration:g})")
-    if args.kernel and args.controller != "kernel" and args.target != "kernel-evader":
-        raise InvalidParameterError("--kernel applies to --controller kernel or "
+    if (args.kernel and args.controller not in ("kernel", "certified")
+            and args.target != "kernel-evader"):
+        raise InvalidParameterError("--kernel applies to --controller kernel or certified, or "
                                     "--target kernel-evader only")
+    if args.kernel and args.controller == "certified" and args.target == "kernel-evader":
+        raise InvalidParameterError("--kernel is either a certified field (--controller "
+                                    "certified) or a grid kernel (--target kernel-evader)")
     if args.path and args.target != "path":
         raise InvalidParameterError("--path applies to --target path only")
     _check_replay_options(args)
@@ -128,7 +164,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     kernel = _load_kernel(args) if args.kernel else None
     world = _world(args, args.start, rod=True)
     if kernel is not None:
-        world.extra["kernel"] = kernel
+        world.extra["certified" if args.controller == "certified" else "kernel"] = kernel
     opts = {"path": args.path} if args.target == "path" else {}
     if target is None:
         target = make_target(args.target, world, **opts)
@@ -262,17 +298,21 @@ def _replay_line(rep: dict, vt: float) -> str:
 
 
 def _load_kernel(args: argparse.Namespace):
-    """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``), checked against the
-    map, ``--lss`` and the speeds of the run (before the decomposition)."""
+    """The kernel of ``--kernel FILE.npz`` (``tether kernel --save``; with ``--controller
+    certified`` a field of ``tether kernel --certified --save``, certified again on reading),
+    checked against the map, ``--lss`` and the speeds of the run (before the
+    decomposition)."""
     from pathlib import Path
 
     from tether.game import load_kernel
+    from tether.game.certified import load_certified
 
     path = Path(args.kernel)
     if not path.is_file():
         raise InvalidParameterError(f"--kernel: no such file {args.kernel!r}")
+    certified = args.controller == "certified"
     try:
-        k = load_kernel(path)
+        k = load_certified(path) if certified else load_kernel(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable file is a user error
         raise InvalidParameterError(f"--kernel: cannot read {args.kernel!r} ({exc})") from exc
     env = load_map_lss(args)
@@ -281,8 +321,8 @@ def _load_kernel(args: argparse.Namespace):
         if not math.isclose(mine, theirs, rel_tol=1e-9, abs_tol=1e-12):
             raise InvalidParameterError(f"--kernel was computed with {name}={mine:g}, the run "
                                         f"has {name}={theirs:g}")
-    if tuple(round(b, 9) for b in k.grid.env.bounds) != tuple(
-            round(b, 9) for b in env.bounds):
+    k_env = k.env if certified else k.grid.env
+    if tuple(round(b, 9) for b in k_env.bounds) != tuple(round(b, 9) for b in env.bounds):
         raise InvalidParameterError("--kernel was computed on another map")
     return k
 
@@ -298,6 +338,9 @@ def register(add) -> None:
                     help="target position and rod orientation (radians)")
     sp.add_argument("--json", action="store_true", help="print JSON")
     sp.add_argument("--plot", help="figure of the start over the decomposition (.png, ...)")
+    sp.add_argument("--certified", action="store_true",
+                    help="first the certified answer (safe / undecided / unsafe, from the "
+                         "certified kernel: seconds to minutes), then the paper's conditions")
 
     sp = add("simulate", cmd_simulate, "simulate a controller against a target kind, with "
              "an independent monitor")
@@ -324,11 +367,14 @@ def register(add) -> None:
     sp.add_argument("--speed", type=float_arg, help="desired walking speed of --target "
                     "pedestrian, map units/s (default vt)")
     sp.add_argument("--controller", default="paper",
-                    help="paper, follow, translate or kernel (the surveillance kernel's "
-                    "controller; the kernel is computed on a coarse grid unless --kernel)")
+                    help="paper, follow, translate, kernel (the surveillance kernel's "
+                    "controller; the kernel is computed on a coarse grid unless --kernel) or "
+                    "certified (keeps the state in the certified kernel; computed unless "
+                    "--kernel)")
     sp.add_argument("--kernel", metavar="FILE.npz",
                     help="kernel for --controller kernel / --target kernel-evader, saved by "
-                    "'tether kernel --save' with the same map, lss and speeds")
+                    "'tether kernel --save' with the same map, lss and speeds (for "
+                    "--controller certified: 'tether kernel --certified --save')")
     sp.add_argument("--duration", type=float_arg, help="seconds (default 20; a replayed "
                     "track's own duration)")
     sp.add_argument("--dt", type=float_arg, default=0.02, help="step in seconds (0.02)")

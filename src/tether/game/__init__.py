@@ -7,7 +7,13 @@
   vectorized fixed-point iteration with a worklist, and its :class:`Kernel` result;
 * :mod:`tether.game.controller` — :class:`KernelController`, the rate in Ω keeping the next
   state deepest inside the kernel;
-* :mod:`tether.game.evader` — :class:`KernelEvader`, the target move that leaves the kernel.
+* :mod:`tether.game.evader` — :class:`KernelEvader`, the target move that leaves the kernel;
+* the certified kernel (``docs/certified.md``): :mod:`tether.game.cells` (exact blocked
+  orientations), :mod:`tether.game.certificate` (the arc field and its checks),
+  :mod:`tether.game.field_lp` (the search), :mod:`tether.game.certified`
+  (``certified_kernel``, ``CertifiedKernel``; imported from there, as it loads scipy's LP
+  solver) and
+  :class:`~tether.game.controller.CertifiedController`.
 
 Never imports matplotlib (figures are in :mod:`tether.plot.kernel`).
 """

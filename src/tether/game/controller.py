@@ -11,6 +11,7 @@ Candidates whose rod would not be free at the end of the simulator's step (exact
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ from tether.arcs import rod_is_free_many
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
-__all__ = ["KernelController", "kernel_of"]
+__all__ = ["CertifiedController", "KernelController", "certified_of", "kernel_of"]
 
 
 def kernel_of(world: World) -> Any:
@@ -88,3 +89,104 @@ class KernelController:
         score = k.depth_at(ahead, a + rates * tau) - 1e-9 * np.abs(rates - (lo + hi) / 2)
         rate = float(rates[int(np.argmax(score))])
         return Command(rate, observer_velocity(v, a, rate, lss), Mode.KERNEL)
+
+
+def certified_of(world: World) -> Any:
+    """``world.extra["certified"]``, computed and stored there when missing
+    (:func:`~tether.game.certified.certified_kernel` at its default spacing, 1/40 of the map's
+    size: seconds on a room, minutes on a large map)."""
+    ck = world.extra.get("certified")
+    if ck is None:
+        from tether.game.certified import certified_kernel
+
+        ck = certified_kernel(world.env, world.lss, world.vt, world.vo)
+        world.extra["certified"] = ck
+    return ck
+
+
+class CertifiedController:
+    """Keep the state in the certified kernel's arc field
+    (:class:`~tether.game.certified.CertifiedKernel`).
+
+    Each step, the orientation at the end of the step is chosen among those the observer can
+    reach (the exact interval of the step's chord, :func:`tether.rates.step_rate_interval`)
+    that lie in the field's arc at the target's next position, as near as possible to the
+    state's relative place in the arc (``s = (a − lo)/(hi − lo)``; where the arc is the whole
+    circle, as near as possible to ``a``). From a state of a certified field such an
+    orientation always exists (``docs/certified.md``, "The argument", (A6): a continuous
+    trajectory that stays in the field has a chord of at most ``vo·dt``), so the state is in
+    the field, and the rod free, at every step. A state outside the field (or a field that is
+    not certified) gets the reachable orientation nearest to the arc, and no promise.
+
+    Parameters
+    ----------
+    certified : CertifiedKernel, optional
+        The field to follow; by default ``world.extra["certified"]`` at :meth:`reset`
+        (computed and stored there if missing, see :func:`certified_of`).
+    """
+
+    name = "certified"
+
+    def __init__(self, certified: Any = None) -> None:
+        self.certified = certified
+        self.world: World | None = None
+
+    def reset(self, world: World, p: np.ndarray, a: float) -> None:
+        """Start a run: take the certified kernel of ``world`` (computed if none was given)."""
+        self.world = world
+        if self.certified is None:
+            self.certified = certified_of(world)
+
+    def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
+        """The rod rate that lands the next state in the field, for target velocity ``v``."""
+        world = self.world
+        lss, vo = world.lss, world.vo
+        p = np.asarray(p, dtype=float)
+        v = np.asarray(v, dtype=float)
+        r_lo, r_hi = (float(x) for x in step_rate_interval(v, a, lss, vo, dt))
+        r_lo, r_hi = max(r_lo, -np.pi / dt), min(r_hi, np.pi / dt)
+        lo, hi, ok = self.certified.arcs(np.vstack([p, p + v * dt]))
+        if not ok[1]:  # the target leaves the free space: nothing to aim at
+            rate = min(max(0.0, r_lo), r_hi)
+            return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
+        width = hi[1] - lo[1]
+        w0 = hi[0] - lo[0]
+        if ok[0] and w0 < _FULL:  # the state's relative place in its arc (an end if outside)
+            x = float(np.mod(a - lo[0], math.tau))
+            s = x / w0 if x <= w0 else (0.0 if math.tau - x < x - w0 else 1.0)
+            aim = lo[1] + s * width
+        else:
+            aim = a
+        end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo[1], width, aim)
+        rate = (end - a) / dt
+        return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
+
+
+_FULL = math.tau - 1e-9
+
+
+def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float,
+             aim: float) -> float:
+    """The orientation in ``[lo_reach, hi_reach]`` (reachable, lifted around ``a``) nearest to
+    ``aim`` among those in the arc ``[lo, lo + width]`` (any lift); if the two do not meet,
+    the reachable orientation nearest to the arc."""
+    if width >= _FULL:
+        return min(max(a, lo_reach), hi_reach)
+    base = lo + math.tau * math.floor((lo_reach - lo) / math.tau)  # the lift at or below
+    best, best_d = None, math.inf
+    gap_best, gap_d = lo_reach, math.inf
+    for k in (-1, 0, 1, 2):
+        a0 = base + k * math.tau
+        a1 = a0 + width
+        t = aim + math.tau * round((a0 + width / 2 - aim) / math.tau)  # aim lifted to this arc
+        x0, x1 = max(a0, lo_reach), min(a1, hi_reach)
+        if x0 <= x1:
+            c = min(max(t, x0), x1)
+            d = abs(c - t)
+            if d < best_d:
+                best, best_d = c, d
+        else:  # apart: the reachable end nearest to this lift of the arc
+            for c, d in ((hi_reach, a0 - hi_reach), (lo_reach, lo_reach - a1)):
+                if 0 <= d < gap_d:
+                    gap_best, gap_d = c, d
+    return best if best is not None else gap_best

@@ -19,9 +19,12 @@ from tether.plot.assess import plot_assessment
 from tether.plot.axes import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR, new_axes, save
 from tether.plot.decomposition import CURVE_COLOURS, plot_decomposition
 from tether.plot.kernel import (
+    CERTIFIED_COLOURS,
     SLICE_COLOURS,
+    certified_figure,
     kernel_figure,
     kernel_run_strip,
+    plot_certified_slice,
     plot_kernel_run,
     plot_kernel_slice,
     plot_safe_fraction,
@@ -42,7 +45,7 @@ from tether.plot.verdict import plot_graph, plot_verdict
 __all__ = [
     # axes, colours, saving
     "new_axes", "save", "TARGET_COLOUR", "OBSERVER_COLOUR", "ROD_COLOUR", "CURVE_COLOURS",
-    "MODE_COLOURS", "SLICE_COLOURS",
+    "MODE_COLOURS", "SLICE_COLOURS", "CERTIFIED_COLOURS",
     # the observer's motions and the distance bound
     "plot_tractrix", "plot_rotation", "plot_wall", "plot_vertex", "plot_distance_bound",
     "bound_figure",
@@ -50,7 +53,7 @@ __all__ = [
     "plot_map", "plot_decomposition", "plot_graph", "plot_verdict",
     # sweeps and the surveillance kernel
     "plot_sweep", "plot_safe_fraction", "plot_kernel_slice", "kernel_figure", "plot_kernel_run",
-    "kernel_run_strip",
+    "kernel_run_strip", "certified_figure", "plot_certified_slice",
     # simulated runs and starts
     "draw_scene", "draw_trigger_curves", "plot_run", "animate_run", "plot_assessment",
 ]

@@ -14,11 +14,17 @@ from matplotlib.figure import Figure
 from tether.plot.axes import OBSERVER_COLOUR, ROD_COLOUR, TARGET_COLOUR, ensure_axes
 from tether.plot.map import plot_map
 
-__all__ = ["SLICE_COLOURS", "plot_safe_fraction", "plot_kernel_slice", "kernel_figure",
-           "plot_kernel_run", "kernel_run_strip"]
+__all__ = ["CERTIFIED_COLOURS", "SLICE_COLOURS", "certified_figure", "kernel_figure",
+           "kernel_run_strip", "plot_certified_slice", "plot_kernel_run", "plot_kernel_slice",
+           "plot_safe_fraction"]
 
 #: Slice colours: blocked rod, free but outside the kernel, in the kernel.
 SLICE_COLOURS = ("0.85", "tab:orange", "tab:green")
+
+
+#: Certified slice colours: blocked rod, unsafe (outside the optimistic kernel), undecided,
+#: certified safe.
+CERTIFIED_COLOURS = ("0.85", "tab:red", "gold", "tab:green")
 
 
 def _extent(kernel: Any) -> tuple[float, float, float, float]:
@@ -135,4 +141,56 @@ def kernel_run_strip(kernel: Any, result: Any, frames: int = 4, fig: Any = None)
                      f"{'' if inside else ' (outside)'}", fontsize=9)
     fig.suptitle(f"{result.controller} vs {result.target}: {result.outcome} — the kernel's "
                  "slice at the rod's orientation (green: safe)", fontsize=9)
+    return fig
+
+
+def plot_certified_slice(certified: Any, optimistic: Any, angle: float, ax: Any = None,
+                         pixels: int = 160) -> list:
+    """The states at orientation ``angle`` (radians) in four colours
+    (:data:`CERTIFIED_COLOURS`): rod blocked, unsafe (outside ``optimistic``, a grid kernel of
+    scheme ``"outer"``), undecided, certified safe (``certified``, a
+    :class:`~tether.game.certified.CertifiedKernel`); ``pixels`` across the larger side."""
+    from tether.arcs import rod_is_free_many
+    from tether.game.certified import classify
+
+    ax = ensure_axes(ax)
+    env = certified.env
+    x0, y0, x1, y1 = env.bounds
+    step = max(x1 - x0, y1 - y0) / pixels
+    xs = np.arange(x0 + step / 2, x1, step)
+    ys = np.arange(y0 + step / 2, y1, step)
+    X, Y = np.meshgrid(xs, ys)
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    code = np.full(len(pts), np.nan)
+    inside = env.contains(pts[:, 0], pts[:, 1])
+    q = pts[inside]
+    free = rod_is_free_many(env, q, np.full(len(q), angle), certified.lss)
+    word = classify(certified, optimistic, q, angle)
+    rank = {"unsafe": 1.0, "undecided": 2.0, "safe": 3.0}
+    code[inside] = np.where(free, np.vectorize(rank.get, otypes=[float])(word), 0.0)
+    img = ax.imshow(code.reshape(X.shape), origin="lower",
+                    extent=(x0, x0 + len(xs) * step, y0, y0 + len(ys) * step),
+                    cmap=ListedColormap(list(CERTIFIED_COLOURS)), vmin=-0.5, vmax=3.5,
+                    interpolation="nearest", zorder=1)
+    arts: list = [img]
+    arts += plot_map(env, ax, labels=False)
+    ax.set_title(f"a = {math.degrees(angle):.0f}°")
+    ax.set_aspect("equal")
+    return arts
+
+
+def certified_figure(certified: Any, optimistic: Any,
+                     angles: tuple[float, ...] = (0.0, math.pi / 2, math.pi, 3 * math.pi / 2),
+                     fig: Any = None) -> Figure:
+    """Slices of the certified answer at ``angles`` (radians): certified safe, undecided and
+    unsafe in three colours (:func:`plot_certified_slice`)."""
+    if fig is None:
+        fig = Figure(figsize=(4.2 * math.ceil(len(angles) / 2), 7.0), layout="constrained")
+    ncols = math.ceil(len(angles) / 2)
+    for n, a in enumerate(angles):
+        plot_certified_slice(certified, optimistic, a, fig.add_subplot(2, ncols, 1 + n))
+    state = "certified" if certified.certified else "NOT certified: nothing is claimed safe"
+    fig.suptitle(f"certified kernel ({state}), vt/vo = {certified.vt / certified.vo:.2g}, "
+                 f"lss = {certified.lss:g} — green: safe, gold: undecided, red: unsafe "
+                 "(optimistic kernel), grey: rod blocked", fontsize=9)
     return fig

@@ -22,7 +22,8 @@ __all__ = ["MODE_COLOURS", "draw_scene", "draw_trigger_curves", "plot_run", "ani
 
 #: Colour of each mode.
 MODE_COLOURS = {Mode.REACTIVE: "tab:green", Mode.ROTATIONAL: "tab:purple",
-                Mode.COMPLIANT: "tab:orange", Mode.KERNEL: "tab:blue", Mode.LOST: "red"}
+                Mode.COMPLIANT: "tab:orange", Mode.KERNEL: "tab:blue",
+                Mode.CERTIFIED: "tab:cyan", Mode.LOST: "red"}
 
 
 def _colour(mode: str) -> str:

@@ -27,6 +27,7 @@ class Mode(Vocabulary):
     ROTATIONAL = "rotational"  # turning toward a goal orientation
     COMPLIANT = "compliant"  # held at an end of the admissible rate interval
     KERNEL = "kernel"  # following the surveillance kernel
+    CERTIFIED = "certified"  # keeping the state in the certified kernel's arc field
     LOST = "lost"  # no admissible rate: the target has won
 
 

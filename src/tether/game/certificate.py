@@ -1,0 +1,352 @@
+"""The arc field and its certificate: the checks that make a field of orientation arcs a
+sound under-approximation of the surveillance kernel (``docs/certified.md``, where the
+argument is written out line by line).
+
+**The field.** A triangle mesh of the free space (:func:`free_mesh`, conforming: every triangle
+lies in the free space) carries at each vertex ``i`` an arc of orientations ``[lo_i, lo_i + w_i]``
+(radians, ``0 < w_i <= 2π``; ``w = 2π`` is the whole circle, and then ``lo`` only says where a
+gap would open). On each triangle the ends are lifted to one branch (:func:`lifted_ends`) and
+interpolated linearly. The field holds the states ``{(p, a): a ∈ [lo(p), hi(p)]}``.
+
+**The checks** (:func:`certify`), per triangle ``T``:
+
+1. *Free*: the rod is free from every point of ``T`` at every orientation between the smallest
+   ``lo`` and the largest ``hi`` of ``T``'s vertices (exact blocked spans of every wall,
+   :func:`tether.game.cells.triangle_blocked_any`).
+2. *Open*: ``w >= W_MIN`` at the three vertices; and the lift exists (the gap centres of a
+   triangle with a gap do not wind around it).
+3. *Ends*: unless the arc is the whole circle at all three vertices, for every target velocity
+   ``v = vt·u(θ)`` and every orientation ``a`` in the range of ``lo`` on ``T``,
+   ``lss·G_lo·v <= lss·Ωmax(v, a) − MARGIN``, and for every ``a`` in the range of ``hi``,
+   ``lss·G_hi·v >= lss·Ωmin(v, a) + MARGIN`` (``G`` the constant gradient of the end on ``T``,
+   ``[Ωmin, Ωmax]`` the rod rates the observer's speed ``vo`` allows). The minimum over ``θ``
+   and ``a`` is bounded from below by sampling plus a proven Lipschitz term
+   (:func:`end_slack`), so the check is exact, not sampled.
+
+A field that passes every check is *certified*: from any of its states, against any target of
+speed at most ``vt``, the observer can keep the state in the field, hence the rod free.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
+from scipy.spatial import Delaunay, cKDTree
+
+from tether.environment import Environment
+from tether.game.cells import cell_free_bins, triangle_blocked_any
+
+__all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
+           "free_mesh", "hat_gradients", "lifted_ends"]
+
+#: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
+#: rounding of the checks' own arithmetic.
+MARGIN = 1e-3
+#: Smallest arc width (radians) a certified field may have.
+W_MIN = 1e-3
+#: Target headings sampled by the end check (the Lipschitz term covers the rest).
+THETA_SAMPLES = 512
+_TAU = math.tau
+#: A width at least this is the whole circle (float noise of ``hi − lo``).
+FULL = math.tau - 1e-9
+
+
+@dataclass(eq=False)
+class ArcField:
+    """Arcs of rod orientations on a triangle mesh of the free space.
+
+    Attributes
+    ----------
+    points : ndarray (n, 2)
+        Mesh vertices, map units.
+    tri : ndarray (m, 3) of int
+        Triangles (vertex indices, counter-clockwise).
+    lo, w : ndarray (n,)
+        Each vertex's arc ``[lo, lo + w]``, radians (``w = 2π``: the whole circle).
+    """
+
+    points: np.ndarray
+    tri: np.ndarray
+    lo: np.ndarray
+    w: np.ndarray
+
+    @property
+    def full(self) -> np.ndarray:
+        """Whether each vertex's arc is the whole circle."""
+        return self.w >= FULL
+
+
+@dataclass(eq=False)
+class Checks:
+    """What :func:`certify` found, per triangle (boolean masks over the field's triangles).
+
+    ``free``, ``open``, ``lo``, ``hi``: the triangles failing each check; ``meets``: those that
+    meet the free space (the others are not checked). ``bad``: any failure."""
+
+    free: np.ndarray
+    open: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    meets: np.ndarray
+
+    @property
+    def bad(self) -> np.ndarray:
+        """Triangles failing some check."""
+        return self.free | self.open | self.lo | self.hi
+
+    @property
+    def passed(self) -> bool:
+        """Whether every triangle passes (the field is certified)."""
+        return not bool(self.bad.any())
+
+    def counts(self) -> dict[str, int]:
+        """Failing triangles per check."""
+        return {"free": int(self.free.sum()), "open": int(self.open.sum()),
+                "lo": int(self.lo.sum()), "hi": int(self.hi.sum())}
+
+
+def _wrap(x: np.ndarray) -> np.ndarray:
+    """Angles into ``[-π, π)``."""
+    return np.mod(x + math.pi, _TAU) - math.pi
+
+
+def free_mesh(env: Environment, h: float, lattice: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A Delaunay mesh of the free space on the ``lattice`` points (map units) at least ``h/2``
+    from every wall and points along every wall every ``h/2`` or closer (the walls' vertices
+    included). Dense wall points make every wall piece an edge of the mesh (its diametral
+    disc holds no other point, so it is in every Delaunay triangulation), and this is checked
+    exactly: then the mesh conforms (each triangle lies in the free space or outside it) and
+    the triangles whose centroid is free tile the free space.
+
+    Returns ``(points, tri, source)``: ``source[i]`` is the index in ``lattice`` of vertex
+    ``i`` (-1 for a wall point).
+
+    Raises
+    ------
+    ValueError
+        If some wall piece is not an edge (a wall angle or passage too sharp for ``h``).
+    """
+    A, B, _, _ = env.oriented_edges
+    pieces = []
+    for a, b in zip(A, B, strict=True):
+        n = max(1, math.ceil(float(np.hypot(*(b - a))) / (h / 2)))
+        pieces.append(a + (np.arange(n + 1)[:, None] / n) * (b - a))
+    wall, inverse = np.unique(np.concatenate(pieces), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    d = env.boundary_distance(lattice[:, 0], lattice[:, 1])
+    keep = np.flatnonzero(d >= h / 2)
+    pts = np.concatenate([lattice[keep], wall])
+    source = np.concatenate([keep, np.full(len(wall), -1)])
+    # in lattice units from the map's corner: the same coordinates, hence the same choice of
+    # diagonals in the lattice's cocircular squares, for the map moved or scaled
+    tri = Delaunay((pts - pts.min(axis=0)) / h).simplices
+    # every wall piece (consecutive wall points) must be an edge: then no triangle crosses a
+    # wall, and those whose centroid is free tile the free space exactly
+    ends = len(keep) + inverse
+    first = np.cumsum([len(q) for q in pieces]) - np.array([len(q) for q in pieces])
+    at = np.concatenate([f + np.arange(len(q) - 1) for f, q in zip(first, pieces, strict=True)])
+    need = np.sort(np.stack([ends[at], ends[at + 1]], axis=1), axis=1)
+    have = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]), axis=1)
+    key = len(pts)
+    missing = ~np.isin(need[:, 0] * key + need[:, 1], have[:, 0] * key + have[:, 1])
+    if missing.any():
+        x, y = pts[need[np.argmax(missing), 0]]
+        raise ValueError(f"the mesh at h = {h:g} does not follow the wall near ({x:.6g}, "
+                         f"{y:.6g}) (an angle or passage too sharp for this spacing)")
+    cen = pts[tri].mean(axis=1)
+    tri = tri[shapely.contains_xy(env.polygon, cen[:, 0], cen[:, 1])]
+    p = pts[tri]
+    det = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+           - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
+    area = 0.5 * np.abs(det).sum()
+    if abs(area - env.polygon.area) > 1e-6 * env.polygon.area:  # a sanity check only
+        raise ValueError(f"the mesh covers {area:.6g} of the free area {env.polygon.area:.6g} "
+                         f"at h = {h:g}")
+    tri = np.where((det < 0)[:, None], tri[:, [0, 2, 1]], tri)  # counter-clockwise
+    return pts, tri, source
+
+
+def first_field(kern) -> ArcField:
+    """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
+    (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
+    vertex the run of orientations free from every point of the vertex's star and in
+    ``kern`` at its nearest lattice point (free ones alone where that run is at most one
+    bin) that holds, or comes next counter-clockwise of, the direction away from the nearest
+    wall; the gap places of whole-circle vertices from the harmonic
+    extension of the gap centres around them (:func:`_smooth_gaps`)."""
+    grid = kern.grid
+    env = grid.env
+    pts, tri, src = free_mesh(env, grid.h, grid.points)
+    nv = len(pts)
+    lo_xy = np.full((nv, 2), np.inf)
+    hi_xy = np.full((nv, 2), -np.inf)
+    corners = pts[tri]
+    for j in range(3):
+        np.minimum.at(lo_xy, tri[:, j], corners.min(axis=1))
+        np.maximum.at(hi_xy, tri[:, j], corners.max(axis=1))
+    star_free, _ = cell_free_bins(env, np.column_stack([lo_xy, hi_xy]), kern.lss, grid.n_a)
+    near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
+    bins = kern.kernel[near] & star_free
+    centre = np.zeros((nv, 2))
+    count = np.zeros(nv)
+    for j in range(3):
+        np.add.at(centre, tri[:, j], corners.mean(axis=1))
+        np.add.at(count, tri[:, j], 1)
+    probe = np.where((src >= 0)[:, None], pts, centre / np.maximum(count, 1)[:, None])
+    ends = shapely.get_coordinates(shapely.shortest_line(shapely.points(probe),
+                                                         env.polygon.boundary)).reshape(-1, 2, 2)
+    away = ends[:, 0] - ends[:, 1]
+    pref = np.mod(np.round(np.arctan2(away[:, 1], away[:, 0]) / grid.delta),
+                  grid.n_a).astype(int)
+    start, length, full = _runs_toward(bins, pref)
+    thin = length <= 1  # the grid kernel leaves no arc free from the whole star here: start
+    if thin.any():  # from the free bins alone (the search and the checks decide)
+        s2, l2, f2 = _runs_toward(star_free[thin], pref[thin])
+        start[thin], length[thin], full[thin] = s2, l2, f2
+    lo = start * grid.delta
+    w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
+    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
+                              axis=1), axis=0)
+    return ArcField(pts, tri, _smooth_gaps(lo, w, edges), w)
+
+
+def _runs_toward(kernel: np.ndarray, pref: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row of ``kernel`` (bins), the circular run of ``True`` holding bin ``pref`` or the
+    first one counter-clockwise of it: ``(start, length, full)`` in bins (length 0: none)."""
+    n = kernel.shape[1]
+    full = kernel.all(axis=1)
+    cols = np.arange(n)[None, :]
+    seed = np.argmin(np.where(kernel, np.mod(cols - pref[:, None], n), n + 1), axis=1)
+    stop_hi = np.where(~kernel, np.mod(cols - seed[:, None], n), n).min(axis=1)
+    stop_lo = np.where(~kernel, np.mod(seed[:, None] - cols, n), n).min(axis=1)
+    start = np.mod(seed - stop_lo + 1, n)
+    length = np.where(full, n, stop_hi + stop_lo - 1)
+    length = np.where(kernel[np.arange(len(kernel)), seed], length, 0)
+    return start, length, full
+
+
+def _smooth_gaps(lo: np.ndarray, w: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """``lo`` with the gap places of whole-circle vertices replaced by the angle of the
+    harmonic extension (graph Laplacian on the mesh ``edges``) of the unit vectors of the gap
+    centres ``lo − (2π − w)/2`` of the vertices with a gap: a smooth turn of the gap place,
+    which the end conditions can follow where it winds slowly."""
+    full = w >= FULL
+    if not full.any() or full.all():
+        return np.where(full, 0.0, lo)
+    z = np.exp(1j * (lo - (_TAU - w) / 2))
+    fi = np.flatnonzero(full)
+    idx = np.full(len(lo), -1)
+    idx[fi] = np.arange(len(fi))
+    rows, cols, vals = [], [], []
+    rhs = np.zeros(len(fi), dtype=complex)
+    deg = np.zeros(len(fi))
+    for u, v in ((edges[:, 0], edges[:, 1]), (edges[:, 1], edges[:, 0])):
+        u, v = u[full[u]], v[full[u]]
+        np.add.at(deg, idx[u], 1.0)
+        both = full[v]
+        rows.append(idx[u[both]])
+        cols.append(idx[v[both]])
+        vals.append(-np.ones(int(both.sum())))
+        np.add.at(rhs, idx[u[~both]], z[v[~both]])
+    rows.append(np.arange(len(fi)))
+    cols.append(np.arange(len(fi)))
+    vals.append(np.maximum(deg, 1.0))
+    m = sparse.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(len(fi), len(fi))).tocsr()
+    sol = spsolve(m, rhs) if np.abs(rhs).max() > 0 else np.zeros(len(fi), dtype=complex)
+    out = lo.copy()
+    out[fi] = np.angle(sol)
+    return out
+
+
+def lifted_ends(lo: np.ndarray, w: np.ndarray, tri: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ends ``lo`` and ``hi`` of each triangle's vertices lifted to one branch (radians,
+    (m, 3) each), and whether the gap centres wind around the triangle.
+
+    The gap centres ``c = lo − (2π − w)/2`` are lifted from vertex 0 by the wrapped
+    differences along the edges: the lift along an edge is the same in both triangles that
+    share it, so the interpolated field is continuous. Where the three wrapped differences do
+    not sum to zero the centres wind around the triangle and no continuous lift exists."""
+    c = (lo - (_TAU - w) / 2)[tri]
+    d01, d12, d20 = _wrap(c[:, 1] - c[:, 0]), _wrap(c[:, 2] - c[:, 1]), _wrap(c[:, 0] - c[:, 2])
+    winds = np.abs(d01 + d12 + d20) > 1.0
+    cl = np.stack([c[:, 0], c[:, 0] + d01, c[:, 0] - d20], axis=1)
+    gap = (_TAU - w)[tri]
+    return cl + gap / 2, cl - gap / 2 + _TAU, winds
+
+
+def hat_gradients(xy: np.ndarray) -> np.ndarray:
+    """Gradients (m, 3, 2) of the three linear hat functions of each triangle ``xy`` (m, 3, 2):
+    the gradient of a field linear on the triangle is ``Σ_j z_j·∇φ_j``."""
+    e1 = xy[:, 1] - xy[:, 0]
+    e2 = xy[:, 2] - xy[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    g1 = np.stack([e2[:, 1], -e2[:, 0]], 1) / det[:, None]
+    g2 = np.stack([-e1[:, 1], e1[:, 0]], 1) / det[:, None]
+    return np.stack([-g1 - g2, g1, g2], axis=1)
+
+
+def end_slack(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt: float,
+              vo: float, upper: bool) -> np.ndarray:
+    """A lower bound (map units per second) of the smallest slack of an end condition over
+    every target heading ``θ`` and every orientation ``a ∈ [a_lo, a_hi]``, per triangle.
+
+    With ``x = θ − a``, ``lss·Ωmax = sqrt(vo² − vt²cos²x) − vt·sin x`` and
+    ``lss·Ωmin = −sqrt(vo² − vt²cos²x) − vt·sin x``. The lower end's slack is
+    ``F = sqrt(vo² − vt²cos²x) − vt·sin x − lss·vt·G·u(θ)``, the upper end's
+    ``F = sqrt(vo² − vt²cos²x) + vt·sin x + lss·vt·G·u(θ)``. The derivative of
+    ``sqrt(vo² − vt²cos²x)`` is ``vt²·sin 2x / (2·sqrt(vo² − vt²cos²x))``, at most
+    ``r = vt²/(2·sqrt(vo² − vt²))``, so ``F`` is Lipschitz in ``θ`` with constant
+    ``r + vt + lss·vt·|G|`` and in ``a`` with ``r + vt``. On a grid of :data:`THETA_SAMPLES`
+    headings (spacing ``Δθ``) and ``n`` orientations (spacing ``Δa``, end points included)
+    every point lies within ``Δθ/2`` and ``Δa/2`` of a sample, so
+    ``min F >= sampled min − (r + vt + lss·vt·|G|)·Δθ/2 − (r + vt)·Δa/2``."""
+    th = np.linspace(0, _TAU, THETA_SAMPLES, endpoint=False)
+    dth = _TAU / THETA_SAMPLES
+    span = np.maximum(a_hi - a_lo, 0.0)
+    na = np.clip(np.ceil(span / dth).astype(int), 1, 64)
+    r = vt * vt / (2 * math.sqrt(vo * vo - vt * vt))
+    sgn = 1.0 if upper else -1.0
+    gu = G[:, 0:1] * np.cos(th)[None, :] + G[:, 1:2] * np.sin(th)[None, :]
+    out = np.full(len(G), np.inf)
+    for m in range(int(na.max()) + 1 if len(G) else 0):
+        a = a_lo + np.minimum(m / na, 1.0) * span
+        x = th[None, :] - a[:, None]
+        F = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x) + sgn * lss * vt * gu
+        out = np.minimum(out, F.min(axis=1))
+    return (out - (r + vt + lss * vt * np.hypot(G[:, 0], G[:, 1])) * dth / 2
+            - (r + vt) * (span / na) / 2)
+
+
+def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float) -> Checks:
+    """Run the three checks (module docstring) on every triangle of ``field``.
+
+    ``lss`` (map units), ``vt < vo`` (map units per second): the game's rod length and speeds.
+    """
+    tri = field.tri
+    xy = field.points[tri]
+    w = field.w[tri]
+    lo, hi, winds = lifted_ends(field.lo, field.w, tri)
+    partial = (w < FULL).any(axis=1)
+    bad_open = (w < W_MIN).any(axis=1) | (winds & partial)
+    bad_lo = np.zeros(len(tri), dtype=bool)
+    bad_hi = np.zeros(len(tri), dtype=bool)
+    sel = np.flatnonzero(partial & ~bad_open)
+    if len(sel):
+        hat = hat_gradients(xy[sel])
+        g_lo = np.einsum("nvk,nv->nk", hat, lo[sel])
+        g_hi = np.einsum("nvk,nv->nk", hat, hi[sel])
+        bad_lo[sel] = end_slack(g_lo, lo[sel].min(1), lo[sel].max(1), lss, vt, vo,
+                                False) < MARGIN
+        bad_hi[sel] = end_slack(g_hi, hi[sel].min(1), hi[sel].max(1), lss, vt, vo,
+                                True) < MARGIN
+    blocked, meets = triangle_blocked_any(env, xy, lo.min(axis=1), hi.max(axis=1), lss)
+    return Checks(blocked & meets, bad_open & meets, bad_lo & meets, bad_hi & meets, meets)

@@ -1,0 +1,393 @@
+"""The search for a certified arc field by sequential linear programming: every check of
+:func:`tether.game.certificate.certify` is linear in the field's vertex values once the
+orientation range of each triangle is fixed, so the widest field within a trust region around a
+reference is one LP (HiGHS); the reference then moves to the solution and the LP is solved again.
+
+The LP is only a search: what it returns is certified (or not) by
+:func:`~tether.game.certificate.certify`, whose checks are exact.
+
+**Variables.** Per mesh vertex ``i``: ``lo_i = L_i + x_i`` and ``hi_i = H_i + y_i`` (radians;
+``L``, ``H`` the reference ends, ``|x|, |y| <= rho``), and per triangle and end an elastic slack
+``s >= 0`` priced :data:`PENALTY` (the LP is always feasible; a field is found when every slack
+is zero).
+
+**Constraints.**
+
+- *Free*: ``lo_i >= f_lo(T)`` and ``hi_i <= f_hi(T)`` for every triangle ``T`` at ``i``, where
+  ``[f_lo, f_hi]`` is the free window of ``T`` (exact blocked spans of every wall from every
+  point of ``T``) that holds the reference arc: variable bounds.
+- *Width*: ``W_MIN <= hi_i − lo_i <= 2π``.
+- *Ends*: on every triangle not inside the *core* (whole-circle vertices none of whose
+  neighbours has a gap: the vortex every room has), for each heading ``θ`` of a set grown by
+  cutting planes, ``lss·vt·G_lo·u(θ) <= S_lo(θ) − m`` and ``−lss·vt·G_hi·u(θ) <= S_hi(θ) − m``,
+  where ``G`` is the (linear) gradient and ``S(θ)`` the smallest of ``sqrt(vo² − vt²cos²(θ − a))
+  ∓ vt·sin(θ − a)`` over the orientations ``a`` the end can take on ``T`` within the trust
+  region (sampled, minus its Lipschitz bound).
+
+**Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from scipy import sparse
+from scipy.optimize import linprog
+
+from tether.environment import Environment
+from tether.game.cells import ANGLE_MARGIN, blocked_spans, convex_pieces_of
+from tether.game.certificate import (
+    FULL,
+    W_MIN,
+    ArcField,
+    Checks,
+    certify,
+    first_field,
+    hat_gradients,
+    lifted_ends,
+)
+
+__all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "vortex_radius"]
+
+#: Price of one unit of elastic slack (per triangle end) against one radian of width at a
+#: vertex of mean area (the widths are priced by area relative to the mean, times
+#: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
+PENALTY = 1e4
+#: Price of one radian of width at a vertex of mean area (the regime in which the search was
+#: tuned: meshes of spacing 0.25 to 0.5 in units where lss = vo = 1).
+WIDTH_PRICE = 0.1
+#: Distance (radians) the field keeps from the ends of every free window (the exact check
+#: counts a touching end as blocked).
+WINDOW_GAP = 1e-6
+#: Price of moving an end by one radian, per unit area, against widening it (a small fraction
+#: of the width's price of 1: moves happen only where they widen the field or relieve a slack).
+PROXIMAL = 0.01
+#: Widening (radians) of each triangle's orientation range where the end conditions' bound
+#: ``S`` is taken: the range of the reference, not of the trust region (which would make ``S``
+#: its worst value over a wide range); a move that leaves the range is corrected in the next
+#: round, and :func:`~tether.game.certificate.certify` has the last word.
+A_WIDEN = 0.02
+_TAU = math.tau
+
+
+@dataclass(eq=False)
+class LPResult:
+    """What :func:`lp_field` returns: the field's ends per vertex and the search's record."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    slack: float
+    rounds: int
+    log: list
+    core: np.ndarray
+
+
+def _wrap(x: np.ndarray) -> np.ndarray:
+    return np.mod(x + math.pi, _TAU) - math.pi
+
+
+def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle ``xy`` (n, 3, 2), the free window ``[f_lo, f_hi]`` (lifted near ``ref``,
+    radians) of orientations free from every point of the triangle's free part that holds
+    ``ref``; ``(-inf, inf)`` where nothing is blocked, ``f_lo > f_hi`` where ``ref`` itself is
+    blocked. Blocked spans are exact (:func:`tether.game.cells.blocked_spans`) and widened by
+    :data:`~tether.game.cells.ANGLE_MARGIN`."""
+    n = len(xy)
+    f_lo = np.full(n, -np.inf)
+    f_hi = np.full(n, np.inf)
+    quads = np.concatenate([xy, xy[:, 2:3]], axis=1)
+    owner, verts = convex_pieces_of(env, quads)
+    if not len(owner):
+        return f_lo, f_hi
+    A, B, _, _ = env.oriented_edges
+    walls = np.stack([A, B], axis=1)
+    tree = shapely.STRtree(shapely.linestrings(walls))
+    lo_xy = verts.min(axis=1) - lss
+    hi_xy = verts.max(axis=1) + lss
+    piece, wall = tree.query(shapely.box(lo_xy[:, 0], lo_xy[:, 1], hi_xy[:, 0], hi_xy[:, 1]),
+                             predicate="intersects")
+    for s in range(0, len(piece), 200_000):
+        pc, wl = piece[s:s + 200_000], wall[s:s + 200_000]
+        b0, b1, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
+        t = owner[pc][hit]
+        b0, b1 = b0[hit] - ANGLE_MARGIN, b1[hit] + ANGLE_MARGIN
+        r = ref[t]
+        whole = (b1 - b0) >= _TAU
+        k = np.floor((b0 - r) / _TAU)  # b0 shifted into [r, r + 2π)
+        b0, b1 = b0 - k * _TAU, b1 - k * _TAU
+        holds = whole | (b0 <= r) | (b1 - _TAU >= r)
+        up = np.where(holds, -np.inf, b0)
+        lo = np.where(holds, np.inf, b1 - _TAU)
+        np.minimum.at(f_hi, t, np.where(holds, -np.inf, up))
+        np.maximum.at(f_lo, t, np.where(holds, np.inf, lo))
+    return f_lo, f_hi
+
+
+def _s_min(amin: np.ndarray, amax: np.ndarray, th: np.ndarray, vt: float, vo: float,
+           sgn: float, n: int = 4096) -> np.ndarray:
+    """``min over a in [amin, amax]`` of ``f(θ − a) = sqrt(vo² − vt²cos²(θ − a)) +
+    sgn·vt·sin(θ − a)`` per triangle and heading (m, Θ), a lower bound.
+
+    ``f`` is tabulated at ``n`` points of the circle and each window ``[θ − amax, θ − amin]``
+    rounded outward to grid points is answered by a sparse table of minima (two lookups);
+    a point between two grid points is below their minimum by at most the Lipschitz constant
+    times half the spacing, which is subtracted."""
+    d = _TAU / n
+    x = np.arange(n) * d
+    f = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x)
+    f2 = np.concatenate([f, f])  # windows wrap once at most (longer ones take the minimum)
+    table = [f2]
+    while (1 << len(table)) <= n:
+        prev, j = table[-1], len(table) - 1
+        table.append(np.minimum(prev[:-(1 << j)], prev[1 << j:]))
+    lo_i = np.floor((th[None, :] - amax[:, None]) / d).astype(np.int64)
+    hi_i = np.ceil((th[None, :] - amin[:, None]) / d).astype(np.int64)
+    length = hi_i - lo_i + 1
+    lo_i = np.mod(lo_i, n)
+    full = length >= n
+    length = np.clip(length, 1, n)
+    lev = np.floor(np.log2(length)).astype(np.int64)
+    out = np.empty(lo_i.shape)
+    for j in np.unique(lev).tolist():
+        m = lev == j
+        a, b = lo_i[m], lo_i[m] + length[m] - (1 << j)
+        out[m] = np.minimum(table[j][a], table[j][b])
+    out[full] = f.min()
+    lip = vt * vt / (2 * math.sqrt(vo * vo - vt * vt)) + vt
+    return out - lip * d / 2
+
+
+def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.ndarray,
+                     core: np.ndarray, lss: float, vt: float, vo: float) -> np.ndarray:
+    """Core vertices that must keep the whole circle: those within ``r = lss·vt/(sqrt(vo² −
+    vt²) − vt)`` of a whole-circle triangle whose gap centres wind (a vortex). A gap place
+    turning once around a point at distance ``r`` turns at ``1/r`` per unit, the fastest an
+    end can follow in the worst heading."""
+    _, _, winds = lifted_ends(lo, w, tri)
+    hot = winds & core[tri].all(axis=1)
+    out = np.zeros(len(lo), bool)
+    if hot.any():
+        from scipy.spatial import cKDTree
+        r = lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
+        near = cKDTree(points[tri[hot]].mean(axis=1)).query(points, distance_upper_bound=r)[0]
+        out = np.isfinite(near)
+    return out & core
+
+
+def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarray,
+             w: np.ndarray, lss: float, vt: float, vo: float, rho: float = 0.25,
+             margin: float = 0.03, rounds: int = 20, headings: int = 256,
+             core_radius: float = 0.0, core: np.ndarray | None = None,
+             release: float | None = None,
+             progress: Callable[[dict], Any] | None = None) -> LPResult:
+    """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
+    ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
+    each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
+    per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
+    units): whole-circle vertices at least this far from every gap start in the core (or
+    ``core``, a mask); ``release`` (map units, default three mean edge lengths): how near to a
+    stuck slack a core vertex is released. ``progress`` gets each round's record. Returns the
+    ends per vertex (radians) and the search's record."""
+    nv, nt = len(points), len(tri)
+    xy = points[tri]
+    if release is None:  # by default three mean edge lengths
+        release = 3 * float(np.mean(np.hypot(*(xy[:, 1] - xy[:, 0]).T)))
+    e1, e2 = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    hat = hat_gradients(xy)  # (nt, 3, 2)
+    area_v = np.zeros(nv)
+    np.add.at(area_v, tri.ravel(), np.repeat(np.abs(det) / 6, 3))
+    area_v *= WIDTH_PRICE / area_v.mean()  # the widths' prices, scale-free
+    th_all = np.linspace(0, _TAU, headings, endpoint=False)
+    U_all = np.stack([np.cos(th_all), np.sin(th_all)], 1)
+    k = lss * vt
+    L = lo.astype(float).copy()
+    H = L + w
+    full0 = w >= FULL
+    if core is None:  # whole-circle vertices at least core_radius from every gap
+        core = full0.copy()
+        if (~full0).any() and full0.any():
+            from scipy.spatial import cKDTree
+            dist, _ = cKDTree(points[~full0]).query(points[full0])
+            core[full0] = dist >= core_radius
+    core = core.copy()
+    protected = _vortex_vertices(points, L, H - L, tri, core, lss, vt, vo)
+    cen = xy.mean(axis=1)
+    cut = np.zeros((nt, headings), bool)  # the headings whose end rows each triangle has
+    cut[:, ::headings // 8] = True
+
+    def ends_checked() -> tuple[np.ndarray, np.ndarray]:
+        et = np.flatnonzero(~core[tri].all(axis=1))  # triangles with end constraints
+        idle = core.copy()  # vertices of no end-checked triangle: their gap place stays
+        idle[tri[et].ravel()] = False
+        return et, idle
+
+    et, idle = ends_checked()
+    log = []
+    slack_sum = np.inf
+    r = 0
+    for r in range(1, rounds + 1):
+        Lt, Ht, _ = lifted_ends(L, H - L, tri)
+        # free windows around the middle of the vertices' common arc (else vertex 0's middle)
+        cmid = np.where(Lt.max(1) <= Ht.min(1), (Lt.max(1) + Ht.min(1)) / 2,
+                        (Lt[:, 0] + Ht[:, 0]) / 2)
+        f_lo, f_hi = free_windows(env, xy, cmid, lss)
+        x_lb = np.full(nv, -rho)
+        y_ub = np.full(nv, rho)
+        np.maximum.at(x_lb, tri.ravel(), (f_lo[:, None] + WINDOW_GAP - Lt).ravel())
+        np.minimum.at(y_ub, tri.ravel(), (f_hi[:, None] - WINDOW_GAP - Ht).ravel())
+        x_ub = np.full(nv, rho)
+        y_lb = np.full(nv, -rho)
+        x_lb[idle], x_ub[idle], y_lb[idle], y_ub[idle] = 0.0, 0.0, 0.0, 0.0
+        bad = (x_lb > x_ub) | (y_lb > y_ub)
+        # rows: ends (per cut heading) and widths
+        rows, cols, vals, rhs = [], [], [], []
+        nrow = 0
+        for sgn, Z, off in ((-1.0, Lt, 0), (1.0, Ht, nv)):
+            amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
+            S = _s_min(amin, amax, th_all, vt, vo, sgn)  # (len(et), headings)
+            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
+            ti, hs = np.nonzero(cut[et])  # rows: (triangle of et, heading) pairs
+            u = U_all[hs]  # (r, 2)
+            coef = np.einsum("rvk,rk->rv", hat[et[ti]], u)  # ∂(G·u)/∂z_j, (r, 3)
+            # lower end: k·(G + Σ x_j ∇φ_j)·u − s <= S − m ; upper: −k·(…)·u − s <= S − m
+            base = (G[ti] * u).sum(1)
+            b = S[ti, hs] - margin + sgn * k * base
+            nh = len(ti)
+            rows.append(nrow + np.repeat(np.arange(nh), 3))
+            cols.append(off + tri[et[ti]].ravel())
+            vals.append((-sgn * k * coef).ravel())
+            rows.append(nrow + np.arange(nh))
+            cols.append(2 * nv + 2 * ti + (0 if sgn < 0 else 1))
+            vals.append(np.full(nh, -1.0))
+            rhs.append(b)
+            nrow += nh
+        # widths: x − y <= W − W_MIN ; y − x <= 2π − W
+        W = H - L
+        iv = np.arange(nv)
+        for sx, bnd in ((1.0, W - W_MIN), (-1.0, _TAU - W)):
+            rows += [nrow + iv, nrow + iv]
+            cols += [iv, nv + iv]
+            vals += [np.full(nv, sx), np.full(nv, -sx)]
+            rhs.append(bnd)
+            nrow += nv
+        # proximal terms: |x_i| <= p_i, |y_i| <= q_i (columns after the slacks), priced
+        # PROXIMAL·area so that a move the width does not pay for is not made
+        nx_ = 2 * nv + 2 * len(et)
+        for off in (0, nv):
+            for sx in (1.0, -1.0):
+                rows += [nrow + iv, nrow + iv]
+                cols += [off + iv, nx_ + off + iv]
+                vals += [np.full(nv, sx), np.full(nv, -1.0)]
+                rhs.append(np.zeros(nv))
+                nrow += nv
+        A = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                      np.concatenate(cols))),
+                              shape=(nrow, nx_ + 2 * nv))
+        cvec = np.concatenate([area_v, -area_v, np.full(2 * len(et), PENALTY),
+                               PROXIMAL * area_v, PROXIMAL * area_v])
+        # core vertices keep the whole circle: y = x
+        bounds = np.concatenate([np.column_stack([x_lb, x_ub]), np.column_stack([y_lb, y_ub]),
+                                 np.column_stack([np.zeros(2 * len(et) + 2 * nv),
+                                                  np.full(2 * len(et) + 2 * nv, np.inf)])])
+        if bad.any():  # a vertex whose reference is blocked: kept, and reported
+            bad_i = np.flatnonzero(bad)
+            bounds[bad_i] = 0.0
+            bounds[nv + bad_i] = 0.0
+            log.append({"round": r, "blocked_reference": int(len(bad_i))})
+        bub = np.concatenate(rhs)
+        eq_rows = np.flatnonzero(core)
+        Aeq = sparse.csr_matrix((np.concatenate([np.ones(len(eq_rows)), -np.ones(len(eq_rows))]),
+                                 (np.concatenate([np.arange(len(eq_rows))] * 2),
+                                  np.concatenate([eq_rows, nv + eq_rows]))),
+                                shape=(len(eq_rows), nx_ + 2 * nv))
+        res = linprog(cvec, A_ub=A, b_ub=bub, A_eq=Aeq,
+                      b_eq=np.zeros(len(eq_rows)), bounds=bounds, method="highs")
+        if res.status != 0:
+            log.append({"round": r, "status": res.message})
+            break
+        z = res.x
+        x, y, s = z[:nv], z[nv:2 * nv], z[2 * nv:nx_]
+        L = L + x
+        H = H + y
+        slack_sum = float(s.sum())
+        # cutting planes: for the new field, the headings that violate most per triangle
+        added = 0
+        Lt, Ht, _ = lifted_ends(L, H - L, tri)
+        for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
+            S = _s_min(Z[et].min(1), Z[et].max(1), th_all, vt, vo, sgn)
+            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
+            F = S + sgn * k * (G @ U_all.T) - margin / 2
+            worst = np.argmin(F, axis=1)
+            viol = F[np.arange(len(et)), worst] < 0
+            new = viol & ~cut[et, worst]
+            cut[et[new], worst[new]] = True
+            added += int(new.sum())
+        move = float(max(np.abs(x).max(), np.abs(y).max()))
+        entry = {"round": r, "slack": slack_sum, "move": move, "cuts_added": added,
+                 "mean_w": float(np.mean(H - L) / _TAU), "rows": nrow}
+        entry["slack_at"] = [points[tri[et[j // 2]]].mean(0).round(2).tolist()
+                             for j in np.argsort(-s)[:5] if s[j] > 1e-9]
+        log.append(entry)
+        if progress is not None:
+            progress(entry)
+        if added == 0 and move < 1e-3:
+            if slack_sum <= 0.0:
+                break
+            # stuck with slack: the core vertices near the triangles that need it give up
+            # the whole circle (their gap may open), and the search goes on
+            hot = cen[et[np.flatnonzero(s.reshape(-1, 2).max(axis=1) > 1e-9)]]
+            from scipy.spatial import cKDTree
+            near = cKDTree(hot).query_ball_point(points[core], release)
+            freed = np.flatnonzero(core)[np.array([len(q) > 0 for q in near], bool)]
+            freed = freed[~protected[freed]]
+            if not len(freed):
+                break
+            core[freed] = False
+            et, idle = ends_checked()
+            entry["released"] = int(len(freed))
+    return LPResult(L, H, slack_sum, r, log, core)
+
+
+def vortex_radius(lss: float, vt: float, vo: float) -> float:
+    """The smallest radius (map units) of a whole-circle disc around a vortex of the gap
+    place: ``lss·vt/(sqrt(vo² − vt²) − vt)``, where the turn rate ``1/r`` of a gap place
+    winding once equals the fastest an end can follow in the worst heading."""
+    return lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
+
+
+def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
+                tries: tuple[float, ...] = (0.0, 2 / 3, 1.0), rounds: int = 60,
+                progress: Callable[[dict], Any] | None = None
+                ) -> tuple[ArcField, Checks | None, list]:
+    """The first field :func:`~tether.game.certificate.certify` passes, searched from
+    :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
+    the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
+    gaps (0: every whole-circle vertex, released where needed). Returns ``(field, checks,
+    log)``: the last field tried and its checks (``checks.passed`` when certified; None when
+    the first field already has a closed arc, which no search can open), and one record per
+    try."""
+    log: list = []
+    r_v = vortex_radius(lss, vt, vo)
+    f = first_field(kern)
+    checks = None
+    if (f.w <= 0).any():
+        log.append({"core": None, "closed_arcs": int((f.w <= 0).sum())})
+        return f, None, log
+    start = (f.lo.copy(), f.w.copy())
+    for q in tries:
+        r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
+                     core_radius=q * r_v, progress=progress)
+        f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
+        checks = certify(f, env, lss, vt, vo)
+        log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
+                    "failing": int(checks.bad.sum())})
+        if checks.passed:
+            break
+    return f, checks, log
