@@ -9,7 +9,6 @@ with forced small tiles; and a real input GEOS's floating-point noder fails on, 
 
 from __future__ import annotations
 
-import collections
 from concurrent.futures import Executor, Future
 
 import lattice_maps as lm
@@ -19,9 +18,9 @@ import shapely
 from conftest import GENERIC, STAR_HOLE, random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from renumbering import assert_equal_up_to_renumbering
 from shapely.errors import GEOSException
 
-from tether.analysis import analyze, build_graph
 from tether.curves import REL_CURVE_TOL, critical_curves
 from tether.decomposition import check, decompose
 from tether.decomposition.arrangement import arrangement
@@ -85,52 +84,6 @@ def assert_same_parts(whole, tiled):
     src_w = dict(zip(shapely.to_wkb(whole.parts), whole.part_sources, strict=True))
     src_t = dict(zip(shapely.to_wkb(lines), tiled.part_sources, strict=True))
     assert src_w == src_t
-
-
-def _key_maps(dec, ren):
-    """Cells and pieces of ``dec`` as keys in the regions' numbering ``ren``."""
-    cells = [(int(ren[c.region]), c.start_feature, c.end_feature) for c in dec.cells]
-    pieces = [(tuple(sorted(int(ren[r]) for r in p.regions)), p.kind, p.features)
-              for p in dec.pieces]
-    return cells, pieces
-
-
-def _graph_edges(dec, ren):
-    """G's edges as a multiset of (cell key pair, piece key) in the numbering ``ren``."""
-    g = build_graph(dec)
-    cells, pieces = _key_maps(dec, ren)
-    return collections.Counter(
-        (tuple(sorted((cells[a], cells[b]))), pieces[p])
-        for a, b, p in zip(g.edge_a.tolist(), g.edge_b.tolist(), g.edge_piece.tolist(),
-                           strict=True))
-
-
-def assert_equal_up_to_renumbering(a, b):
-    """``b`` (tiled) equals ``a`` (untiled) up to renumbering: regions matched one to one by
-    representative point with equal areas and structures; the same cells, pieces, G's edges
-    and eliminations in that numbering; the same verdict."""
-    assert a.counts == b.counts
-    j = b.region_at(np.array([r.point for r in a.regions]).reshape(-1, 2))
-    assert sorted(j.tolist()) == list(range(len(b.regions))), "regions matched one to one"
-    for r, k in zip(a.regions, j.tolist(), strict=True):
-        assert b.regions[k].structure == r.structure
-        assert b.regions[k].area == pytest.approx(r.area, rel=1e-9, abs=1e-12)
-    inv = np.empty_like(j)
-    inv[j] = np.arange(len(j))
-    ident = np.arange(len(j))
-    cells_a, pieces_a = _key_maps(a, ident)
-    cells_b, pieces_b = _key_maps(b, inv)
-    assert collections.Counter(cells_a) == collections.Counter(cells_b)
-    assert collections.Counter(pieces_a) == collections.Counter(pieces_b)
-    assert _graph_edges(a, ident) == _graph_edges(b, inv)
-    va = analyze(a, self_check=False, near_critical=False)
-    vb = analyze(b, self_check=False, near_critical=False)
-    assert va.strategy_exists == vb.strategy_exists
-    assert (sorted((cells_a[c], r) for c, r in zip(va.eliminated.cell.tolist(),
-                                                   va.eliminated.round.tolist(), strict=True))
-            == sorted((cells_b[c], r) for c, r in zip(vb.eliminated.cell.tolist(),
-                                                      vb.eliminated.round.tolist(),
-                                                      strict=True)))
 
 
 def _both(env, lss, tiles):

@@ -38,7 +38,7 @@ import shapely
 from tether.environment import Environment
 
 __all__ = ["ANGLE_MARGIN", "blocked_spans", "cell_free_bins", "convex_pieces",
-           "triangle_blocked_any"]
+           "triangle_blocked_any", "walls_near"]
 
 #: Widening (radians) of every blocked interval before it is turned into bins.
 ANGLE_MARGIN = 1e-9
@@ -162,6 +162,21 @@ def blocked_spans(T: np.ndarray, W: np.ndarray, lss: float, touch: float
     return lo, hi, any_ | whole
 
 
+def walls_near(env: Environment, verts: np.ndarray, lss: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (piece, wall) pairs that can block a rod from a convex piece ``verts`` (m, 4, 2):
+    the walls meeting the piece's box grown by ``lss`` (map units). Returns ``(piece, wall,
+    walls)``, ``walls`` (k, 2, 2) the wall segments the indices refer to."""
+    A, B, _, _ = env.oriented_edges
+    walls = np.stack([A, B], axis=1)
+    tree = shapely.STRtree(shapely.linestrings(walls))
+    lo_xy = verts.min(axis=1) - lss
+    hi_xy = verts.max(axis=1) + lss
+    piece, wall = tree.query(shapely.box(lo_xy[:, 0], lo_xy[:, 1], hi_xy[:, 0], hi_xy[:, 1]),
+                             predicate="intersects")
+    return piece, wall, walls
+
+
 def cell_free_bins(env: Environment, boxes: np.ndarray, lss: float, n_a: int
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Free orientation bins of each box: ``free[c, k]`` is true when the rod is free from every
@@ -176,13 +191,7 @@ def cell_free_bins(env: Environment, boxes: np.ndarray, lss: float, n_a: int
     owner, verts = convex_pieces(env, boxes)
     occupied = np.zeros(m, dtype=bool)
     occupied[owner] = True
-    A, B, _, _ = env.oriented_edges
-    walls = np.stack([A, B], axis=1)
-    tree = shapely.STRtree(shapely.linestrings(walls))
-    lo_xy = verts.min(axis=1) - lss
-    hi_xy = verts.max(axis=1) + lss
-    reach = shapely.box(lo_xy[:, 0], lo_xy[:, 1], hi_xy[:, 0], hi_xy[:, 1])
-    piece, wall = tree.query(reach, predicate="intersects")
+    piece, wall, walls = walls_near(env, verts, lss)
     delta = math.tau / n_a
     touch = env.length_tol
     diff = np.zeros((m, 3 * n_a + 1), dtype=np.int32)
@@ -232,13 +241,7 @@ def triangle_blocked_any(env: Environment, tri: np.ndarray, a0: np.ndarray, a1: 
     blocked = np.zeros(n, dtype=bool)
     if not len(owner):
         return blocked, meets
-    A, B, _, _ = env.oriented_edges
-    walls = np.stack([A, B], axis=1)
-    tree = shapely.STRtree(shapely.linestrings(walls))
-    lo_xy = verts.min(axis=1) - lss
-    hi_xy = verts.max(axis=1) + lss
-    reach = shapely.box(lo_xy[:, 0], lo_xy[:, 1], hi_xy[:, 0], hi_xy[:, 1])
-    piece, wall = tree.query(reach, predicate="intersects")
+    piece, wall, walls = walls_near(env, verts, lss)
     for s in range(0, len(piece), _BATCH):
         pc, wl = piece[s:s + _BATCH], wall[s:s + _BATCH]
         lo, hi, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)

@@ -35,12 +35,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import shapely
 from scipy import sparse
 from scipy.optimize import linprog
 
 from tether.environment import Environment
-from tether.game.cells import ANGLE_MARGIN, blocked_spans, convex_pieces_of
+from tether.game.cells import ANGLE_MARGIN, blocked_spans, convex_pieces_of, walls_near
 from tether.game.certificate import (
     FULL,
     W_MIN,
@@ -105,13 +104,7 @@ def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float
     owner, verts = convex_pieces_of(env, quads)
     if not len(owner):
         return f_lo, f_hi
-    A, B, _, _ = env.oriented_edges
-    walls = np.stack([A, B], axis=1)
-    tree = shapely.STRtree(shapely.linestrings(walls))
-    lo_xy = verts.min(axis=1) - lss
-    hi_xy = verts.max(axis=1) + lss
-    piece, wall = tree.query(shapely.box(lo_xy[:, 0], lo_xy[:, 1], hi_xy[:, 0], hi_xy[:, 1]),
-                             predicate="intersects")
+    piece, wall, walls = walls_near(env, verts, lss)
     for s in range(0, len(piece), 200_000):
         pc, wl = piece[s:s + 200_000], wall[s:s + 200_000]
         b0, b1, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
