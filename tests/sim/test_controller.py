@@ -160,13 +160,14 @@ def test_gap_def2_alone_loses_walls_repair_it():
 @pytest.mark.parametrize("kind", ["random", "wall", "tangential", "dash", "escape", "search"])
 def test_held_from_safe_starts_on_the_room_corner(kind):
     """vt/vo = 0.3 on the paper's non-convex corner: every target kind is held from safe starts
-    (the full table, with its losses at higher ratios, is docs/strategy.md)."""
+    (the full table, with its losses at higher ratios, is docs/strategy.md). The ``search``
+    target plans every step (about ten times the others' cost): one start for it."""
     from tether.analysis import assess
 
     w = world("nonconvex_corner", vt=0.3)
     rng = np.random.default_rng(7)
     starts = []
-    while len(starts) < 3:
+    while len(starts) < (1 if kind == "search" else 3):
         x, y = rng.uniform(0.1, 9.9, 2)
         a = rng.uniform(0, 2 * math.pi)
         if rod_is_free(w.env, (x, y), a, w.lss) and assess(w.verdict, 0.3, 1.0, x, y, a).safe:
