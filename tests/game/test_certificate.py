@@ -114,7 +114,7 @@ def test_blocked_check_agrees_with_the_windows():
 @pytest.mark.slow
 @pytest.mark.parametrize("upper", [False, True])
 def test_end_slack_is_a_lower_bound(upper):
-    """_end_slack never exceeds the minimum of the end condition over a dense grid of target
+    """end_slack never exceeds the minimum of the end condition over a dense grid of target
     headings and orientations (random gradients and orientation ranges, vt/vo up to 0.9)."""
     rng = np.random.default_rng(7 + upper)
     for vt in (0.3, 0.6, 0.9):
@@ -167,14 +167,14 @@ def test_lift_is_the_same_on_both_sides_of_an_edge():
 def test_lp_rate_bound_is_a_lower_bound(sgn):
     """The LP's bound S (a sparse table of minima over the circle) is never above the minimum
     over a densely sampled orientation range, for ranges short, long and over a full turn."""
-    from tether.game.field_lp import _s_min
+    from tether.game.certificate import window_min
 
     rng = np.random.default_rng(5)
     amin = rng.uniform(-10, 10, 200)
     amax = amin + np.concatenate([rng.uniform(0, 0.05, 100), rng.uniform(0, 7, 100)])
     th = np.linspace(0, math.tau, 48, endpoint=False)
     for vt in (0.3, 0.9):
-        bound = _s_min(amin, amax, th, vt, 1.0, sgn)
+        bound = window_min(amin, amax, th, vt, 1.0, sgn)
         dense = np.full(bound.shape, np.inf)
         for q in np.linspace(0, 1, 2001):
             x = th[None, :] - (amin + q * (amax - amin))[:, None]

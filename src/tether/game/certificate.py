@@ -20,8 +20,9 @@ interpolated linearly. The field holds the states ``{(p, a): a ∈ [lo(p), hi(p)
    ``lss·G_lo·v <= lss·Ωmax(v, a) − MARGIN``, and for every ``a`` in the range of ``hi``,
    ``lss·G_hi·v >= lss·Ωmin(v, a) + MARGIN`` (``G`` the constant gradient of the end on ``T``,
    ``[Ωmin, Ωmax]`` the rod rates the observer's speed ``vo`` allows). The minimum over ``θ``
-   and ``a`` is bounded from below by sampling plus a proven Lipschitz term
-   (:func:`end_slack`), so the check is exact, not sampled.
+   and ``a`` is bounded from below by a table of minima over ``a`` and sampled headings,
+   each with a proven Lipschitz term (:func:`end_slack`, :func:`window_min`), so the check
+   holds on the continuum, not only at samples.
 
 A field that passes every check is *certified*: from any of its states, against any target of
 speed at most ``vt``, the observer can keep the state in the field, hence the rod free.
@@ -42,7 +43,7 @@ from tether.environment import Environment
 from tether.game.cells import cell_free_bins, triangle_blocked_any
 
 __all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
-           "free_mesh", "hat_gradients", "lifted_ends"]
+           "free_mesh", "hat_gradients", "lifted_ends", "window_min"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -51,6 +52,8 @@ MARGIN = 1e-3
 W_MIN = 1e-3
 #: Target headings sampled by the end check (the Lipschitz term covers the rest).
 THETA_SAMPLES = 512
+#: Triangles per block in :func:`end_slack` (its temporaries are blocks × THETA_SAMPLES).
+_ROWS = 4096
 _TAU = math.tau
 #: A width at least this is the whole circle (float noise of ``hi − lo``).
 FULL = math.tau - 1e-9
@@ -294,6 +297,41 @@ def hat_gradients(xy: np.ndarray) -> np.ndarray:
     return np.stack([-g1 - g2, g1, g2], axis=1)
 
 
+def window_min(amin: np.ndarray, amax: np.ndarray, th: np.ndarray, vt: float, vo: float,
+               sgn: float, n: int = 4096) -> np.ndarray:
+    """A lower bound (map units per second) of ``min over a in [amin, amax]`` of
+    ``f(θ − a) = sqrt(vo² − vt²cos²(θ − a)) + sgn·vt·sin(θ − a)``, per row and heading
+    ``θ = th[j]`` (``(m, Θ)``; ``amin <= amax``, radians, any branch).
+
+    ``f`` is tabulated at ``n`` points of the circle (spacing ``d = 2π/n``), and each window
+    ``[θ − amax, θ − amin]``, rounded outward to grid points, is answered by a sparse table of
+    minima (two lookups of one power-of-two length covering it; a window of a whole turn or
+    more takes the minimum of the table). Every point of the window is within ``d/2`` of a
+    grid point of the rounded window, and ``f`` is Lipschitz with constant ``r + vt``
+    (``r = vt²/(2·sqrt(vo² − vt²))`` bounds the derivative of the square root), so
+    subtracting ``(r + vt)·d/2`` from the table's minimum gives a lower bound."""
+    d = _TAU / n
+    x = np.arange(n) * d
+    f = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x)
+    levels = [np.concatenate([f, f])]  # windows wrap once at most (longer ones: the minimum)
+    while (1 << len(levels)) <= n:
+        prev, j = levels[-1], len(levels) - 1
+        levels.append(np.minimum(prev[:-(1 << j)], prev[1 << j:]))
+    table = np.full((len(levels), 2 * n), np.inf)  # row j: minima over 2**j from each index
+    for j, row in enumerate(levels):
+        table[j, :len(row)] = row
+    lo_i = np.floor((th[None, :] - amax[:, None]) / d).astype(np.int64)
+    length = np.ceil((th[None, :] - amin[:, None]) / d).astype(np.int64) - lo_i + 1
+    full = length >= n
+    np.clip(length, 1, n, out=length)
+    lo_i = np.mod(lo_i, n)
+    lev = np.frexp(length)[1] - 1  # floor(log2(length)): 2**lev <= length < 2**(lev + 1)
+    out = np.minimum(table[lev, lo_i], table[lev, lo_i + length - (1 << lev)])
+    out[full] = f.min()
+    lip = vt * vt / (2 * math.sqrt(vo * vo - vt * vt)) + vt
+    return out - lip * d / 2
+
+
 def end_slack(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt: float,
               vo: float, upper: bool) -> np.ndarray:
     """A lower bound (map units per second) of the smallest slack of an end condition over
@@ -302,28 +340,24 @@ def end_slack(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt:
     With ``x = θ − a``, ``lss·Ωmax = sqrt(vo² − vt²cos²x) − vt·sin x`` and
     ``lss·Ωmin = −sqrt(vo² − vt²cos²x) − vt·sin x``. The lower end's slack is
     ``F = sqrt(vo² − vt²cos²x) − vt·sin x − lss·vt·G·u(θ)``, the upper end's
-    ``F = sqrt(vo² − vt²cos²x) + vt·sin x + lss·vt·G·u(θ)``. The derivative of
-    ``sqrt(vo² − vt²cos²x)`` is ``vt²·sin 2x / (2·sqrt(vo² − vt²cos²x))``, at most
-    ``r = vt²/(2·sqrt(vo² − vt²))``, so ``F`` is Lipschitz in ``θ`` with constant
-    ``r + vt + lss·vt·|G|`` and in ``a`` with ``r + vt``. On a grid of :data:`THETA_SAMPLES`
-    headings (spacing ``Δθ``) and ``n`` orientations (spacing ``Δa``, end points included)
-    every point lies within ``Δθ/2`` and ``Δa/2`` of a sample, so
-    ``min F >= sampled min − (r + vt + lss·vt·|G|)·Δθ/2 − (r + vt)·Δa/2``."""
+    ``F = sqrt(vo² − vt²cos²x) + vt·sin x + lss·vt·G·u(θ)``: ``F = f(θ − a) + s·lss·vt·G·u(θ)``
+    with ``s = ±1`` and ``f`` as in :func:`window_min`, which bounds ``h(θ) = min over a of
+    f(θ − a)`` from below at each of :data:`THETA_SAMPLES` headings (spacing ``Δθ``). ``h`` is
+    Lipschitz with the constant ``r + vt`` of ``f`` (a minimum of such functions), and
+    ``G·u(θ)`` with ``|G|``; every heading is within ``Δθ/2`` of a sample, so
+    ``min F >= min over samples of (window_min + s·lss·vt·G·u) − (r + vt + lss·vt·|G|)·Δθ/2``.
+    """
     th = np.linspace(0, _TAU, THETA_SAMPLES, endpoint=False)
     dth = _TAU / THETA_SAMPLES
-    span = np.maximum(a_hi - a_lo, 0.0)
-    na = np.clip(np.ceil(span / dth).astype(int), 1, 64)
     r = vt * vt / (2 * math.sqrt(vo * vo - vt * vt))
     sgn = 1.0 if upper else -1.0
-    gu = G[:, 0:1] * np.cos(th)[None, :] + G[:, 1:2] * np.sin(th)[None, :]
-    out = np.full(len(G), np.inf)
-    for m in range(int(na.max()) + 1 if len(G) else 0):
-        a = a_lo + np.minimum(m / na, 1.0) * span
-        x = th[None, :] - a[:, None]
-        F = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x) + sgn * lss * vt * gu
-        out = np.minimum(out, F.min(axis=1))
-    return (out - (r + vt + lss * vt * np.hypot(G[:, 0], G[:, 1])) * dth / 2
-            - (r + vt) * (span / na) / 2)
+    out = np.empty(len(G))
+    for s in range(0, len(G), _ROWS):  # rows in blocks: (rows, Θ) temporaries stay small
+        g = G[s:s + _ROWS]
+        gu = g[:, 0:1] * np.cos(th)[None, :] + g[:, 1:2] * np.sin(th)[None, :]
+        low = window_min(a_lo[s:s + _ROWS], a_hi[s:s + _ROWS], th, vt, vo, sgn)
+        out[s:s + _ROWS] = (low + sgn * lss * vt * gu).min(axis=1)
+    return out - (r + vt + lss * vt * np.hypot(G[:, 0], G[:, 1])) * dth / 2
 
 
 def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float) -> Checks:

@@ -49,6 +49,7 @@ from tether.game.certificate import (
     first_field,
     hat_gradients,
     lifted_ends,
+    window_min,
 )
 
 __all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "vortex_radius"]
@@ -120,40 +121,6 @@ def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float
         np.minimum.at(f_hi, t, np.where(holds, -np.inf, up))
         np.maximum.at(f_lo, t, np.where(holds, np.inf, lo))
     return f_lo, f_hi
-
-
-def _s_min(amin: np.ndarray, amax: np.ndarray, th: np.ndarray, vt: float, vo: float,
-           sgn: float, n: int = 4096) -> np.ndarray:
-    """``min over a in [amin, amax]`` of ``f(θ − a) = sqrt(vo² − vt²cos²(θ − a)) +
-    sgn·vt·sin(θ − a)`` per triangle and heading (m, Θ), a lower bound.
-
-    ``f`` is tabulated at ``n`` points of the circle and each window ``[θ − amax, θ − amin]``
-    rounded outward to grid points is answered by a sparse table of minima (two lookups);
-    a point between two grid points is below their minimum by at most the Lipschitz constant
-    times half the spacing, which is subtracted."""
-    d = _TAU / n
-    x = np.arange(n) * d
-    f = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x)
-    f2 = np.concatenate([f, f])  # windows wrap once at most (longer ones take the minimum)
-    table = [f2]
-    while (1 << len(table)) <= n:
-        prev, j = table[-1], len(table) - 1
-        table.append(np.minimum(prev[:-(1 << j)], prev[1 << j:]))
-    lo_i = np.floor((th[None, :] - amax[:, None]) / d).astype(np.int64)
-    hi_i = np.ceil((th[None, :] - amin[:, None]) / d).astype(np.int64)
-    length = hi_i - lo_i + 1
-    lo_i = np.mod(lo_i, n)
-    full = length >= n
-    length = np.clip(length, 1, n)
-    lev = np.floor(np.log2(length)).astype(np.int64)
-    out = np.empty(lo_i.shape)
-    for j in np.unique(lev).tolist():
-        m = lev == j
-        a, b = lo_i[m], lo_i[m] + length[m] - (1 << j)
-        out[m] = np.minimum(table[j][a], table[j][b])
-    out[full] = f.min()
-    lip = vt * vt / (2 * math.sqrt(vo * vo - vt * vt)) + vt
-    return out - lip * d / 2
 
 
 def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.ndarray,
@@ -244,7 +211,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         nrow = 0
         for sgn, Z, off in ((-1.0, Lt, 0), (1.0, Ht, nv)):
             amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
-            S = _s_min(amin, amax, th_all, vt, vo, sgn)  # (len(et), headings)
+            S = window_min(amin, amax, th_all, vt, vo, sgn)  # (len(et), headings)
             G = np.einsum("nvk,nv->nk", hat[et], Z[et])
             ti, hs = np.nonzero(cut[et])  # rows: (triangle of et, heading) pairs
             u = U_all[hs]  # (r, 2)
@@ -314,7 +281,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         added = 0
         Lt, Ht, _ = lifted_ends(L, H - L, tri)
         for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
-            S = _s_min(Z[et].min(1), Z[et].max(1), th_all, vt, vo, sgn)
+            S = window_min(Z[et].min(1), Z[et].max(1), th_all, vt, vo, sgn)
             G = np.einsum("nvk,nv->nk", hat[et], Z[et])
             F = S + sgn * k * (G @ U_all.T) - margin / 2
             worst = np.argmin(F, axis=1)
