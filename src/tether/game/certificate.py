@@ -139,7 +139,9 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     pieces = []
     for a, b in zip(A, B, strict=True):
         n = max(1, math.ceil(float(np.hypot(*(b - a))) / (h / 2)))
-        pieces.append(a + (np.arange(n + 1)[:, None] / n) * (b - a))
+        piece = a + (np.arange(n + 1)[:, None] / n) * (b - a)
+        piece[-1] = b  # exactly the next edge's first point: a + 1·(b − a) may round off b
+        pieces.append(piece)
     wall, inverse = np.unique(np.concatenate(pieces), axis=0, return_inverse=True)
     inverse = inverse.ravel()
     d = env.boundary_distance(lattice[:, 0], lattice[:, 1])
