@@ -5,6 +5,7 @@ the triangle; the bad delays; and the checks run again on a field read back."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -15,10 +16,16 @@ from hypothesis import strategies as st
 
 from tether import Environment
 from tether.arcs import rod_is_free_many
+from tether.cli import main
 from tether.errors import InvalidParameterError
+from tether.examples import path as example_path
 from tether.game.cells import grow_triangles, triangle_blocked_any
 from tether.game.certificate import certify, sight_widening
-from tether.game.certified import CertifiedKernel, certified_kernel, load_certified
+from tether.game.certified import CertifiedKernel, certified_kernel
+from tether.game.controller import CertifiedController
+from tether.sim.protocols import World
+from tether.sim.simulate import simulate
+from tether.strategies import TARGETS, make_target
 
 ROOM = Environment([(0, 0), (10, 0), (10, 10), (0, 10)], name="room")
 LSS, VT, VO = 1.0, 0.3, 1.0
@@ -70,16 +77,24 @@ def test_line_of_sight_to_every_true_target_is_free(delayed):
 
 
 @pytest.mark.slow
-def test_delayed_field_is_certified_without_delay_and_read_back(delayed, tmp_path):
+def test_delayed_field_is_certified_without_delay_and_read_back(delayed, tmp_path, capsys):
     """A field certified at delay d passes the checks without delay (the grown check contains
-    the plain one), and a file read back is checked again at its own delay."""
+    the plain one); a file read back (``simulate --kernel``) is checked again at its own
+    delay, holds a run at that delay and is refused for a longer one."""
     env, lss, vt, vo = delayed.game
     assert certify(delayed.field, env, lss, vt, vo).passed
     path = tmp_path / "k.npz"
     delayed.save(path)
-    back = load_certified(path)
-    assert back.certified and back.delay == DELAY
-    assert back.to_dict()["delay"] == DELAY
+    assert delayed.to_dict()["delay"] == DELAY
+    sim = ["simulate", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3",
+           "--vo", "1", "--controller", "certified", "--kernel", str(path), "--target",
+           "search", "--start", "5", "5", "0", "--duration", "3", "--json", "--delay", "1"]
+    assert main(sim) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["outcome"] == "held" and out["delay"] == 1 and out["delay_steps"] == 50
+    sim[-1] = "1.01"  # rounded up to 51 steps: longer than the field is certified for
+    assert main(sim) == 2
+    assert "certified for a delay of 1 s" in capsys.readouterr().err
 
 
 @settings(max_examples=15, deadline=None)
@@ -134,3 +149,29 @@ def test_bad_delays_are_refused(delay):
     """A negative, NaN or infinite delay, or one with ``vt·delay >= lss``: one clear error."""
     with pytest.raises(InvalidParameterError, match="delay"):
         certified_kernel(ROOM, LSS, VT, VO, h=0.5, delay=delay)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", sorted(set(TARGETS) - {"path", "track", "pedestrian"}))
+def test_certified_controller_with_delay_never_loses(delayed, kind):
+    """From a random seen state of the field certified at delay d, the certified controller
+    fed the target's position d late holds against every target kind: the monitor checks the
+    true line of sight, the observer's chord and the distance within ``lss ± vt·d``."""
+    rng = np.random.default_rng(sum(map(ord, kind)))
+    while True:
+        q = rng.uniform(0.5, 9.5, size=(1, 2))
+        lo, hi, ok = delayed.arcs(q)
+        a = float(lo[0] + rng.uniform(0.1, 0.9) * (hi[0] - lo[0]))
+        if ok[0] and delayed.contains(q, a)[0]:
+            break
+    world = World(ROOM, lss=LSS, vt=VT, vo=VO)
+    world.extra["certified"] = delayed
+    res = simulate(world, CertifiedController(), make_target(kind, world),
+                   (float(q[0, 0]), float(q[0, 1]), a), duration=6.0, dt=0.05, seed=3,
+                   delay=DELAY)
+    assert res.held, (kind, res.reason)
+    assert res.delay_steps == 20 and res.trace.seen is not None
+    assert res.monitor.max_speed_ratio <= 1 + 1e-6
+    dist = np.hypot(*(res.trace.observer - res.trace.p).T)
+    assert (np.abs(dist - LSS) <= VT * DELAY + 1e-9).all()
+    assert delayed.contains(res.trace.seen, res.trace.a).all()
