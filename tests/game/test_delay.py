@@ -88,7 +88,7 @@ def test_delayed_field_is_certified_without_delay_and_read_back(delayed, tmp_pat
     assert delayed.to_dict()["delay"] == DELAY
     sim = ["simulate", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3",
            "--vo", "1", "--controller", "certified", "--kernel", str(path), "--target",
-           "search", "--start", "5", "5", "0", "--duration", "3", "--json", "--delay", "1"]
+           "wall", "--start", "5", "5", "0", "--duration", "2", "--json", "--delay", "1"]
     assert main(sim) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["outcome"] == "held" and out["delay"] == 1 and out["delay_steps"] == 50
