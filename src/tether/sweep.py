@@ -15,6 +15,10 @@ missed. The ends reported are exact to the tolerance only for the transitions th
 With the speeds ``vt`` and ``vo`` given, every row also carries
 the surveillance kernel's safe fraction: the fraction of free states in the kernel
 (``Kernel.safe_fraction_total()``).
+
+:func:`delay_sweep` answers "how much sensing latency can this map afford at this following
+distance and these speeds?": the certified kernel's safe fraction per delay
+(``docs/certified.md``, "Sensing delay").
 """
 
 from __future__ import annotations
@@ -33,7 +37,8 @@ import numpy as np
 from tether.environment import Environment
 from tether.errors import InvalidParameterError
 
-__all__ = ["Interval", "SweepResult", "SweepRow", "evaluate", "parse_lss_range", "sweep"]
+__all__ = ["DelayRow", "DelaySweep", "Interval", "SweepResult", "SweepRow", "delay_sweep",
+           "evaluate", "parse_lss_range", "sweep"]
 
 _COUNT_KEYS = ("regions", "cells", "pieces", "edges", "surviving_cells")
 
@@ -368,3 +373,148 @@ def parse_lss_range(text: str) -> list[float]:
     except ValueError:
         raise InvalidParameterError(f"lss {text!r}: expected START:STOP:STEP, a comma-separated "
                                     "list or a number") from None
+
+
+# ---------------------------------------------------------------------- delays
+#: Monte Carlo samples of the certified fraction per delay.
+DELAY_SAMPLES = 20_000
+
+
+@dataclass(frozen=True)
+class DelayRow:
+    """The certified kernel at one sensing delay.
+
+    ``delay`` (s); ``certified``: whether a field passed the checks at this delay;
+    ``safe_fraction`` (± ``error``, Monte Carlo): the share of free states in it (0 when not
+    certified); ``source``: ``"search"`` (found at this delay) or ``"delay D"`` (the field
+    certified at the longer delay ``D``, checked again at this one: a field certified for a
+    delay is certified for every shorter one); ``seconds``: wall time.
+    """
+
+    delay: float
+    certified: bool
+    safe_fraction: float
+    error: float
+    source: str
+    seconds: float
+
+    def to_dict(self) -> dict:
+        """The row as JSON-ready values."""
+        return {"delay": self.delay, "certified": self.certified,
+                "safe_fraction": self.safe_fraction, "safe_fraction_error": self.error,
+                "source": self.source, "seconds": round(self.seconds, 3)}
+
+
+@dataclass(frozen=True)
+class DelaySweep:
+    """Result of :func:`delay_sweep`: rows by increasing delay, and the settings (map units,
+    map units per second); ``kernels``: the field each row reports
+    (:class:`~tether.game.certified.CertifiedKernel`, certified at the row's delay or a longer
+    one)."""
+
+    map_name: str
+    lss: float
+    vt: float
+    vo: float
+    h: float
+    rows: tuple[DelayRow, ...]
+    kernels: tuple = field(default=(), repr=False, compare=False)
+
+    @property
+    def longest(self) -> float | None:
+        """The longest delay (s) with a certified field, ``None`` if none."""
+        return max((r.delay for r in self.rows if r.certified), default=None)
+
+    def to_dict(self) -> dict:
+        """The result as JSON-ready values (the ``tether sweep --delay --json`` fields)."""
+        return {"map": self.map_name, "lss": self.lss, "vt": self.vt, "vo": self.vo,
+                "h": self.h, "longest_certified_delay": self.longest,
+                "rows": [r.to_dict() for r in self.rows]}
+
+    def format(self) -> str:
+        """The sweep as a text table."""
+        lines = [f"map {self.map_name!r}, lss {self.lss:g}, vt {self.vt:g}, vo {self.vo:g}: "
+                 f"certified kernel per sensing delay (mesh h {self.h:.4g})",
+                 f"{'delay s':>8}  {'vt*delay':>8}  {'certified':<9}  {'safe %':>13}  "
+                 f"{'seconds':>7}  field"]
+        for r in self.rows:
+            frac = (f"{100 * r.safe_fraction:5.1f} +/- {100 * r.error:3.1f}" if r.certified
+                    else "0")
+            lines.append(f"{r.delay:8.4g}  {self.vt * r.delay:8.4g}  "
+                         f"{'yes' if r.certified else 'no':<9}  {frac:>13}  "
+                         f"{r.seconds:7.1f}  {r.source if r.certified else '-'}")
+        longest = self.longest
+        lines.append("no delay has a certified field" if longest is None else
+                     f"longest delay with a certified field: {longest:g} s "
+                     f"(the distance then within lss +/- {self.vt * longest:.4g})")
+        return "\n".join(lines)
+
+
+def delay_sweep(env: Environment, lss: float, vt: float, vo: float,
+                delays: Iterable[float], h: float | None = None, orientations: int = 180,
+                samples: int = DELAY_SAMPLES,
+                progress: Callable[[str, float], None] | None = None) -> DelaySweep:
+    """The certified kernel's safe fraction at each sensing delay (seconds).
+
+    Work is reused where it is sound, and every field is checked at the delay it is reported
+    for: the delays run in increasing order, each search starting from the field certified at
+    the previous delay (a candidate; :func:`~tether.game.certified.certified_kernel` checks
+    it and searches on from it); then, from the longest delay down, a field certified at a
+    longer delay whose fraction is larger replaces the row's own (it is checked again at the
+    row's delay: a field certified for a delay passes at every shorter one, and the check
+    says so, not this function).
+
+    Parameters
+    ----------
+    env : Environment
+    lss, vt, vo : float
+        Rod length (map units) and speeds (map units per second).
+    delays : iterable of float
+        Delays, seconds, each ``>= 0`` with ``vt·delay < lss``.
+    h : float, optional
+        Mesh spacing (map units; default that of
+        :func:`~tether.game.certified.certified_kernel`).
+    orientations : int
+        Orientation bins of the grid kernel the search starts from.
+    samples : int
+        Monte Carlo samples of each fraction (the same states at every delay).
+    progress : callable, optional
+        ``progress(stage, fraction)``.
+    """
+    from tether.game.certificate import certify
+    from tether.game.certified import certified_kernel, check_delay
+
+    values = sorted({check_delay(d, vt, lss) for d in delays})
+    if not values:
+        raise InvalidParameterError("no delay to sweep")
+    kernels, rows = [], []
+    prev = None
+    for i, d in enumerate(values):
+        if progress is not None:
+            progress(f"delay {d:g} s", i / len(values))
+        ck = certified_kernel(env, lss, vt, vo, h=h, orientations=orientations, delay=d,
+                              start=prev)
+        frac, err = ck.safe_fraction(samples) if ck.certified else (0.0, 0.0)
+        kernels.append(ck)
+        rows.append(DelayRow(d, ck.certified, frac, err, "search", ck.seconds))
+        if ck.certified:
+            prev = ck
+    best = None  # (row index) the certified field of a longer delay with the largest fraction
+    for i in range(len(values) - 1, -1, -1):
+        if best is not None and rows[best].safe_fraction > rows[i].safe_fraction:
+            t0 = time.perf_counter()
+            ck = kernels[best]
+            env_i, lss_i, vt_i, vo_i = ck.game
+            grow = vt * values[i] * ck.frame.scale
+            if certify(ck.field, env_i, lss_i, vt_i, vo_i, grow).passed:
+                rows[i] = DelayRow(values[i], True, rows[best].safe_fraction, rows[best].error,
+                                   f"delay {values[best]:g}",
+                                   rows[i].seconds + time.perf_counter() - t0)
+                kernels[i] = ck
+                continue
+        if rows[i].certified and (best is None
+                                  or rows[i].safe_fraction >= rows[best].safe_fraction):
+            best = i
+    if progress is not None:
+        progress("done", 1.0)
+    return DelaySweep(env.name, lss, vt, vo, kernels[0].h, tuple(rows), tuple(kernels))

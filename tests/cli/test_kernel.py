@@ -144,3 +144,24 @@ def test_assess_certified_answer_first(capsys):
     out = json.loads(capsys.readouterr().out)
     assert list(out)[0] == "certified"
     assert out["certified"]["answer"] == "unsafe" and out["certified"]["field_certified"]
+
+
+def test_certified_delay_json_and_text(capsys):
+    """``--certified --delay``: the distance band in the text (a map whose search stops at
+    once: no field, nothing claimed)."""
+    corner = ["kernel", str(example_path("convex_corner")), "--lss", "1", "--vt", "0.3", "--vo",
+              "1", "--h", "1", "--certified", "--delay", "0.5"]
+    assert main(corner) == 0
+    out = capsys.readouterr().out
+    assert "within lss +/- 0.15 (0.85 to 1.15)" in out and "NOT certified" in out
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--delay", "0.5"], "--delay applies to --certified only"),
+    (["--certified", "--delay", "-1"], "delay must be a finite number >= 0"),
+    (["--certified", "--delay", "nan"], "delay must be a finite number >= 0"),
+    (["--certified", "--delay", "5"], "too long"),
+])
+def test_certified_delay_bad_input(capsys, extra, message):
+    assert main([*BASE, *extra]) == 2
+    assert message in capsys.readouterr().err

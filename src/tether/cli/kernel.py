@@ -35,6 +35,10 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         from tether.errors import InvalidParameterError
 
         raise InvalidParameterError(f"--h must be a finite number > 0, got {args.h}")
+    if args.delay is not None and not args.certified:
+        from tether.errors import InvalidParameterError
+
+        raise InvalidParameterError("--delay applies to --certified only")
     if args.certified:
         return _certified(args, env)
     k = surveillance_kernel(env, args.lss, args.vt, args.vo, h=args.h,
@@ -87,7 +91,7 @@ def _certified(args: argparse.Namespace, env) -> int:
                                     "--certified has none")
     bar = Progress("certified kernel")
     ck = certified_kernel(env, args.lss, args.vt, args.vo, h=args.h,
-                          orientations=args.orientations,
+                          orientations=args.orientations, delay=args.delay or 0.0,
                           progress=lambda e: bar(f"LP round {e['round']}",
                                                  min(e["round"] / 60, 0.99)))
     bar("done", 1.0)
@@ -119,6 +123,11 @@ def _certified(args: argparse.Namespace, env) -> int:
     m = out["mesh"]
     print(f"map {out['map']!r}, lss {ck.lss:g}, vt {ck.vt:g}, vo {ck.vo:g} (certified)")
     print(f"  mesh h {ck.h:.4g}: {m['vertices']} vertices, {m['triangles']} triangles")
+    if ck.delay > 0:
+        r = ck.vt * ck.delay
+        print(f"  sensing delay {ck.delay:g} s: the observer sees the target {ck.delay:g} s late; "
+              f"distance observer-target within lss +/- {r:.4g} ({ck.lss - r:.4g} to "
+              f"{ck.lss + r:.4g})")
     if ck.certified:
         print(f"  CERTIFIED: {100 * frac:.1f}% of the free states (+/- {100 * err:.1f}, "
               f"Monte Carlo), mean arc {100 * out['mean_arc_fraction']:.1f}% of the circle")
@@ -156,6 +165,10 @@ def register(add) -> None:
                     help="the certified kernel: an arc field proven by exact checks (safe "
                          "means no target within the speeds can break the line of sight); "
                          "--h is then the mesh spacing (default 1/40 of the larger side)")
+    sp.add_argument("--delay", type=float_arg, metavar="D",
+                    help="with --certified: sensing delay in seconds (the observer sees the "
+                         "target D s late; safe then holds for the seen position, the line of "
+                         "sight to the true one is free, and the distance is lss +/- vt*D)")
     sp.add_argument("--at", nargs=3, type=finite_arg, metavar=("X", "Y", "A"),
                     help="also report whether (x, y, a) (a in radians) is in the kernel")
     sp.add_argument("--json", action="store_true", help="print JSON")

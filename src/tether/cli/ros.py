@@ -4,6 +4,7 @@ and ``sweep`` (the verdict over a range of ``lss``, on local processes or a Dask
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -158,6 +159,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.json and args.csv:
         raise InvalidParameterError("give --json or --csv, not both")
+    if args.delay is not None:
+        return _delay_sweep(args)
+    if args.h is not None:
+        raise InvalidParameterError("--h applies to --delay only")
     plot = _check_output(args.plot, IMAGE_KINDS) if args.plot is not None else None
     values = parse_lss_range(args.lss)
     env = _load(args)
@@ -179,6 +184,38 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         sys.stdout.write(res.to_csv())
     else:
         print(format_sweep(res))
+    return 0
+
+
+def _delay_sweep(args: argparse.Namespace) -> int:
+    """``tether sweep --delay``: the certified kernel's safe fraction per sensing delay."""
+    from tether._util.progress import Progress
+    from tether.bounds import check_speeds
+    from tether.sweep import delay_sweep, parse_lss_range
+
+    for flag, given in (("--csv", args.csv), ("--plot", args.plot), ("--tol", args.tol),
+                        ("--workers", args.workers), ("--dask", args.dask)):
+        if given:
+            raise InvalidParameterError(f"{flag} does not apply to --delay")
+    if args.vt is None or args.vo is None:
+        raise InvalidParameterError("--delay needs --vt and --vo")
+    lss = parse_lss_range(args.lss)
+    if len(lss) != 1:
+        raise InvalidParameterError("--delay needs a single --lss")
+    try:
+        delays = parse_lss_range(args.delay)
+    except InvalidParameterError as exc:  # the parser names lss; here it reads delays
+        raise InvalidParameterError(str(exc).replace("lss", "--delay", 1)) from None
+    env = _load(args)
+    check_speeds(args.vt, args.vo, lss[0])
+    if args.h is not None and not (math.isfinite(args.h) and args.h > 0):
+        raise InvalidParameterError(f"--h must be a finite number > 0, got {args.h}")
+    res = delay_sweep(env, lss[0], args.vt, args.vo, delays, h=args.h,
+                      progress=Progress("delay sweep"))
+    if args.json:
+        print_json(res.to_dict())
+    else:
+        print(res.format())
     return 0
 
 
@@ -211,5 +248,12 @@ def register(add) -> None:
     sp.add_argument("--dask", metavar="ADDRESS",
                     help="run on a Dask cluster (scheduler address; extra [cluster])")
     sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
+    sp.add_argument("--delay", metavar="RANGE",
+                    help="sensing delays in seconds (START:STOP:STEP, a list or a number): "
+                         "the certified kernel's safe fraction per delay, at one --lss, with "
+                         "--vt and --vo (docs/certified.md)")
+    sp.add_argument("--h", type=float_arg, default=None,
+                    help="with --delay: the certified kernel's mesh spacing (map units; "
+                         "default 1/40 of the map's larger side)")
     _add_ros_options(sp)
     add_memory_limit(sp)  # issue 25: per process (each worker decomposes one lss at a time)

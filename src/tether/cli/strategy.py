@@ -165,13 +165,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     world = _world(args, args.start, rod=True)
     if kernel is not None:
         world.extra["certified" if args.controller == "certified" else "kernel"] = kernel
+    if args.delay:
+        _check_delay(args, kernel, world)
     opts = {"path": args.path} if args.target == "path" else {}
     if target is None:
         target = make_target(args.target, world, **opts)
     paper = args.controller == "paper"
     controller = CONTROLLERS[args.controller](world, **({"record": True} if paper else {}))
     res = simulate(world, controller, target, tuple(args.start), duration=duration,
-                   dt=args.dt, seed=args.seed, progress=Progress("simulate"))
+                   dt=args.dt, seed=args.seed, progress=Progress("simulate"),
+                   **({"delay": args.delay} if args.delay else {}))
     cause = None
     if paper and not res.held:
         from tether.sim.diagnose import explain_loss
@@ -202,6 +205,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           + (f" at t={res.lost_at:.3f}s" if res.lost_at is not None else ""))
     if res.reason:
         print(f"  reason: {res.reason}")
+    if res.delay_steps:
+        r = args.vt * res.delay_steps * res.dt
+        print(f"  sensing delay {res.delay:g} s, rounded up to {res.delay_steps} steps "
+              f"({res.delay_steps * res.dt:g} s): the distance is held within lss +/- {r:.4g}")
     if cause is not None:
         kind = {"gap": "a gap of the paper's conditions", "bug": "a bug of tether's",
                 "start": "not a loss from a safe start"}[cause.kind]
@@ -217,6 +224,21 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     print(f"  monitor: max speed ratio {m.max_speed_ratio:.6f}, min clearance "
           f"{m.min_clearance:.3g}, max distance error {m.max_distance_error:.3g}")
     return 0
+
+
+def _check_delay(args: argparse.Namespace, kernel, world) -> None:
+    """``--delay``: a valid number; with ``--controller certified`` the field must be
+    certified for the delay rounded up to whole steps (the one computed on demand is)."""
+    if not (math.isfinite(args.delay) and args.delay >= 0):
+        raise InvalidParameterError(f"--delay must be a finite number >= 0 s, got {args.delay}")
+    if args.controller != "certified":
+        return
+    steps = math.ceil(args.delay / args.dt - 1e-9)
+    world.extra["delay"] = steps * args.dt
+    if kernel is not None and kernel.delay < steps * args.dt * (1 - 1e-12):
+        raise InvalidParameterError(
+            f"--kernel is certified for a delay of {kernel.delay:g} s, the run's is "
+            f"{steps * args.dt:g} s ({args.delay:g} s rounded up to {steps} steps of --dt)")
 
 
 #: Target kinds replayed from a track; the track fixes the start.
@@ -375,6 +397,11 @@ def register(add) -> None:
                     help="kernel for --controller kernel / --target kernel-evader, saved by "
                     "'tether kernel --save' with the same map, lss and speeds (for "
                     "--controller certified: 'tether kernel --certified --save')")
+    sp.add_argument("--delay", type=float_arg, metavar="D",
+                    help="sensing delay in seconds: the controller sees the target D s late "
+                         "(rounded up to whole steps); the monitor checks the true line of "
+                         "sight (with --controller certified: a field certified for D, "
+                         "'tether kernel --certified --delay D')")
     sp.add_argument("--duration", type=float_arg, help="seconds (default 20; a replayed "
                     "track's own duration)")
     sp.add_argument("--dt", type=float_arg, default=0.02, help="step in seconds (0.02)")

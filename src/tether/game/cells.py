@@ -37,8 +37,8 @@ import shapely
 
 from tether.environment import Environment
 
-__all__ = ["ANGLE_MARGIN", "blocked_spans", "cell_free_bins", "convex_pieces",
-           "triangle_blocked_any", "walls_near"]
+__all__ = ["ANGLE_MARGIN", "blocked_spans", "cell_free_bins", "convex_pieces", "grow_triangles",
+           "triangle_blocked_any", "triangle_meets", "walls_near"]
 
 #: Widening (radians) of every blocked interval before it is turned into bins.
 ANGLE_MARGIN = 1e-9
@@ -210,6 +210,41 @@ def cell_free_bins(env: Environment, boxes: np.ndarray, lss: float, n_a: int
     blocked = (cover[:, :n_a] + cover[:, n_a:2 * n_a] + cover[:, 2 * n_a:]) > 0
     free = ~blocked & occupied[:, None]
     return free, occupied
+
+
+def grow_triangles(tri: np.ndarray, r: float) -> np.ndarray:
+    """Each triangle (n, 3, 2, counter-clockwise, map units) with its three edges pushed
+    outward by ``r`` (map units): a triangle that contains ``T ⊕ D(r)``, every point within
+    ``r`` of ``T``. ``T ⊕ D(r)`` lies in each of the three half-planes ``n_i·x <= n_i·P_i +
+    r`` (``n_i`` the outward unit normal of edge ``i``), whose intersection is the grown
+    triangle; its vertex at ``P_i`` is ``P_i + r·(n_{i-1} + n_i)/(1 + n_{i-1}·n_i)``, moved by
+    ``r / sin(α_i/2)`` (``α_i`` the angle at ``P_i``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tether.game.cells import grow_triangles
+    >>> t = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
+    >>> grow_triangles(t, 0.1).round(4).tolist()
+    [[[-0.1, -0.1], [1.2414, -0.1], [-0.1, 1.2414]]]
+    """
+    tri = np.asarray(tri, dtype=float)
+    e = np.roll(tri, -1, axis=1) - tri  # edge i: P_i -> P_{i+1}
+    n = np.stack([e[..., 1], -e[..., 0]], axis=-1)  # outward for counter-clockwise
+    n = n / np.hypot(n[..., 0], n[..., 1])[..., None]
+    prev = np.roll(n, 1, axis=1)  # edge i-1 ends at P_i
+    cos = (prev * n).sum(axis=-1)
+    return tri + r * (prev + n) / (1.0 + cos)[..., None]
+
+
+def triangle_meets(env: Environment, tri: np.ndarray) -> np.ndarray:
+    """Whether each triangle (n, 3, 2, map units) meets the free space with a part thicker
+    than the length tolerance (the ``meets`` of :func:`triangle_blocked_any`)."""
+    tri = np.asarray(tri, dtype=float)
+    owner, _ = convex_pieces_of(env, np.concatenate([tri, tri[:, 2:3]], axis=1))
+    meets = np.zeros(len(tri), dtype=bool)
+    meets[owner] = True
+    return meets
 
 
 def triangle_blocked_any(env: Environment, tri: np.ndarray, a0: np.ndarray, a1: np.ndarray,

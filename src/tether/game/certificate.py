@@ -26,6 +26,15 @@ interpolated linearly. The field holds the states ``{(p, a): a ∈ [lo(p), hi(p)
 
 A field that passes every check is *certified*: from any of its states, against any target of
 speed at most ``vt``, the observer can keep the state in the field, hence the rod free.
+
+**Sensing delay** (``grow = r = vt·d``, ``docs/certified.md``, "Sensing delay"): the field
+then holds the *seen* state ``(q, a)``, ``q`` the target's position ``d`` seconds ago, and
+check 1 becomes: the segment from every point ``p`` within ``r`` of ``T`` (the true target)
+to every observer ``q + lss·u(a)`` is free. That segment is a rod from ``p`` of length at most
+``lss + r`` at an orientation within ``β = asin(r/lss)`` of ``a``
+(:func:`sight_widening`), so check 1 runs on the triangle grown by ``r``
+(:func:`tether.game.cells.grow_triangles`), the range ``[a0 − β, a1 + β]`` and rods of length
+``lss + r``. Checks 2 and 3 are unchanged (the seen target obeys the same speed bound).
 """
 
 from __future__ import annotations
@@ -40,10 +49,15 @@ from scipy.sparse.linalg import spsolve
 from scipy.spatial import Delaunay, cKDTree
 
 from tether.environment import Environment
-from tether.game.cells import cell_free_bins, triangle_blocked_any
+from tether.game.cells import (
+    cell_free_bins,
+    grow_triangles,
+    triangle_blocked_any,
+    triangle_meets,
+)
 
 __all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
-           "free_mesh", "hat_gradients", "lifted_ends", "window_min"]
+           "free_mesh", "hat_gradients", "lifted_ends", "sight_widening", "window_min"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -177,14 +191,25 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     return pts, tri, source
 
 
-def first_field(kern) -> ArcField:
+def sight_widening(grow: float, lss: float) -> float:
+    """The largest angle (radians) between the rod ``lss·u(a)`` and the line of sight
+    ``lss·u(a) − e`` from a true target ``e`` away from the seen one, ``|e| <= grow < lss``:
+    ``asin(grow/lss)``; 0 without delay."""
+    return math.asin(grow / lss) if grow > 0 else 0.0
+
+
+def first_field(kern, grow: float = 0.0) -> ArcField:
     """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
     (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
     vertex the run of orientations free from every point of the vertex's star and in
     ``kern`` at its nearest lattice point (free ones alone where that run is at most one
     bin) that holds, or comes next counter-clockwise of, the direction away from the nearest
     wall; the gap places of whole-circle vertices from the harmonic
-    extension of the gap centres around them (:func:`_smooth_gaps`)."""
+    extension of the gap centres around them (:func:`_smooth_gaps`). With a sensing delay
+    (``grow = vt·d > 0``, map units) the stars' boxes hold their triangles grown by ``grow``
+    (:func:`~tether.game.cells.grow_triangles`), the rods are
+    ``lss + grow`` long and the free bins are eroded by :func:`sight_widening` (check 1 with
+    a delay)."""
     grid = kern.grid
     env = grid.env
     pts, tri, src = free_mesh(env, grid.h, grid.points)
@@ -192,10 +217,16 @@ def first_field(kern) -> ArcField:
     lo_xy = np.full((nv, 2), np.inf)
     hi_xy = np.full((nv, 2), -np.inf)
     corners = pts[tri]
+    grown = grow_triangles(corners, grow) if grow > 0 else corners
     for j in range(3):
-        np.minimum.at(lo_xy, tri[:, j], corners.min(axis=1))
-        np.maximum.at(hi_xy, tri[:, j], corners.max(axis=1))
-    star_free, _ = cell_free_bins(env, np.column_stack([lo_xy, hi_xy]), kern.lss, grid.n_a)
+        np.minimum.at(lo_xy, tri[:, j], grown.min(axis=1))
+        np.maximum.at(hi_xy, tri[:, j], grown.max(axis=1))
+    star_free, _ = cell_free_bins(env, np.column_stack([lo_xy, hi_xy]), kern.lss + grow,
+                                  grid.n_a)
+    if grow > 0:  # a bin is kept when every bin within the widening is free
+        m = math.ceil(sight_widening(grow, kern.lss) / grid.delta)
+        star_free = np.logical_and.reduce([np.roll(star_free, k, axis=1)
+                                           for k in range(-m, m + 1)])
     near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
     bins = kern.kernel[near] & star_free
     centre = np.zeros((nv, 2))
@@ -362,10 +393,13 @@ def end_slack(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt:
     return out - (r + vt + lss * vt * np.hypot(G[:, 0], G[:, 1])) * dth / 2
 
 
-def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float) -> Checks:
+def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float,
+            grow: float = 0.0) -> Checks:
     """Run the three checks (module docstring) on every triangle of ``field``.
 
     ``lss`` (map units), ``vt < vo`` (map units per second): the game's rod length and speeds.
+    ``grow`` (map units, ``0 <= grow < lss``): ``vt·d`` for a sensing delay ``d`` (module
+    docstring); 0 is the check without delay, bit for bit.
     """
     tri = field.tri
     xy = field.points[tri]
@@ -384,5 +418,11 @@ def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float)
                                 False) < MARGIN
         bad_hi[sel] = end_slack(g_hi, hi[sel].min(1), hi[sel].max(1), lss, vt, vo,
                                 True) < MARGIN
-    blocked, meets = triangle_blocked_any(env, xy, lo.min(axis=1), hi.max(axis=1), lss)
+    if grow > 0:
+        beta = sight_widening(grow, lss)
+        blocked, _ = triangle_blocked_any(env, grow_triangles(xy, grow), lo.min(axis=1) - beta,
+                                          hi.max(axis=1) + beta, lss + grow)
+        meets = triangle_meets(env, xy)
+    else:
+        blocked, meets = triangle_blocked_any(env, xy, lo.min(axis=1), hi.max(axis=1), lss)
     return Checks(blocked & meets, bad_open & meets, bad_lo & meets, bad_hi & meets, meets)

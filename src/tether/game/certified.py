@@ -28,7 +28,7 @@ from tether.errors import InvalidParameterError
 from tether.game.certificate import FULL, ArcField, Checks, lifted_ends
 from tether.game.field_lp import solve_field
 
-__all__ = ["CertifiedKernel", "certified_kernel", "classify", "load_certified"]
+__all__ = ["CertifiedKernel", "certified_kernel", "check_delay", "classify", "load_certified"]
 
 _TAU = math.tau
 
@@ -59,6 +59,11 @@ class CertifiedKernel:
         power of two gets the same field), with time scaled so that ``vo`` = 1.
     space : Environment, optional
         The map in that frame (default: ``env`` itself, for the identity frame).
+    delay : float
+        Sensing delay ``d`` (seconds) the field is certified for: the observer sees the
+        target's position ``d`` seconds late, the field holds the *seen* state, and the line
+        of sight from the observer to the true target is free (``docs/certified.md``,
+        "Sensing delay"); the distance observer–target is then within ``lss ± vt·d``.
     """
 
     env: Environment
@@ -72,6 +77,7 @@ class CertifiedKernel:
     seconds: float = 0.0
     frame: Frame = field(default_factory=identity_frame)
     space: Environment | None = None
+    delay: float = 0.0
 
     @property
     def game(self) -> tuple[Environment, float, float, float]:
@@ -80,6 +86,12 @@ class CertifiedKernel:
         if self.space is None:
             return self.env, self.lss, self.vt, self.vo
         return self.space, self.lss * self.frame.scale, self.vt / self.vo, 1.0
+
+    @property
+    def grow(self) -> float:
+        """``vt·delay`` in the field's frame (map units there): how far the true target may be
+        from the seen one."""
+        return self.vt * self.delay * self.frame.scale
 
     @property
     def certified(self) -> bool:
@@ -172,6 +184,7 @@ class CertifiedKernel:
             "mean_arc_fraction": float(np.mean(f.w) / _TAU),
             "search": self.log,
             "seconds": self.seconds,
+            **({"delay": self.delay} if self.delay > 0 else {}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -180,7 +193,8 @@ class CertifiedKernel:
         import json
 
         f = self.field
-        np.savez_compressed(path, points=f.points, tri=f.tri, lo=f.lo, w=f.w,
+        extra = {"delay": np.array(self.delay)} if self.delay > 0 else {}
+        np.savez_compressed(path, points=f.points, tri=f.tri, lo=f.lo, w=f.w, **extra,
                             params=np.array([self.lss, self.vt, self.vo, self.h]),
                             frame=np.array([*self.frame.origin, self.frame.scale,
                                             float(self.space is not None)]),
@@ -203,13 +217,14 @@ def load_certified(path: str | Path) -> CertifiedKernel:
         ox, oy, scale, internal = (float(x) for x in d["frame"])
         log = json.loads(str(d["log"]))
         env = from_dict(json.loads(str(d["map"])))
+        delay = float(d["delay"]) if "delay" in d.files else 0.0
     frame = Frame(np.array([ox, oy]), scale)
     if internal and not (np.array_equal(env.frame.origin, frame.origin)
                          and env.frame.scale == scale):
         raise ValueError("the field's frame is not the map's normalized frame")
     ck = CertifiedKernel(env, lss, vt, vo, h, f, None, log, 0.0, frame,
-                         env.internal if internal else None)
-    ck.checks = certify(f, *ck.game)
+                         env.internal if internal else None, check_delay(delay, vt, lss))
+    ck.checks = certify(f, *ck.game, grow=ck.grow)
     ck.seconds = time.perf_counter() - t0
     return ck
 
@@ -224,9 +239,27 @@ def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return np.stack([1 - l1 - l2, l1, l2], axis=1)
 
 
+def check_delay(delay: Any, vt: float, lss: float) -> float:
+    """``delay`` (seconds) as a float, or :class:`~tether.errors.InvalidParameterError`
+    unless it is finite, ``>= 0`` and ``vt·delay < lss`` (the true target must stay nearer
+    to the seen one than the rod is long)."""
+    try:
+        d = float(delay)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"the delay must be a number of seconds, got {delay!r}"
+                                    ) from None
+    if not (math.isfinite(d) and d >= 0):
+        raise InvalidParameterError(f"the delay must be a finite number >= 0 s, got {delay}")
+    if vt * d >= lss:
+        raise InvalidParameterError(f"the delay {d:g} s is too long: vt·delay = {vt * d:g} "
+                                    f"must be below lss = {lss:g}")
+    return d
+
+
 def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
                      h: float | None = None, orientations: int = 180,
-                     progress: Any = None) -> CertifiedKernel:
+                     progress: Any = None, delay: float = 0.0,
+                     start: CertifiedKernel | None = None) -> CertifiedKernel:
     """The certified surveillance kernel: an arc field the exact checks pass, or the best
     field found with ``certified`` False (then nothing is claimed safe).
 
@@ -241,6 +274,13 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
         Orientation bins of the conservative grid kernel the search starts from.
     progress : callable, optional
         Gets each LP round's record (a dict).
+    delay : float
+        Sensing delay, seconds (``0 <= vt·delay < lss``): the observer sees the target
+        ``delay`` seconds late (``docs/certified.md``, "Sensing delay"). 0: no delay, the
+        same field bit for bit.
+    start : CertifiedKernel, optional
+        A field of the same map, speeds and spacing (one certified at a shorter delay) to try
+        first: checked at ``delay`` and kept if it passes, else the search starts from it.
 
     Examples
     --------
@@ -254,6 +294,7 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
     from tether.game.kernel import surveillance_kernel
 
     check_speeds(vt, vo, lss)
+    delay = check_delay(delay, vt, lss)
     x0, y0, x1, y1 = env.bounds
     if h is None:
         h = max(x1 - x0, y1 - y0) / 40
@@ -265,11 +306,13 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
     kern = surveillance_kernel(space, lss_i, vt_i, vo_i, h=h * frame.scale,
                                orientations=orientations)
     try:
-        f, checks, log = solve_field(space, kern, lss_i, vt_i, vo_i, progress=progress)
+        f, checks, log = solve_field(space, kern, lss_i, vt_i, vo_i, progress=progress,
+                                     grow=vt * delay * frame.scale,
+                                     start=None if start is None else start.field)
     except ValueError as exc:  # the mesh cannot follow the walls at this spacing
         raise InvalidParameterError(f"no certified kernel at h = {h:g}: {exc}") from None
     return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0,
-                           frame, space)
+                           frame, space, delay)
 
 
 def classify(certified: CertifiedKernel, optimistic: Any, points: Any,

@@ -94,12 +94,14 @@ class KernelController:
 def certified_of(world: World) -> Any:
     """``world.extra["certified"]``, computed and stored there when missing
     (:func:`~tether.game.certified.certified_kernel` at its default spacing, 1/40 of the map's
-    size: seconds on a room, minutes on a large map)."""
+    size: seconds on a room, minutes on a large map), for the sensing delay
+    ``world.extra["delay"]`` (seconds, default 0)."""
     ck = world.extra.get("certified")
     if ck is None:
         from tether.game.certified import certified_kernel
 
-        ck = certified_kernel(world.env, world.lss, world.vt, world.vo)
+        ck = certified_kernel(world.env, world.lss, world.vt, world.vo,
+                              delay=world.extra.get("delay", 0.0))
         world.extra["certified"] = ck
     return ck
 

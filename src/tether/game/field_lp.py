@@ -39,7 +39,13 @@ from scipy import sparse
 from scipy.optimize import linprog
 
 from tether.environment import Environment
-from tether.game.cells import ANGLE_MARGIN, blocked_spans, convex_pieces_of, walls_near
+from tether.game.cells import (
+    ANGLE_MARGIN,
+    blocked_spans,
+    convex_pieces_of,
+    grow_triangles,
+    walls_near,
+)
 from tether.game.certificate import (
     FULL,
     W_MIN,
@@ -49,6 +55,7 @@ from tether.game.certificate import (
     first_field,
     hat_gradients,
     lifted_ends,
+    sight_widening,
     window_min,
 )
 
@@ -91,14 +98,20 @@ def _wrap(x: np.ndarray) -> np.ndarray:
     return np.mod(x + math.pi, _TAU) - math.pi
 
 
-def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float,
+                 grow: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Per triangle ``xy`` (n, 3, 2), the free window ``[f_lo, f_hi]`` (lifted near ``ref``,
     radians) of orientations free from every point of the triangle's free part that holds
     ``ref``; ``(-inf, inf)`` where nothing is blocked, ``f_lo > f_hi`` where ``ref`` itself is
     blocked. Blocked spans are exact (:func:`tether.game.cells.blocked_spans`) and widened by
-    :data:`~tether.game.cells.ANGLE_MARGIN`."""
+    :data:`~tether.game.cells.ANGLE_MARGIN`. With a sensing delay (``grow = vt·d > 0``, map
+    units) the window is that of check 1 with the delay: the triangle grown by ``grow``, rods
+    ``lss + grow`` long, each blocked span widened by
+    :func:`~tether.game.certificate.sight_widening` more."""
     n = len(xy)
+    widen = ANGLE_MARGIN + sight_widening(grow, lss)
+    if grow > 0:
+        xy, lss = grow_triangles(xy, grow), lss + grow
     f_lo = np.full(n, -np.inf)
     f_hi = np.full(n, np.inf)
     quads = np.concatenate([xy, xy[:, 2:3]], axis=1)
@@ -110,7 +123,7 @@ def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float
         pc, wl = piece[s:s + 200_000], wall[s:s + 200_000]
         b0, b1, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
         t = owner[pc][hit]
-        b0, b1 = b0[hit] - ANGLE_MARGIN, b1[hit] + ANGLE_MARGIN
+        b0, b1 = b0[hit] - widen, b1[hit] + widen
         r = ref[t]
         whole = (b1 - b0) >= _TAU
         k = np.floor((b0 - r) / _TAU)  # b0 shifted into [r, r + 2π)
@@ -145,14 +158,16 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              margin: float = 0.03, rounds: int = 20, headings: int = 256,
              core_radius: float = 0.0, core: np.ndarray | None = None,
              release: float | None = None,
-             progress: Callable[[dict], Any] | None = None) -> LPResult:
+             progress: Callable[[dict], Any] | None = None, grow: float = 0.0) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
     per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
     units): whole-circle vertices at least this far from every gap start in the core (or
     ``core``, a mask); ``release`` (map units, default three mean edge lengths): how near to a
-    stuck slack a core vertex is released. ``progress`` gets each round's record. Returns the
+    stuck slack a core vertex is released. ``progress`` gets each round's record. ``grow``
+    (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
+    :func:`free_windows`). Returns the
     ends per vertex (radians) and the search's record."""
     nv, nt = len(points), len(tri)
     xy = points[tri]
@@ -197,7 +212,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         # free windows around the middle of the vertices' common arc (else vertex 0's middle)
         cmid = np.where(Lt.max(1) <= Ht.min(1), (Lt.max(1) + Ht.min(1)) / 2,
                         (Lt[:, 0] + Ht[:, 0]) / 2)
-        f_lo, f_hi = free_windows(env, xy, cmid, lss)
+        f_lo, f_hi = free_windows(env, xy, cmid, lss, grow)
         x_lb = np.full(nv, -rho)
         y_ub = np.full(nv, rho)
         np.maximum.at(x_lb, tri.ravel(), (f_lo[:, None] + WINDOW_GAP - Lt).ravel())
@@ -324,30 +339,57 @@ def vortex_radius(lss: float, vt: float, vo: float) -> float:
 
 def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
                 tries: tuple[float, ...] = (0.0, 2 / 3, 1.0), rounds: int = 60,
-                progress: Callable[[dict], Any] | None = None
-                ) -> tuple[ArcField, Checks | None, list]:
+                progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
+                start: ArcField | None = None) -> tuple[ArcField, Checks | None, list]:
     """The first field :func:`~tether.game.certificate.certify` passes, searched from
     :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
     the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
     gaps (0: every whole-circle vertex, released where needed). Returns ``(field, checks,
     log)``: the last field tried and its checks (``checks.passed`` when certified; None when
     the first field already has a closed arc, which no search can open), and one record per
-    try."""
+    try.
+
+    ``grow`` (map units, ``vt·d``): the sensing delay of :func:`certify`. ``start``: a field
+    on the same mesh to try first (one certified at a shorter delay: it is checked at this
+    one, kept if it passes, else the search starts from it with the first core size of
+    ``tries``, and then from the first field as without it)."""
     log: list = []
     r_v = vortex_radius(lss, vt, vo)
-    f = first_field(kern)
+    f = first_field(kern, grow)
     checks = None
+    if start is not None and np.array_equal(start.points, f.points) \
+            and np.array_equal(start.tri, f.tri):
+        g = ArcField(f.points, f.tri, start.lo.copy(), start.w.copy())
+        checks = certify(g, env, lss, vt, vo, grow)
+        log.append({"start": "given", "failing": int(checks.bad.sum())})
+        if checks.passed:
+            return g, checks, log
+        g, checks = _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow, log)
+        if checks.passed:
+            return g, checks, log
     if (f.w <= 0).any():
         log.append({"core": None, "closed_arcs": int((f.w <= 0).sum())})
         return f, None, log
+    f, checks = _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log)
+    return f, checks, log
+
+
+def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
+            tries: tuple[float, ...], r_v: float, rounds: int,
+            progress: Callable[[dict], Any] | None, grow: float, log: list
+            ) -> tuple[ArcField, Checks]:
+    """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
+    field passes :func:`certify`: the last field and its checks (records appended to
+    ``log``)."""
     start = (f.lo.copy(), f.w.copy())
+    checks = None
     for q in tries:
         r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
-                     core_radius=q * r_v, progress=progress)
+                     core_radius=q * r_v, progress=progress, grow=grow)
         f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
-        checks = certify(f, env, lss, vt, vo)
+        checks = certify(f, env, lss, vt, vo, grow)
         log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
                     "failing": int(checks.bad.sum())})
         if checks.passed:
             break
-    return f, checks, log
+    return f, checks

@@ -11,6 +11,13 @@ observer's chord ``|O' − O|`` at most ``vo·dt``. The first failure is located
 step, and the run ends ``lost`` at that time with the reason in words. Mode switches (when the
 controller offers ``mode_at``) and piece crossings (when the world has a decomposition) are
 located the same way and logged as events.
+
+**Sensing delay** (``delay = D`` s, ``docs/certified.md``, "Sensing delay"): the controller is
+given the target's position ``k = ceil(D/dt)`` steps late (``D`` rounded up to a whole number
+of steps) and the velocity it had then; before the start the target stood at its start. The
+observer is then ``q + lss·u(a)`` with ``q`` the *seen* position, and the monitor checks the
+*true* line of sight, the segment from the observer to the target ``p``, the observer's chord,
+and the distance ``|o − p|`` within ``lss ± vt·k·dt``.
 """
 
 from __future__ import annotations
@@ -77,7 +84,8 @@ class MonitorStats:
 @dataclass(frozen=True, eq=False)
 class Trace:
     """Samples of a run: times (s), target ``p`` (n, 2), rod ``a`` (rad), observer (n, 2), and
-    per step (n − 1 rows) the mode, the rod rate (rad/s) and the chord speed ratio."""
+    per step (n − 1 rows) the mode, the rod rate (rad/s) and the chord speed ratio; with a
+    sensing delay, ``seen`` (n, 2): the target's position the controller was given."""
 
     t: np.ndarray
     p: np.ndarray
@@ -86,6 +94,8 @@ class Trace:
     mode: tuple[str, ...]
     rate: np.ndarray
     speed_ratio: np.ndarray
+    seen: np.ndarray | None = None
+
 
     def __len__(self) -> int:
         return len(self.t)
@@ -94,7 +104,8 @@ class Trace:
         """The trace as JSON-ready lists (times in seconds, positions in map units)."""
         return {"t": self.t.tolist(), "target": self.p.tolist(), "a": self.a.tolist(),
                 "observer": self.observer.tolist(), "mode": list(self.mode),
-                "rate": self.rate.tolist(), "speed_ratio": self.speed_ratio.tolist()}
+                "rate": self.rate.tolist(), "speed_ratio": self.speed_ratio.tolist(),
+                **({"seen": self.seen.tolist()} if self.seen is not None else {})}
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,6 +141,8 @@ class SimResult:
     monitor: MonitorStats
     events: tuple[Event, ...]
     trace: Trace = field(repr=False)
+    delay: float = 0.0
+    delay_steps: int = 0
 
     @property
     def held(self) -> bool:
@@ -153,6 +166,8 @@ class SimResult:
              "mode_time": dict(self.mode_time), "modes": self.modes,
              "monitor": self.monitor.to_dict(), "steps": len(self.trace) - 1,
              "events": [e.to_dict() for e in self.events]}
+        if self.delay > 0:
+            d["delay"], d["delay_steps"] = self.delay, self.delay_steps
         if trace:
             d["trace"] = self.trace.to_dict()
         return d
@@ -186,6 +201,23 @@ class Monitor:
         o = self.observer(p, a)
         return bool(self.env.contains(o[0], o[1])) and rod_is_free(self.env, p, a, self.lss)
 
+    def ok_seen(self, p: np.ndarray, q: np.ndarray, a: float) -> bool:
+        """With a sensing delay: whether the observer ``q + lss·u(a)`` (``q`` the seen
+        target) is in the free space and the line of sight from it to the true target ``p``
+        is free (the exact rod test from ``p`` toward the observer)."""
+        o = self.observer(q, a)
+        d = o - p
+        return bool(self.env.contains(o[0], o[1])) and rod_is_free(
+            self.env, p, math.atan2(d[1], d[0]), float(np.hypot(d[0], d[1])))
+
+    def why_seen(self, p: np.ndarray, q: np.ndarray, a: float) -> str:
+        """Words for a failure of :meth:`ok_seen`."""
+        o = self.observer(q, a)
+        if not bool(self.env.contains(o[0], o[1])):
+            return self.why(q, a)
+        d = np.where(self.env.reflex, _seg_dist_points(self.env.vertices, p, o), np.inf)
+        return f"line of sight occluded by {self.env.vertex_name(int(np.argmin(d)))}"
+
     def why(self, p: np.ndarray, a: float) -> str:
         """Words for an inadmissible configuration: which wall or vertex is in the way."""
         env = self.env
@@ -201,9 +233,12 @@ class Monitor:
         j = int(np.argmin(d))
         return f"rod occluded by {env.vertex_name(j)}"
 
-    def measure(self, p0: np.ndarray, a0: float, p1: np.ndarray, a1: float, dt: float) -> float:
-        """Record the step's statistics; return the chord speed ratio."""
-        o0, o1 = self.observer(p0, a0), self.observer(p1, a1)
+    def measure(self, p0: np.ndarray, a0: float, p1: np.ndarray, a1: float, dt: float,
+                q0: np.ndarray | None = None, q1: np.ndarray | None = None) -> float:
+        """Record the step's statistics; return the chord speed ratio. With a sensing delay
+        the observer is at the seen targets ``q0``, ``q1`` plus the rod."""
+        o0 = self.observer(p0 if q0 is None else q0, a0)
+        o1 = self.observer(p1 if q1 is None else q1, a1)
         ratio = float(np.linalg.norm(o1 - o0)) / (self.world.vo * dt)
         self.max_ratio = max(self.max_ratio, ratio)
         mid = 0.5 * (o0 + o1) - 0.5 * (p0 + p1)
@@ -283,7 +318,8 @@ def _locate(bad: Callable[[np.ndarray, float], bool], p: np.ndarray, v: np.ndarr
 def simulate(world: World, controller: Controller, target: Target,
              start: tuple[float, float, float], duration: float = 20.0, dt: float = 0.02,
              seed: int = 0, monitor: bool = True,
-             progress: Callable[[str, float], None] | None = None) -> SimResult:
+             progress: Callable[[str, float], None] | None = None,
+             delay: float = 0.0) -> SimResult:
     """Run ``target`` against ``controller`` from ``start = (x, y, a)`` for ``duration`` s.
 
     Parameters
@@ -303,6 +339,9 @@ def simulate(world: World, controller: Controller, target: Target,
         a run, which is useful only to measure the controller's cost.
     progress : callable, optional
         ``progress(stage, fraction)`` for long runs.
+    delay : float
+        Sensing delay, seconds (module docstring): the controller sees the target
+        ``ceil(delay/dt)`` steps late. 0: no delay.
 
     Raises
     ------
@@ -338,10 +377,18 @@ def simulate(world: World, controller: Controller, target: Target,
     """
     if not (dt > 0 and duration >= 0 and math.isfinite(dt) and math.isfinite(duration)):
         raise InvalidParameterError(f"need dt > 0 and duration >= 0 (dt={dt}, duration={duration})")
+    if not (math.isfinite(delay) and delay >= 0):
+        raise InvalidParameterError(f"the delay must be a finite number >= 0 s, got {delay}")
     x, y, a = (float(c) for c in start)
     check_start(world, x, y, a)
+    lag = int(math.ceil(delay / dt - 1e-9)) if delay > 0 else 0  # whole steps
+    reach = world.vt * lag * dt  # how far the true target may be from the seen one
+    seen_v: list[np.ndarray] = []  # the target's velocity per step, for the seen one
+
     rng = np.random.default_rng(seed)
     p = np.array([x, y])
+    q = p.copy()  # the seen target (p itself without delay)
+    qs = [q.copy()]
     controller.reset(world, p.copy(), a)
     world.extra["controller"] = controller  # white-box targets attack a copy of it
     target.reset(world, p.copy(), a, rng)
@@ -366,7 +413,9 @@ def simulate(world: World, controller: Controller, target: Target,
             break
         v = _clip_speed(target.velocity(t, p.copy(), a), world.vt)
         v = _keep_inside(world, p, v, h)
-        cmd: Command = controller.step(p.copy(), v, a, h)
+        seen_v.append(v)
+        vq = v if not lag else (seen_v[k - lag] if k >= lag else np.zeros(2))
+        cmd: Command = controller.step((q if lag else p).copy(), vq, a, h)
         if not cmd.feasible or not math.isfinite(cmd.rate):
             outcome, lost_at = Outcome.LOST, t
             reason = cmd.reason or "no admissible rod rate (the controller gave up)"
@@ -374,6 +423,7 @@ def simulate(world: World, controller: Controller, target: Target,
             break
         rate = float(cmd.rate)
         p1 = p + v * h
+        q1 = q + vq * h if lag else p1
         a1 = a + rate * h
         mode = cmd.mode
         if prev_mode is not None and mode != prev_mode:
@@ -383,12 +433,14 @@ def simulate(world: World, controller: Controller, target: Target,
                 te = t + s * h
             events.append(Event(te, "mode", f"{prev_mode} -> {mode}"))
         prev_mode = mode
-        ratio = mon.measure(p, a, p1, a1, h)
+        ratio = mon.measure(p, a, p1, a1, h, *((q, q1) if lag else ()))
         lost_now = None
         if monitor:
             if ratio > 1.0 + SPEED_TOL:
                 lost_now = (t, f"rate needed beyond vo: the observer's chord was {ratio:.6g} "
                                f"times vo·dt")
+            elif lag:
+                lost_now = _check_seen(mon, p, q, v, vq, a, rate, h, t, reach)
             elif not mon.ok(p1, a1):
                 s = _locate(lambda q, b: not mon.ok(q, b), p, v, a, rate, h)
                 ps_, as_s = p + s * v * h, a + s * rate * h
@@ -416,12 +468,14 @@ def simulate(world: World, controller: Controller, target: Target,
         if lost_now is not None:
             outcome, lost_at, reason = Outcome.LOST, lost_now[0], lost_now[1]
             events.append(Event(lost_at, "loss", reason))
-            p, a, t = p1, a1, t + h
+            p, a, t, q = p1, a1, t + h, q1
+            qs.append(q.copy())
             ts.append(t)
             ps.append(p.copy())
             as_.append(a)
             break
-        p, a, t = p1, a1, t + h
+        p, a, t, q = p1, a1, t + h, q1
+        qs.append(q.copy())
         ts.append(t)
         ps.append(p.copy())
         as_.append(a)
@@ -431,12 +485,41 @@ def simulate(world: World, controller: Controller, target: Target,
         progress("simulate", 1.0)
     P = np.array(ps).reshape(-1, 2)
     A = np.array(as_, dtype=float)
-    O = P + world.lss * np.column_stack((np.cos(A), np.sin(A)))
-    trace = Trace(np.array(ts), P, A, O, tuple(modes), np.array(rates), np.array(ratios))
+    Q = np.array(qs).reshape(-1, 2) if lag else P
+    O = Q + world.lss * np.column_stack((np.cos(A), np.sin(A)))
+    trace = Trace(np.array(ts), P, A, O, tuple(modes), np.array(rates), np.array(ratios),
+                  Q if lag else None)
     return SimResult(outcome, lost_at, reason, float(duration), float(dt), int(seed),
                      (x, y, float(start[2])), _name(controller), _name(target),
                      {m: round(s, 12) for m, s in mode_time.items()}, mon.stats(),
-                     tuple(events), trace)
+                     tuple(events), trace, float(delay) if lag else 0.0, lag)
+
+
+#: Relative slack of the monitor's distance check with a delay (rounding of the positions).
+DISTANCE_TOL = 1e-9
+
+
+def _check_seen(mon: Monitor, p: np.ndarray, q: np.ndarray, v: np.ndarray, vq: np.ndarray,
+                a: float, rate: float, h: float, t: float, reach: float
+                ) -> tuple[float, str] | None:
+    """The monitor's checks of one step with a sensing delay (module docstring): ``None``,
+    or the time of the first failure in the step (bisection) and words for it."""
+    p1, q1, a1 = p + v * h, q + vq * h, a + rate * h
+    o1 = mon.observer(q1, a1)
+    dist = float(np.hypot(*(o1 - p1)))
+    if abs(dist - mon.lss) > reach + DISTANCE_TOL * max(1.0, mon.lss):
+        return (t + h, f"distance observer-target {dist:.6g} outside lss +/- vt·delay "
+                       f"({mon.lss - reach:.6g} to {mon.lss + reach:.6g})")
+    if mon.ok_seen(p1, q1, a1):
+        return None
+    lo, hi = 0.0, 1.0
+    for _ in range(LOCATE_ITERS):
+        mid = 0.5 * (lo + hi)
+        if mon.ok_seen(p + mid * h * v, q + mid * h * vq, a + mid * h * rate):
+            lo = mid
+        else:
+            hi = mid
+    return (t + hi * h, mon.why_seen(p + hi * h * v, q + hi * h * vq, a + hi * h * rate))
 
 
 def _piece_between(dec: Any, r0: int, r1: int) -> str:
