@@ -108,6 +108,11 @@ def test_certified_json_at_save_and_simulate(capsys, tmp_path):
     assert out["failing_triangles"] == {"free": 0, "open": 0, "lo": 0, "hi": 0}
     assert 0.5 < out["safe_fraction"] < 1.0
     assert out["at"]["certified"] == "safe" and out["at"]["margin"] > 0
+    band = out["band"]  # the lattice's free states split three ways, the certified ones first
+    assert (band["certified_states"] + band["undecided_states"] + band["unsafe_states"]
+            == band["free_states"] > 0)
+    assert band["contradictions"] == 0 and 0 < band["share"] < 0.5
+    assert 0 < band["reach_95"] <= band["reach"] < 3.0
     sim = ["simulate", str(example_path("nonconvex_corner")), "--lss", "1", "--vt", "0.3",
            "--vo", "1", "--controller", "certified", "--kernel", str(npz), "--target",
            "wall", "--start", "5", "5", "0", "--duration", "5", "--json"]

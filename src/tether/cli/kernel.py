@@ -84,6 +84,7 @@ def _certified(args: argparse.Namespace, env) -> int:
     from tether._util.progress import Progress
     from tether.errors import InvalidParameterError
     from tether.game import surveillance_kernel
+    from tether.game.band import undecided_band
     from tether.game.certified import certified_kernel, classify
 
     if args.scheme != "inner" or args.directions != 8:
@@ -98,10 +99,11 @@ def _certified(args: argparse.Namespace, env) -> int:
     out = ck.to_dict()
     frac, err = ck.safe_fraction(samples=20_000)
     out["safe_fraction"], out["safe_fraction_error"] = frac, err
-    outer = None
-    if args.at is not None or args.plot:
-        outer = surveillance_kernel(env, args.lss, args.vt, args.vo, h=ck.h,
-                                    orientations=args.orientations, scheme="outer")
+    # the optimistic kernel on the same lattice: the unsafe answer, and the band between
+    outer = surveillance_kernel(env, args.lss, args.vt, args.vo, h=ck.h,
+                                orientations=args.orientations, scheme="outer")
+    band = undecided_band(ck, outer)
+    out["band"] = band.to_dict()
     if args.at is not None:
         x, y, a = args.at
         answer = str(classify(ck, outer, [[x, y]], a)[0])
@@ -136,6 +138,13 @@ def _certified(args: argparse.Namespace, env) -> int:
         bad = sum(fail.values()) if fail else "all"
         print(f"  NOT certified ({bad} triangles fail the checks): no state is claimed safe; "
               f"try a finer --h or a lower vt/vo")
+    unsafe = 100 * band.unsafe_states / max(band.free_states, 1)
+    print(f"  undecided: {100 * band.share:.1f}% of the lattice's free states (in the optimistic "
+          f"kernel, not certified),\n    within {band.reach:.3g} map units of a decided state "
+          f"(95%: {band.reach_95:.3g}); unsafe: {unsafe:.1f}%")
+    if band.contradictions:
+        print(f"  WARNING: {band.contradictions} certified states lie outside the optimistic "
+              f"kernel (one of the two games is wrong there, or within a bin of both boundaries)")
     print(f"  {out['seconds']:.2f} s")
     if "at" in out:
         at = out["at"]
