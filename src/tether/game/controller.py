@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import rod_is_free_many
+from tether.game.certificate import FULL
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
@@ -153,7 +154,7 @@ class CertifiedController:
             return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
         width = hi[1] - lo[1]
         w0 = hi[0] - lo[0]
-        if ok[0] and w0 < _FULL:  # the state's relative place in its arc (an end if outside)
+        if ok[0] and w0 < FULL:  # the state's relative place in its arc (an end if outside)
             x = float(np.mod(a - lo[0], math.tau))
             s = x / w0 if x <= w0 else (0.0 if math.tau - x < x - w0 else 1.0)
             aim = lo[1] + s * width
@@ -164,15 +165,12 @@ class CertifiedController:
         return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
 
 
-_FULL = math.tau - 1e-9
-
-
 def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float,
              aim: float) -> float:
     """The orientation in ``[lo_reach, hi_reach]`` (reachable, lifted around ``a``) nearest to
     ``aim`` among those in the arc ``[lo, lo + width]`` (any lift); if the two do not meet,
     the reachable orientation nearest to the arc."""
-    if width >= _FULL:
+    if width >= FULL:
         return min(max(a, lo_reach), hi_reach)
     base = lo + math.tau * math.floor((lo_reach - lo) / math.tau)  # the lift at or below
     best, best_d = None, math.inf
