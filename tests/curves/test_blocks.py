@@ -41,8 +41,19 @@ def test_intervals_of_each_curve_alone(env, lss, monkeypatch):
     assert_same_in_blocks(env, lss, 1, monkeypatch)
 
 
+def test_conchoid_intervals_in_blocks(monkeypatch):
+    inner, fams = inner_families(GENERIC, 2.5)
+    fam = fams[-1]
+    assert fam.kind == "E" and len(fam) > 10
+    whole = critical_intervals(inner, fam)
+    monkeypatch.setattr(critical, "SAMPLE_BLOCK", 150)  # a few curves a block
+    monkeypatch.setattr(critical, "_FIRST_BLOCK", 1)
+    assert critical_intervals(inner, fam) == whole
+    assert any(whole)
+
+
 def test_polylines_of_each_curve_alone(monkeypatch):
-    inner, fams = inner_families(PLAN, PLAN_LSS)
+    inner, fams = inner_families(GENERIC, 2.5)
     tol = REL_CURVE_TOL * inner.diameter
     found = []
     for fam in fams:
@@ -85,13 +96,14 @@ def test_reflex_pairs_in_row_blocks(env, lss, block, monkeypatch):
         assert x.dtype == y.dtype and np.array_equal(x, y)
 
 
+@pytest.mark.slow
 def test_critical_curves_in_small_blocks(monkeypatch):
-    whole = critical_curves(STAR_HOLE, 1.5)
-    monkeypatch.setattr(critical, "SAMPLE_BLOCK", 50)
-    monkeypatch.setattr(critical, "_FIRST_BLOCK", 2)
+    whole = critical_curves(GENERIC, 2.5)
+    monkeypatch.setattr(critical, "SAMPLE_BLOCK", 300)
+    monkeypatch.setattr(critical, "_FIRST_BLOCK", 4)
     monkeypatch.setattr(draw, "DRAW_BLOCK", 10)
     monkeypatch.setattr(families, "_PAIR_BLOCK", 3)
-    small = critical_curves(STAR_HOLE, 1.5)
+    small = critical_curves(GENERIC, 2.5)
     assert [(c.name, c.intervals) for c in small] == [(c.name, c.intervals) for c in whole]
     for c, d in zip(small, whole, strict=True):
         assert all(np.array_equal(p, q) for p, q in zip(c.polylines, d.polylines, strict=True))
