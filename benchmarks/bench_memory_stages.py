@@ -156,9 +156,18 @@ heap is trimmed after each family (the same curves, bit for bit):
 DECOMPOSE_TEXT = """
 A decomposition in tiles on two workers and its analysis (`--decompose`: the measuring child
 of `benchmarks/bench_scale.py`), the main process's peak over each stage and what it holds
-once `decompose` has returned (*held*). The stage peaks before the change, at e35e25b, are in
-`docs/scale.md` (its stage table: curves 235 and 774 MB, structures 346 and 1,024 MB,
-regions 653 and 1,723 MB, pieces 669 and 2,354 MB at 1,000 and 2,000 vertices):
+once `decompose` has returned (*held*). Besides the curves: the structures stage finds its
+structure ids without the grid of every face's cells padded to the longest
+(`tether.decomposition.structure`: the grid's row hash made column by column, rows times the
+longest row of int64 before), the regions stage builds the segment grid of its clearance
+search with fewer temporaries (`tether.spatial`), and the cells' columns are made in the
+cell table's int32 and int16 types (no int64 copy of three columns held to the end of
+`decompose`: 24 bytes a cell). The regions stage's peak is still its clearance search
+(`tether.decomposition.pieces.part_candidates`: two segment grids of up to 16 entries a
+segment), the pieces stage's is the decomposition's. The stage peaks before these changes,
+at e35e25b, are in `docs/scale.md` (its stage table: curves 235 and 774 MB, structures 346
+and 1,024 MB, regions 653 and 1,723 MB, pieces 669 and 2,354 MB at 1,000 and 2,000
+vertices, measured under another load):
 """
 
 
