@@ -42,6 +42,7 @@ curve is computed and refuses what does not fit the memory budget (the default c
 
 from __future__ import annotations
 
+from tether._util.memory import release_memory
 from tether.curves.budget import check_exact
 from tether.curves.critical import ON_WALL_TOLS as ON_WALL_TOLS
 from tether.curves.critical import critical_intervals, off_walls, wall_band
@@ -131,10 +132,12 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
             walls = wall_band(env) if walls is None else walls
             ivs = off_walls(fam, ivs, walls)
         found += overshoot_family(fam, ivs, margin)
-    vertices = sum(vertex_estimates(found, tol))
+        release_memory()  # the family's temporaries, returned before the next one's
+    estimates = vertex_estimates(found, tol)
+    vertices = sum(estimates)
     check_vertex_budget(vertices, lss)
     check_exact(env, lss, vertices)
-    drawn_all = draw_all(found, tol)
+    drawn_all = draw_all(found, tol, estimates)
     domains = {id(fam): (fam.lo.tolist(), fam.hi.tolist())
                for fam in {id(f): f for f, _, _ in found}.values()}
     for (fam, c, ivs), drawn in zip(found, drawn_all, strict=True):

@@ -16,7 +16,8 @@ from tether.arcs import rod_is_free_many, rod_is_free_rows, rod_rows
 from tether.curves.families import Family, take
 from tether.environment import Environment
 
-__all__ = ["ON_WALL_TOLS", "critical_intervals", "insert_after", "off_walls", "wall_band"]
+__all__ = ["ON_WALL_TOLS", "SAMPLE_BLOCK", "critical_intervals", "insert_after", "off_walls",
+           "wall_band"]
 
 
 #: Uniform semi-free test samples per curve (the domain's ends and middle) besides the samples
@@ -32,6 +33,17 @@ _SPLIT = 0.3819660112501051
 _BISECTIONS = 30
 
 
+#: Semi-free test samples per block of curves in :func:`critical_intervals` (about: the
+#: blocks are sized from the samples per curve of the block before). Every array of the
+#: computation (breakpoint pairs, samples, transitions and their candidate edge rows) grows
+#: with the samples, so this bounds its memory: at 2,000 map vertices the conchoids' 2.9
+#: million samples at once peaked ~500 MB above what was held, ~4 times that at 4,000. The
+#: curves are independent (every step is row by row): the same intervals in any blocks.
+SAMPLE_BLOCK = 400_000
+#: Curves in the first block (the later ones are sized by :data:`SAMPLE_BLOCK`)
+_FIRST_BLOCK = 1024
+
+
 def critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
                         ) -> list[list[tuple[float, float]]]:
     """Parameter intervals of each curve where its event rod is semi-free.
@@ -40,11 +52,28 @@ def critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
     curve is tested just either side of every breakpoint, inside every longer stretch between
     two consecutive samples, and at its domain's ends (``_BASE_SAMPLES``; at least
     24 and ``per_lss`` per rod length of curve when ``per_lss`` > 0: the former dense
-    sampling, kept as an independent check)."""
+    sampling, kept as an independent check). The curves are taken in blocks of about
+    :data:`SAMPLE_BLOCK` samples (bounded memory; the same intervals)."""
+    m = len(fam)
+    out: list[list[tuple[float, float]]] = []
+    a, size = 0, min(m, _FIRST_BLOCK)
+    while a < m:
+        b = min(a + size, m)
+        ivs, samples = _block_intervals(env, fam.rows(np.arange(a, b)), per_lss)
+        out += ivs
+        # the next block sized from this one's samples per curve, growing at most 4 times
+        per_curve = max(samples, 1) / (b - a)
+        size = int(min(max(SAMPLE_BLOCK / per_curve, 1), 4 * (b - a)))
+        a = b
+    return out
+
+
+def _block_intervals(env: Environment, fam: Family, per_lss: float
+                     ) -> tuple[list[list[tuple[float, float]]], int]:
+    """:func:`critical_intervals` of every curve of ``fam`` at once, and the number of
+    samples tested."""
     m = len(fam)
     out: list[list[tuple[float, float]]] = [[] for _ in range(m)]
-    if m == 0:
-        return out
     L = fam.lss
     cidx = np.arange(m)
     if per_lss > 0:
@@ -100,7 +129,7 @@ def critical_intervals(env: Environment, fam: Family, per_lss: float = 0.0
             if len(ivs) > 1 and ivs[0][0] == fam.lo[0] and ivs[-1][1] == fam.hi[0]:
                 ivs[0] = (ivs[-1][0] - 2 * math.pi, ivs[0][1])
                 ivs.pop()
-    return out
+    return out, len(c)
 
 
 def _bisect(env: Environment, sub: Family, ta: np.ndarray, tb: np.ndarray, fa: np.ndarray

@@ -14,7 +14,7 @@ from tether._util.arrays import ragged_arange
 from tether.curves.critical import insert_after
 from tether.curves.families import Family, take
 
-__all__ = ["draw_all", "overshoot_family", "vertex_estimates"]
+__all__ = ["DRAW_BLOCK", "draw_all", "overshoot_family", "vertex_estimates"]
 
 
 def _overshoot(fam: Family, c: int, iv: tuple[float, float], margin: float
@@ -137,17 +137,43 @@ def _reach_many(fam: Family, c: np.ndarray, t: np.ndarray, dt: np.ndarray, margi
     return out
 
 
-def draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: float
-              ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+#: Polyline vertices (estimated, :func:`vertex_estimates`) drawn at once by
+#: :func:`draw_all`: its temporaries are ~120 bytes a vertex (125 MB for the 1.1 million
+#: vertices of 2,000 map vertices drawn at once); the polylines are the same in any blocks
+DRAW_BLOCK = 250_000
+
+
+def draw_all(found: list[tuple[Family, int, list[tuple[float, float]]]], tol: float,
+             estimates: list[float] | None = None
+             ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """:func:`_polyline` of every interval of ``found``: straight curves and circles in one
     vectorized pass per family (then their marks inserted curve by curve), conchoids one by
-    one (adaptive)."""
+    one (adaptive); in blocks of about :data:`DRAW_BLOCK` estimated vertices (``estimates``:
+    :func:`vertex_estimates` of ``found``, computed here if not given)."""
+    if estimates is None:
+        estimates = vertex_estimates(found, tol)
     out: list[list[tuple[np.ndarray, np.ndarray]]] = []
+    at = 0
     for fam, group in _family_runs(found):
-        if fam.kind == "E":
-            out += _draw_conchoids(fam, group, tol)
-        else:
-            out += _draw_simple(fam, group, tol)
+        for a, b in _blocks(estimates[at:at + len(group)], DRAW_BLOCK):
+            if fam.kind == "E":
+                out += _draw_conchoids(fam, group[a:b], tol)
+            else:
+                out += _draw_simple(fam, group[a:b], tol)
+        at += len(group)
+    return out
+
+
+def _blocks(sizes: list[float], limit: float) -> list[tuple[int, int]]:
+    """Consecutive ``(start, stop)`` blocks of the items of ``sizes``, each of total size at
+    most ``limit`` or a single item."""
+    ends = np.cumsum(np.asarray(sizes, dtype=float))
+    out, a = [], 0
+    while a < len(sizes):
+        base = ends[a - 1] if a else 0.0
+        b = max(int(np.searchsorted(ends, base + limit, side="right")), a + 1)
+        out.append((a, b))
+        a = b
     return out
 
 

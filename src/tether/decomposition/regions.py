@@ -27,6 +27,7 @@ from tether.decomposition.views import (
     CellTable,
     PackedFaces,
     RegionShapes,
+    cell_types,
     packed_geometries,
 )
 from tether.environment import Environment
@@ -264,18 +265,23 @@ def make_regions(env: Environment, arr: Arrangement, numbering: dict[str, Any],
         point = out.points(point)
     sid = face_sid[best[numbering["rank"]]]
     structs.region = sid  # region i's structure id
-    region, start, end = _structure_cells(env, structs, sid)
-    if out is None:
-        names = [FREE] + feature_names(env)
-    else:  # the file's codes and names
-        cm = np.append(np.asarray(out.code_map, dtype=np.int64), -1)  # index -1: stays -1
-        start, end = cm[start], cm[end]
+    # the cells' columns made in the table's int types (:func:`cell_types`): no 24 bytes
+    # a cell of int64 columns, then copied (~1 GB at 4,000 map vertices)
+    names = [FREE] + feature_names(env)
+    region_t, code_t = cell_types(len(names), len(rank))
+    region, start, end = _structure_cells(env, structs, sid, region_t, code_t)
+    if out is not None:  # the file's codes and names
         names = [FREE] + [feature_name(out.env, c) for c in range(2 * out.env.n)]
+        code_t = cell_types(len(names), len(rank))[1]
+        cm = np.append(np.asarray(out.code_map, dtype=np.int64), -1)  # index -1: stays -1
+        cm = cm.astype(code_t)
+        start, end = cm[start], cm[end]
     table = CellTable(region, start, end, names, len(rank))
+    del region, start, end
     g = numbering["rank"]  # region rid is the group g[rid]: its records made when read
     regions = Regions(RegionTable(area[g], np.asarray(point).reshape(-1, 2)[g], polys,
                                   structs, table))
-    return regions, Cells(table), (region, start, end)
+    return regions, Cells(table), (table.region, table.start, table.end)
 
 
 def _region_shapes(arr: Arrangement, flat: np.ndarray, size: np.ndarray, rank: np.ndarray,
@@ -300,16 +306,17 @@ def _region_shapes(arr: Arrangement, flat: np.ndarray, size: np.ndarray, rank: n
     return RegionShapes(None, unions, None if out is None else out.frame, wkb=polys)
 
 
-def _structure_cells(env: Environment, structs: Structures, sid: np.ndarray
+def _structure_cells(env: Environment, structs: Structures, sid: np.ndarray,
+                     region_t: type = np.int64, code_t: type = np.int64
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The cells of regions of structure ids ``sid`` (of ``structs``): ``(region, start code,
-    end code)`` int columns, region by region, each region's cells sorted by (start name, end
-    name) as :func:`structure_codes` sorts them (one sort on name ranks over every
-    distinct structure; a FULL region's cell is ``(-1, -1)``, an EMPTY one has none)."""
+    end code)`` int columns (of types ``region_t`` and ``code_t``, which must hold them),
+    region by region, each region's cells sorted by (start name, end name) as
+    :func:`structure_codes` sorts them (one sort on name ranks over every distinct
+    structure; a FULL region's cell is ``(-1, -1)``, an EMPTY one has none)."""
     n = len(sid)
     if n == 0:
-        empty = np.zeros(0, np.int64)
-        return empty, empty, empty
+        return np.zeros(0, region_t), np.zeros(0, code_t), np.zeros(0, code_t)
     ids, inv = np.unique(sid, return_inverse=True)
     npairs = structs.ptr[ids + 1] - structs.ptr[ids]
     size = npairs + (ids == 1)  # FULL: one cell, no pairs
@@ -327,8 +334,8 @@ def _structure_cells(env: Environment, structs: Structures, sid: np.ndarray
         order = np.argsort((row * m + ra) * m + rb, kind="stable")
     else:
         order = np.lexsort((rb, ra, row))
-    a, b = a[order], b[order]
+    a, b = a[order].astype(code_t), b[order].astype(code_t)
     count = size[inv.ravel()]
     rows = ragged_arange(starts[inv.ravel()], count)
-    region = np.repeat(np.arange(n, dtype=np.int64), count)
+    region = np.repeat(np.arange(n, dtype=region_t), count)
     return region, a[rows], b[rows]

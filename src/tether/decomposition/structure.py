@@ -78,19 +78,72 @@ def structure_ids_of(nvertices: int, full: np.ndarray, point: np.ndarray,
     if not new.all():  # a set holds each pair once
         point, pair = point[new], pair[new]
     counts = np.bincount(point, minlength=npts)
-    width = int(counts.max())
     first = np.cumsum(counts) - counts
     rows = np.flatnonzero(counts)
-    grid = np.full((len(rows), width), -1, dtype=np.int64)
-    slot = np.arange(len(point)) - first[point]
-    row_of = np.searchsorted(rows, point)
-    grid[row_of, slot] = pair
-    inv, first_row = row_ids(grid)
+    got = _ragged_row_ids(pair, first[rows], counts[rows])
+    if got is None:  # two distinct rows of one hash: the rows padded into a grid, sorted
+        got = _grid_row_ids(pair, first[rows], counts[rows])
+    inv, first_row = got
     ids[rows] = inv + 2
-    sub = grid[first_row]
-    valid = sub >= 0  # each row's pairs come first (sorted), then -1 padding
-    ptr = np.r_[0, 0, 0, np.cumsum(valid.sum(axis=1))]  # ids 0 and 1 have no pairs
-    return ids, Structures(base, ptr, sub[valid])
+    vals = pair[ragged_arange(first[rows][first_row], counts[rows][first_row])]
+    valid = vals >= 0  # as the grid's rows: each row's pairs (sorted), then -1 padding
+    size = np.bincount(np.repeat(np.arange(len(first_row)), counts[rows][first_row])[valid],
+                       minlength=len(first_row))
+    ptr = np.r_[0, 0, 0, np.cumsum(size)]  # ids 0 and 1 have no pairs
+    return ids, Structures(base, ptr, vals[valid])
+
+
+def _row_hashes(pair: np.ndarray, start: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """The 64-bit hash :func:`tether._util.arrays.row_ids` gives each row of the grid
+    (:func:`_grid`), made one column at a time from the ragged rows."""
+    h = np.zeros(len(start), np.uint64)
+    last = np.maximum(length - 1, 0)
+    with np.errstate(over="ignore"):
+        for j in range(int(length.max())):
+            col = np.where(length > j, pair[start + np.minimum(j, last)], -1)
+            h = (h ^ col.astype(np.int64).view(np.uint64)) * np.uint64(0x9E3779B97F4A7C15)
+            h ^= h >> np.uint64(29)
+    return h
+
+
+def _grid(pair: np.ndarray, start: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """The ragged rows ``pair[start[i]:start[i] + length[i]]`` padded with -1 into a grid
+    (one row each, as wide as the longest)."""
+    grid = np.full((len(start), int(length.max())), -1, dtype=np.int64)
+    row = np.repeat(np.arange(len(start)), length)
+    grid[row, ragged_arange(np.zeros(len(start), np.int64), length)] = \
+        pair[ragged_arange(start, length)]
+    return grid
+
+
+def _grid_row_ids(pair: np.ndarray, start: np.ndarray, length: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`tether._util.arrays.row_ids` of the ragged rows padded into a grid
+    (:func:`_grid`): the ids and each id's first row."""
+    return row_ids(_grid(pair, start, length))
+
+
+def _ragged_row_ids(pair: np.ndarray, start: np.ndarray, length: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`_grid_row_ids` without the grid (its memory: rows times the longest row, ~1 GB
+    at 4,000 map vertices): the same 64-bit hash of each padded row, made column by column,
+    the same stable sort on it; the rows of equal hash compared as ragged rows. None if two
+    distinct rows share a hash (the grid's exact sort decides then)."""
+    n = len(start)
+    h = _row_hashes(pair, start, length)
+    order = np.argsort(h, kind="stable")
+    sh = h[order]
+    new = np.r_[True, sh[1:] != sh[:-1]]
+    same = np.flatnonzero(~new[1:])  # sorted rows k and k + 1 of one hash: equal rows?
+    a, b = order[same], order[same + 1]
+    if np.any(length[a] != length[b]):
+        return None
+    c = length[a]
+    if np.any(pair[ragged_arange(start[a], c)] != pair[ragged_arange(start[b], c)]):
+        return None
+    ids = np.empty(n, np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, order[new]
 
 
 @dataclass(frozen=True)

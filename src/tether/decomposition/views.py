@@ -17,8 +17,8 @@ import shapely
 
 __all__ = ["PACK_BATCH", "PIECE_BATCH", "Cell", "CellTable", "Cells", "CellsById",
            "PackedFaces", "Piece", "PieceTable", "Pieces", "RegionShapes", "RowSequence",
-           "Shapes", "cell_name", "packed_geometries", "parse_cell_name", "small_ints",
-           "unique_pairs", "valid_polygons", "wkb_column", "wkb_geometries"]
+           "Shapes", "cell_name", "cell_types", "packed_geometries", "parse_cell_name",
+           "small_ints", "unique_pairs", "valid_polygons", "wkb_column", "wkb_geometries"]
 
 
 @dataclass(frozen=True, slots=True)  # no __dict__: 624k cells at 1,000 map vertices
@@ -391,9 +391,8 @@ class CellTable:
                  names: list[str], nregions: int) -> None:
         # held in the smallest int types that hold them (:func:`small_ints`): 8 bytes a
         # cell below 2**31 regions and 2**15 feature codes, instead of 24
-        code_t = np.int16 if len(names) < 2**15 else np.int32 if len(names) < 2**31 \
-            else np.int64
-        self.region = small_ints(region, np.int32 if nregions < 2**31 else np.int64)
+        region_t, code_t = cell_types(len(names), nregions)
+        self.region = small_ints(region, region_t)
         self.start, self.end = small_ints(start, code_t), small_ints(end, code_t)
         self.names = names
         count = np.bincount(region, minlength=nregions)
@@ -470,6 +469,14 @@ class CellTable:
             return -1
         i = lo + int(hit[0])
         return i if self.cell(i).id == cell_id else -1  # the canonical spelling only
+
+
+def cell_types(nnames: int, nregions: int) -> tuple[type, type]:
+    """The int types of a :class:`CellTable`'s region and feature code columns for
+    ``nregions`` regions and ``nnames`` feature names (``FREE`` included): the smallest
+    that hold them."""
+    code_t = np.int16 if nnames < 2**15 else np.int32 if nnames < 2**31 else np.int64
+    return (np.int32 if nregions < 2**31 else np.int64), code_t
 
 
 def small_ints(a: np.ndarray, dtype: type) -> np.ndarray:
