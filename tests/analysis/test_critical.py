@@ -35,6 +35,7 @@ def test_distance_events_of_a_square():
                                                           ("V2", "V3"), ("V0", "V3")}
 
 
+@pytest.mark.slow
 def test_critical_lss_reported_with_the_verdicts_on_both_sides():
     """A 4 x 4 room at lss 2: opposite walls exactly 2·lss apart. Below, a strategy exists;
     above, none (the rod no longer fits across): the two sides are decomposed independently

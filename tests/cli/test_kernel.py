@@ -151,6 +151,7 @@ def test_assess_certified_answer_first(capsys):
     assert out["certified"]["answer"] == "unsafe" and out["certified"]["field_certified"]
 
 
+@pytest.mark.slow
 def test_certified_delay_json_and_text(capsys):
     """``--certified --delay``: the distance band in the text (a map whose search stops at
     once: no field, nothing claimed)."""

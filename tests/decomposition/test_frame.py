@@ -74,6 +74,7 @@ def _public(dec) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_user_frame_results_equal_the_direct_computation_in_an_identity_frame():
     import numpy as np
 

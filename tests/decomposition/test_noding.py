@@ -40,6 +40,7 @@ def random_lines(draw, max_lines: int = 12) -> np.ndarray:
     return np.asarray(out, dtype=object)
 
 
+@pytest.mark.slow
 @given(st.lists(coord, min_size=1, max_size=40))
 def test_cut_lies_strictly_between_vertex_coordinates(xs):
     x = np.asarray(xs)

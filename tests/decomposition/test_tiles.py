@@ -508,6 +508,7 @@ def test_strips_followed(monkeypatch):
     assert_same_parts(whole, tiled)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tiles", [pytest.param((3, 3), marks=_SLOW), (5, 4)])
 def test_gallery_parts_exactly_the_whole(tiles):
     whole, tiled, log = _arrangements(load_example("gallery"), 1.0, tiles)

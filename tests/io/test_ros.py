@@ -209,6 +209,7 @@ def test_random_maps_match_their_pixels(tmp_path, seed):
 @settings(max_examples=40, deadline=None)
 @given(arrays(bool, st.tuples(st.integers(2, 14), st.integers(2, 14))),
        st.floats(-math.pi, math.pi))
+@pytest.mark.slow
 def test_any_grid_gives_a_valid_map_matching_its_cells(free, yaw):
     """Property: for any grid with a free cell, the exact polygon holds exactly the kept cells,
     one hole per enclosed obstacle component, in any frame."""

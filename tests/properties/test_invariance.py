@@ -252,6 +252,7 @@ def test_random_map_of_issue_9_checks():
     assert rep.ok, rep.point_disagreements[:3]
 
 
+@pytest.mark.slow
 def test_random_map_with_a_slow_conchoid_end_checks():
     """Found by hypothesis while verifying issue #9: the conchoid E(V9,E5) starts where
     B(V5) and E(V9,E4) cross, but moves ~2000 times slower there than its mean speed, so its

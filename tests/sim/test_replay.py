@@ -180,6 +180,7 @@ def test_cli_pedestrian_walks_one_simulated_person(capsys, files):
     assert d["track"]["clipped_segments"] == []
 
 
+@pytest.mark.slow
 def test_a_track_through_a_wall_is_reported_as_a_deviation(capsys, tmp_path):
     m = tmp_path / "hall.json"
     m.write_text(json.dumps(MAP.to_dict()))
