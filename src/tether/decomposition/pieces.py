@@ -307,10 +307,12 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
                 side.append(part)
         del arcs
         release_memory()
-    # +n sides, then the others (as one batch would give them)
-    arcs = (join_tables(sides[0] + sides[1], release_memory) if sides[0]
-            else _crossing_table([], np.zeros((0, 3), np.int64)))
+    # +n sides, then the others (as one batch would give them); the halves held by one list
+    # only, which join_tables empties: each column's batches freed once joined
+    halves = sides[0] + sides[1]
     del sides
+    arcs = (join_tables(halves, release_memory) if halves
+            else _crossing_table([], np.zeros((0, 3), np.int64)))
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
     desc, descs = _describe_chains(sptr, ssrc, kept, curves)
