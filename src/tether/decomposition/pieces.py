@@ -281,10 +281,13 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     The crossings are chosen :data:`PIECE_BATCH` chains at a time (:func:`_pick_crossings`),
     each batch's arcs at its chosen crossings gathered and its rounds' tables freed before
     the next: a chain's rounds, its candidates' arcs and its choice depend on that chain
-    alone, so the pieces and arcs are the same for any batch size, and the peak is the arcs
-    kept (those of the result) and one batch's rounds, not every chain's rounds at once (at
-    2,000 map vertices, 0.9 M chains: their first round's arcs and structures alone are
-    about 1.8 M points' tables)."""
+    only (the same regions, curves, offsets, verdicts and arcs' features for any batch
+    size; a sample or normal may move by about 1e-9, as with the chains' order before:
+    :func:`tether.curves.project_many` stops its Gauss-Newton steps once every row of a
+    call has converged), and the peak is the arcs kept (those of the result) and one batch's
+    rounds, not every chain's rounds at once (at 2,000 map vertices, 0.9 M chains: their
+    first round's arcs and structures alone are about 1.8 M points' tables). A map of at
+    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit."""
     sptr, ssrc = arr.chain_sources(chains)
     reg = region_rows(regions, 2 * env.n + 1)
     m = len(chains)
