@@ -30,6 +30,12 @@ floating-point noding failed, so every tile snap rounded the input on a grid of 
 tolerances, as the untiled noding would: :mod:`tether.decomposition.tiles`; with the number
 of grids that failed before it), ``-`` in rows measured before the column existed.
 
+``--noding snap`` decomposes with ``noding="snap"`` (snap rounding from the start, where
+GEOS's floating-point noder is known to fail: the 4,000-vertex plan). Each row is also
+printed as JSON, with the main process's peak per stage (``stages``) and the largest
+worker's resident memory sampled over each stage (``worker stages``, MB: after the face
+tiles, what the idle workers hold).
+
 ``--stop-at GB`` stops a run (its workers killed) once its main process or one of its workers
 holds more than ``GB`` of resident memory (Linux): its row's verdict then says in which
 stage, after how many seconds and with how much memory, and the noder column says how far
@@ -68,6 +74,7 @@ from tether.analysis import analyze, build_graph
 n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
 stop_at = float(sys.argv[6]) * 1e9  # bytes of resident memory in one process; 0: never
+noding_mode = sys.argv[7]  # decompose's noding: auto or snap
 import tether.curves
 import tether.decomposition.noding as noding
 import tether.decomposition.pipeline as pipeline
@@ -76,10 +83,13 @@ if not strips:  # the input noded without the strip cut, tiled and untiled
 noder_log = {}
 _noder = pipeline.tiled_noder
 def _logged(tiles, executor, tol, progress=None, log=None, **kw):
+    noder_log["tol"] = tol
     return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
 def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
     if not log.get("float_failed"):
+        if log.get("grid"):  # noding="snap": no floating-point task ran
+            return f"snap {log['grid'] / log['tol']:g} tol from the start"
         return "whole" if log.get("fallback") else "float"
     k = log["snap_grids_failed"]
     return f"snap {noding.SNAP_GRIDS[k]:g} tol" + (f" ({k} grids failed)" if k else "")
@@ -125,16 +135,20 @@ def _children_rss():  # the largest resident memory of this process's children, 
         except (OSError, ValueError, IndexError):
             pass
     return big
+wpeaks = {}  # the largest worker's resident memory over each stage, MB (sampled)
 def _stopper():  # the run stopped, its row written, once a process passes stop_at
     while True:
         main, worker = (_vm("VmRSS") or 0) * 2**20, _children_rss()
-        if max(main, worker) > stop_at:
+        wpeaks[last[0]] = max(wpeaks.get(last[0], 0), round(worker / 2**20))
+        if 0 < stop_at < max(main, worker):
             t = time.perf_counter() - w0
             row = {"vertices": n, "tiles": tiles, "workers": workers,
                    "verdict": f"stopped in {last[0]} after {t:.0f} s: main {main / 1e9:.1f} GB, "
                               f"worker {worker / 1e9:.1f} GB (--stop-at)",
                    "noder": noder_name(noder_log) if "float_failed" in noder_log else None,
-                   "parts": noder_log.get("parts"), "faces": noder_log.get("faces")}
+                   "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
+                   "stages": {k: round(v_) for k, v_ in peaks.items()},
+                   "worker stages": dict(wpeaks)}
             for stage, at in marks:
                 row.setdefault("at " + stage.split(" (")[0], round(at - w0, 1))
             print(json.dumps(row), flush=True)
@@ -149,9 +163,9 @@ def _stopper():  # the run stopped, its row written, once a process passes stop_
         time.sleep(0.5)
 ex = process_executor(workers)
 w0 = time.perf_counter()
-if stop_at > 0:
-    threading.Thread(target=_stopper, daemon=True).start()
-dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex)
+threading.Thread(target=_stopper, daemon=True).start()
+dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex,
+                noding=noding_mode)
 w1 = time.perf_counter()
 ex.shutdown()
 stage_peak("G")
@@ -191,6 +205,7 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "noder": noder_name(noder_log),
        "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
        "stages": {k: round(v_) for k, v_ in peaks.items()},
+       "worker stages": dict(wpeaks),
        "held": None if held is None else round(held)}
 if compare:
     tether.curves.MAX_CURVE_VERTICES = 10**12
@@ -225,10 +240,11 @@ COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", 
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str,
-        stop_at: float = 0.0) -> dict:
+        stop_at: float = 0.0, noding: str = "auto") -> dict:
     env = dict(os.environ, PYTHONPATH=src)
     out = subprocess.run([sys.executable, "-c", CHILD, str(n), str(workers), tiles,
-                          "1" if compare else "0", untiled, str(stop_at)], capture_output=True,
+                          "1" if compare else "0", untiled, str(stop_at), noding],
+                         capture_output=True,
                          text=True,
                          env=env, check=False)
     if out.returncode != 0:
@@ -257,6 +273,9 @@ def main() -> None:
     ap.add_argument("--stop-at", type=float, default=0.0, metavar="GB",
                     help="stop a run once one of its processes holds more than GB of "
                     "resident memory (Linux), its row saying in which stage (default: never)")
+    ap.add_argument("--noding", choices=("auto", "snap"), default="auto",
+                    help="decompose's noding: auto (floating point, snap rounding where it "
+                    "fails) or snap (snap rounding from the start)")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
     args = ap.parse_args()
@@ -266,9 +285,10 @@ def main() -> None:
     rows = []
     for n in args.sizes:
         row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src,
-                  args.stop_at)
+                  args.stop_at, args.noding)
         rows.append(row)
         print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
+        print(json.dumps(row), flush=True)  # every measure, the stages' included
     if args.doc:
         write_doc(Path(args.doc), rows, " ".join(sys.argv[1:]), load)
         write_stages(Path(args.doc), rows, " ".join(sys.argv[1:]), load)

@@ -195,7 +195,7 @@ def _with_wall_stubs(env: Environment, xy: np.ndarray, idx: np.ndarray, source: 
 
 
 def arrangement(env: Environment, curves: list[Curve], tol: float,
-                noder: Callable[..., Any] | None = None) -> Arrangement:
+                noder: Callable[..., Any] | None = None, noding: str = "auto") -> Arrangement:
     """Node the critical curves and the map's rings into parts and trace the faces they bound.
 
     ``noder``, if given, nodes the input tile by tile
@@ -204,7 +204,8 @@ def arrangement(env: Environment, curves: list[Curve], tol: float,
     lines' segments, it returns the parts, their sources as CSR arrays, the faces traced
     tile by tile and the snap-rounding grid ``(parts, ptr, src, traced, grid)`` (``traced``:
     None to trace them here; ``grid`` 0: floating-point noding), or None to node the input
-    whole (as without it)."""
+    whole (as without it). ``noding``: how the input is noded whole
+    (:data:`tether.decomposition.noding.NODINGS`; a ``noder`` is made with its own)."""
     lines, source, (la, lb, lowner) = _input_lines(env, curves, tol)
     if noder is not None:
         got = noder(lines, np.asarray(source, dtype=np.int64), (la, lb, lowner))
@@ -214,7 +215,7 @@ def arrangement(env: Environment, curves: list[Curve], tol: float,
     # of floating-point noding (snap rounding's wider reach builds its own blocks)
     tree = SegmentGrid(la, lb)
     ready = in_background(tree.prepare, max(1e-3 * tol, 1e-12)) if len(la) else (lambda: None)
-    parts, grid = node_lines(lines, tol, len(la))
+    parts, grid = node_lines(lines, tol, len(la), noding)
     ready()
     release_memory()  # the noder's temporaries (~0.5 GB at 1,000 map vertices), before tracing
     parts = parts[shapely.length(parts) > 0]

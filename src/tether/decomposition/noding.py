@@ -23,9 +23,10 @@ import shapely
 from shapely.errors import GEOSException
 
 from tether._util.threads import in_background
-from tether.errors import ArrangementError
+from tether.errors import ArrangementError, InvalidParameterError
 
-__all__ = ["CUT_WINDOW", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "cut_position", "geos_message",
+__all__ = ["CUT_WINDOW", "NODINGS", "SNAP_GRIDS", "STRIP_MIN_SEGMENTS", "check_noding",
+           "cut_position", "geos_message",
            "node_floating", "node_lines", "node_snapped", "strip_cut"]
 
 #: Snap-rounding grids tried when floating-point noding fails, as fractions of the curve
@@ -41,31 +42,45 @@ STRIP_MIN_SEGMENTS = 100_000
 CUT_WINDOW = (0.45, 0.55)
 
 
-def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.ndarray, float]:
+#: How an arrangement is noded: ``"auto"``, GEOS's floating-point noder, snap rounding where
+#: it fails; ``"snap"``, snap rounding from the start (the same result where the
+#: floating-point noder fails, without the minutes it can take to fail on a large map).
+NODINGS = ("auto", "snap")
+
+
+def check_noding(noding: str) -> str:
+    """``noding`` validated: one of :data:`NODINGS`.
+
+    Raises
+    ------
+    InvalidParameterError
+        If it is not.
+    """
+    if noding not in NODINGS:
+        raise InvalidParameterError(f"noding must be one of {', '.join(NODINGS)}, got "
+                                    f"{noding!r}")
+    return noding
+
+
+def node_lines(lines: np.ndarray, tol: float, segments: int = 0, noding: str = "auto"
+               ) -> tuple[np.ndarray, float]:
     """The noded parts (an array of linestrings) of ``lines`` (linestrings, map units) and the
     snap-rounding grid used (0: exact floating-point noding). ``segments`` (the lines' segment
     count) selects the strip split (:data:`STRIP_MIN_SEGMENTS`). Snap rounding is GEOS's
     fixed-precision overlay on a grid of ``SNAP_GRIDS * tol`` map units: every vertex moves by
-    at most half a grid cell, well inside the curves' own tolerance ``tol``.
+    at most half a grid cell, well inside the curves' own tolerance ``tol``; with ``noding``
+    ``"snap"`` (:data:`NODINGS`) from the start, else where the floating-point noder fails.
 
     Raises
     ------
     ArrangementError
         If even the coarsest grid fails (the map is beyond tether's resolution).
     """
-    if segments >= STRIP_MIN_SEGMENTS:
-        strips = strip_cut(lines)
-        if strips is not None:
-            try:
-                right = in_background(_node_floating, strips[1])
-                left = _node_floating(strips[0])
-                return np.concatenate([left, right()]), 0.0
-            except GEOSException:
-                pass  # the whole input, snap rounded below
-    try:
-        return _node_floating(lines), 0.0
-    except GEOSException:
-        pass
+    if noding == "auto":
+        try:
+            return _node_floating_strips(lines, segments), 0.0
+        except GEOSException:
+            pass  # the whole input, snap rounded below
     err = None
     for frac in SNAP_GRIDS:
         grid = frac * tol
@@ -76,6 +91,21 @@ def node_lines(lines: np.ndarray, tol: float, segments: int = 0) -> tuple[np.nda
     raise ArrangementError(f"the arrangement of {len(lines)} curves could not be noded even "
                            f"on a {SNAP_GRIDS[-1] * tol:.2g} grid (map beyond the curve "
                            f"tolerance {tol:.2g}): {geos_message(err)}")
+
+
+def _node_floating_strips(lines: np.ndarray, segments: int) -> np.ndarray:
+    """GEOS's floating-point noding of ``lines``, in two strips from
+    :data:`STRIP_MIN_SEGMENTS` segments (raises GEOSException if it fails)."""
+    if segments >= STRIP_MIN_SEGMENTS:
+        strips = strip_cut(lines)
+        if strips is not None:
+            try:
+                right = in_background(_node_floating, strips[1])
+                left = _node_floating(strips[0])
+                return np.concatenate([left, right()])
+            except GEOSException:
+                pass  # the whole input, below
+    return _node_floating(lines)
 
 
 def node_floating(lines: np.ndarray) -> np.ndarray:

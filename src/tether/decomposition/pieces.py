@@ -27,9 +27,9 @@ from tether.decomposition.views import PieceTable, Shapes, packed_geometries
 from tether.environment import Environment
 from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs, z_order
 
-__all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL", "Candidates",
-           "crossing_candidates", "longest_unresolved", "make_chains", "make_pieces",
-           "part_candidates"]
+__all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL",
+           "PIECE_BATCH", "Candidates", "crossing_candidates", "longest_unresolved",
+           "make_chains", "make_pieces", "part_candidates"]
 
 
 def make_chains(arr: Arrangement, face_region: np.ndarray) -> Chains:
@@ -276,21 +276,69 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     number of chains dropped as below resolution (no candidate point clear of other curves by
     ``4 tol``: artefacts of the polyline approximation at tangencies, where the exact regions
     touch at a point only) and the exact arcs at both sides of every piece's crossing (see
-    :meth:`Decomposition.crossing_arcs`)."""
+    :meth:`Decomposition.crossing_arcs`).
+
+    The crossings are chosen :data:`PIECE_BATCH` chains at a time (:func:`_pick_crossings`),
+    each batch's arcs at its chosen crossings gathered and its rounds' tables freed before
+    the next: a chain's rounds, its candidates' arcs and its choice depend on that chain
+    only (the same regions, curves, offsets, verdicts and arcs' features for any batch
+    size; a sample or normal may move by about 1e-9, as with the chains' order before:
+    :func:`tether.curves.project_many` stops its Gauss-Newton steps once every row of a
+    call has converged), and the peak is the arcs kept (those of the result) and one batch's
+    rounds, not every chain's rounds at once (at 2,000 map vertices, 0.9 M chains: their
+    first round's arcs and structures alone are about 1.8 M points' tables). A map of at
+    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit."""
     sptr, ssrc = arr.chain_sources(chains)
-    got, tables = _pick_crossings(env, chains, cands, regions, curves, (sptr, ssrc), lss)
+    reg = region_rows(regions, 2 * env.n + 1)
+    m = len(chains)
+    got = {"q": np.zeros((m, 2)), "n": np.zeros((m, 2)), "eps": np.zeros(m),
+           "ok": np.zeros(m, bool)}
     kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
-    # the pieces' arcs first, the rounds' tables freed before the pieces are made: a lower
-    # peak (at 1,000 map vertices each table is ~100 MB)
-    arcs = _crossing_table(tables, got["at"][kept])
-    del tables
-    release_memory()
+    sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
+    for lo in range(0, max(m, 1), PIECE_BATCH):
+        which = np.arange(lo, min(lo + PIECE_BATCH, m))
+        b, tables = _pick_crossings(env, chains, cands, None, curves, (sptr, ssrc), lss,
+                                    which, reg)
+        for f, col in got.items():
+            col[which] = b[f]
+        # the batch's arcs at its crossings kept, its rounds' tables freed (a lower peak)
+        at = b["at"][cands.count[which] > 0]
+        arcs = _crossing_table(tables, at)
+        del tables, b
+        if len(at):
+            for side, part in zip(sides, _halves(arcs, len(at)), strict=True):
+                side.append(part)
+        del arcs
+        release_memory()
+    # +n sides, then the others (as one batch would give them); the halves held by one list
+    # only, which join_tables empties: each column's batches freed once joined
+    halves = sides[0] + sides[1]
+    del sides
+    arcs = (join_tables(halves, release_memory) if halves
+            else _crossing_table([], np.zeros((0, 3), np.int64)))
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
     desc, descs = _describe_chains(sptr, ssrc, kept, curves)
     table = PieceTable(chains.pair[kept].astype(np.int64), got["q"][kept], got["n"][kept],
                        got["eps"][kept], got["ok"][kept], desc, descs, Shapes(None, wkb=lines))
     return table, len(chains) - len(kept), arcs
+
+
+#: Chains whose crossings are chosen at a time (:func:`make_pieces`): their rounds' arcs
+#: (two points a chain and round, ~10 arcs a point) and structures are the batch's peak.
+PIECE_BATCH = 100_000
+
+
+def _halves(table: ArcTable, m: int) -> tuple[ArcTable, ArcTable]:
+    """The arcs of points ``0..m-1`` and of points ``m..2m-1`` of ``table`` (rows sorted by
+    point), each numbered from 0: views of its columns (its ``point`` column renumbered in
+    place)."""
+    cut = int(np.searchsorted(table.point, m))
+    table.point[cut:] -= m
+    return (ArcTable(table.point[:cut], table.start[:cut], table.end[:cut],
+                     table.start_code[:cut], table.end_code[:cut], table.full[:m]),
+            ArcTable(table.point[cut:], table.start[cut:], table.end[cut:],
+                     table.start_code[cut:], table.end_code[cut:], table.full[m:]))
 
 
 def longest_unresolved(arr: Arrangement, chains: Chains, cands: Candidates
@@ -348,21 +396,28 @@ def _chain_geometries(arr: Arrangement, chains: Chains, which: np.ndarray) -> np
 
 
 def _pick_crossings(env: Environment, chains: Chains, cands: Candidates,
-                    regions: list[Region], curves: list[Curve],
-                    chain_srcs: tuple[np.ndarray, np.ndarray], lss: float
+                    regions: list[Region] | None, curves: list[Curve],
+                    chain_srcs: tuple[np.ndarray, np.ndarray], lss: float,
+                    which: np.ndarray | None = None,
+                    reg: tuple[StructureRows, np.ndarray] | None = None
                     ) -> tuple[dict[str, np.ndarray], list[ArcTable]]:
-    """For each chain, the first candidate whose two offsets (from the exact curve, along its
-    exact normal) show the two regions' structures: ``(q, n into regions[0], eps)``. Candidates
-    are tried in rounds, all chains at once (vectorized: structures compared as integer rows,
-    :func:`rows_equal`). A chain with no clean candidate keeps its first one (``check``
-    reports it); a chain without candidates gets nothing (zeros). Returns arrays over the
-    chains: ``q``, ``n``, ``eps``, ``ok`` (verified) and ``at``, saying where the arcs of the
-    two sides are in the returned tables: ``(round, row of the +n side, row of the other)``;
-    ``chain_srcs`` are the chains' curves (CSR, :meth:`Arrangement.chain_sources`)."""
-    m = len(chains)
-    count = cands.count
-    reg_rows, reg_of = region_rows(regions, 2 * env.n + 1)
-    sa, sb = reg_of[chains.pair[:, 0]], reg_of[chains.pair[:, 1]]
+    """For each chain ``which[k]`` (default: every chain), the first candidate whose two
+    offsets (from the exact curve, along its exact normal) show the two regions' structures:
+    ``(q, n into regions[0], eps)``. Candidates are tried in rounds, all these chains at once
+    (vectorized: structures compared as integer rows, :func:`rows_equal`; ``reg``: the
+    regions' structure rows and each region's row, :func:`region_rows`, made from
+    ``regions`` if not given). A chain with no clean
+    candidate keeps its first one (``check`` reports it); a chain without candidates gets
+    nothing (zeros). Returns arrays over ``which``: ``q``, ``n``, ``eps``, ``ok`` (verified)
+    and ``at``, saying where the arcs of the two sides are in the returned tables:
+    ``(round, row of the +n side, row of the other)``; ``chain_srcs`` are the chains' curves
+    (CSR, :meth:`Arrangement.chain_sources`). A chain's result depends on that chain
+    alone."""
+    which = np.arange(len(chains)) if which is None else which
+    m = len(which)
+    count = cands.count[which]
+    reg_rows, reg_of = region_rows(regions, 2 * env.n + 1) if reg is None else reg
+    sa, sb = reg_of[chains.pair[which, 0]], reg_of[chains.pair[which, 1]]
     out_q, out_n = np.zeros((m, 2)), np.zeros((m, 2))
     out_eps = np.zeros(m)
     out_ok = np.zeros(m, bool)
@@ -372,8 +427,9 @@ def _pick_crossings(env: Environment, chains: Chains, cands: Candidates,
     first = None
     rnd = 0
     while len(pending):
-        row = cands.ptr[pending] + rnd
-        q, n = _project_on_sources(curves, chain_srcs, pending, np.take(cands.q, row, axis=0))
+        row = cands.ptr[which[pending]] + rnd
+        q, n = _project_on_sources(curves, chain_srcs, which[pending],
+                                   np.take(cands.q, row, axis=0))
         release_memory()  # the projection's temporaries, before the arcs allocate theirs
         eps = cands.eps[row]
         k = len(pending)

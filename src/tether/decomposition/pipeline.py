@@ -22,7 +22,7 @@ from tether.decomposition.arrangement import arrangement
 from tether.decomposition.faces import FaceRings
 from tether.decomposition.frame import UserFrame
 from tether.decomposition.model import Decomposition
-from tether.decomposition.noding import geos_message
+from tether.decomposition.noding import check_noding, geos_message
 from tether.decomposition.pieces import longest_unresolved, make_pieces
 from tether.decomposition.regions import face_regions, make_regions
 from tether.decomposition.structure import face_arcs, structure_ids_of
@@ -43,7 +43,7 @@ __all__ = ["decompose"]
 
 def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
               progress: Any = None, tiles: tuple[int, int] | str | None = None,
-              executor: Executor | None = None) -> Decomposition:
+              executor: Executor | None = None, noding: str = "auto") -> Decomposition:
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
 
     With ``tiles``, the arrangement is noded, its faces traced and their free arcs computed
@@ -72,6 +72,12 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         threads); by default local processes, one per core, started and shut down here
         (spawned: a script calling this must guard its entry point with ``if __name__ ==
         "__main__":``, as any ``multiprocessing`` code).
+    noding : str
+        How the arrangement is noded (:data:`tether.decomposition.noding.NODINGS`):
+        ``"auto"`` (default), GEOS's floating-point noder, snap rounding where it fails;
+        ``"snap"``, snap rounding from the start, tiled or not (the same result where the
+        floating-point noder fails, without the minutes its tile tasks can take to fail on
+        a large map: ``docs/scale.md``).
 
     Returns
     -------
@@ -82,7 +88,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     InvalidParameterError
         If ``lss`` is not a finite positive number within the range of
         :func:`tether.arcs.check_lss` relative to the map's diameter, or ``tiles`` is not
-        valid (:func:`tether.decomposition.tiles.check_tiles`).
+        valid (:func:`tether.decomposition.tiles.check_tiles`), or ``noding`` is not one of
+        :data:`tether.decomposition.noding.NODINGS`.
     ArrangementError
         If the geometry engine fails even with snap rounding (one line, no traceback).
 
@@ -98,19 +105,23 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     [9]
     """
     lss = check_lss(lss, env)
+    noding = check_noding(noding)
     shape = None if tiles is None else check_tiles(tiles)
     plan = None if shape is None else TilePlan(
         None if shape == "auto" else shape[0] * shape[1], TILE_SEGMENTS, MAX_TILES)
     check_memory(env, lss, rel_tol, plan)  # issue 25: refused in milliseconds if it cannot fit
     own = process_executor() if shape is not None and executor is None else None
-    tiling = None if shape is None else (shape, executor or own)
+    # the last tile task returns with the arrangement: tether's own workers shut down then
+    # (their memory freed before the regions and pieces), a caller's executor left as it is
+    tiling = None if shape is None else (shape, executor or own,
+                                         own.shutdown if own is not None else None)
     out, inner_lss = None, lss
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         out = UserFrame(env, lss)
         inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused(), tiled_checks(plan):  # the late check: the tiled estimate
-            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling, noding)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{geos_message(exc)}") from exc
@@ -128,18 +139,23 @@ def _polygons(faces: np.ndarray | FaceRings) -> np.ndarray:
 
 
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
-               out: UserFrame | None = None, tiling: tuple | None = None) -> Decomposition:
+               out: UserFrame | None = None, tiling: tuple | None = None,
+               noding: str = "auto") -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
     reported as is, or in the user's frame of ``out`` (the result objects made once);
-    ``tiling``: ``(tiles, executor)`` to node the arrangement in tiles."""
+    ``tiling``: ``(tiles, executor, done)`` to node the arrangement in tiles, ``done`` (or
+    None) called once the tiles' last task has returned; ``noding``: how the arrangement is
+    noded (:data:`tether.decomposition.noding.NODINGS`)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
     curves = critical_curves(env, lss, rel_tol)  # whole: tiles node them, nothing earlier
     report("arrangement", 0.3)
     noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report,
-                                                    arcs=(env, lss))
-    arr = arrangement(env, curves, tol, noder)
+                                                    arcs=(env, lss), noding=noding)
+    arr = arrangement(env, curves, tol, noder, noding)
+    if tiling is not None and tiling[2] is not None:
+        tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     # the faces' points and free arcs: computed by the tiles' face tasks, or here

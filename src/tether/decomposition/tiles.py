@@ -96,6 +96,7 @@ import shapely
 from shapely.errors import GEOSException
 
 from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
+from tether._util.memory import release_memory
 from tether._util.threads import single_threaded, thread_count
 from tether.decomposition import noding
 from tether.decomposition.arrangement import SOURCE_BATCH
@@ -115,7 +116,7 @@ __all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "SNAP_MARGI
            "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
-           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile"]
+           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile", "trimmed"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
@@ -507,6 +508,41 @@ def _owned(ends: tuple[np.ndarray, np.ndarray, np.ndarray],
     return mine[0], mine[1], mine[2]
 
 
+def trimmed(task: Callable[..., Any], *args: Any) -> Any:
+    """``task(*args)``, then the C heap's freed memory returned to the system
+    (:func:`tether._util.memory.release_memory`) before the result is sent: the task's
+    temporaries, gigabytes at 4,000 map vertices, are not kept by an idle worker (whatever
+    the executor) through the rest of the decomposition. How the tiles' tasks are submitted."""
+    out = task(*args)
+    release_memory()
+    return out
+
+
+def _worker_start() -> None:
+    """The initializer of :func:`process_executor`'s workers: one thread each
+    (:func:`tether._util.threads.single_threaded`), and glibc's allocator fixed where its
+    dynamic thresholds end up in a busy process (``M_MMAP_THRESHOLD`` 32 MiB, ``M_TRIM_THRESHOLD``
+    64 MiB; nothing elsewhere), from the start: a task's largest arrays, its result's among
+    them, are mapped on their own and go back to the system as soon as they are freed, which
+    :func:`trimmed` cannot do for the result (freed after it is sent); no allocation is slower
+    than in a warmed-up process (a 4 MiB threshold cost up to a fifth more CPU time on
+    numpy loops)."""
+    single_threaded()
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-3, _MMAP_BYTES)  # M_MMAP_THRESHOLD
+        libc.mallopt(-1, 2 * _MMAP_BYTES)  # M_TRIM_THRESHOLD
+    except (OSError, AttributeError):  # not glibc
+        pass
+
+
+#: The size from which a worker's allocations are mapped on their own (bytes): glibc's
+#: largest dynamic threshold (it rises to the size of a mapped block freed, up to this).
+_MMAP_BYTES = 32 * 2**20
+
+
 def _peak_rss() -> int:
     """The peak resident memory of the calling process, bytes (0 where unknown)."""
     try:
@@ -519,15 +555,17 @@ def _peak_rss() -> int:
 def process_executor(workers: int | None = None) -> ProcessPoolExecutor:
     """Local worker processes for the tiles (``workers``: by default the cores this process
     may use), started fresh (``spawn``: nothing of this process's memory inherited), each
-    computing in one thread."""
+    computing in one thread, its large blocks returned to the system once freed
+    (:func:`_worker_start`)."""
     return ProcessPoolExecutor(max_workers=workers or thread_count(),
                                mp_context=multiprocessing.get_context("spawn"),
-                               initializer=single_threaded)
+                               initializer=_worker_start)
 
 
 def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
                 progress: Callable[[str, float], Any] | None = None,
-                log: dict | None = None, arcs: tuple | None = None) -> Callable[..., Any]:
+                log: dict | None = None, arcs: tuple | None = None, noding: str = "auto"
+                ) -> Callable[..., Any]:
     """The ``noder`` of :func:`tether.decomposition.arrangement.arrangement` that nodes its
     input in ``tiles`` (``(nx, ny)`` or ``"auto"``: :func:`auto_tiles`) on ``executor``: the
     whole noding's parts, each delivered by the tile of its anchor (:func:`node_tile`),
@@ -542,7 +580,8 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     ``grid``: the snap-rounding grid, map units, 0 for floating-point noding). If a task's
     floating-point noder fails, every tile snap rounds the input instead, as the untiled noder
     would (module docstring; :class:`tether.errors.ArrangementError` if even the coarsest
-    grid fails).
+    grid fails); with ``noding="snap"`` (:data:`tether.decomposition.noding.NODINGS`) every
+    tile snap rounds from the start, as the untiled noder with ``noding="snap"``.
     ``progress`` gets ``("tiles (NXxNY)", overall fraction)`` as noding tasks finish,
     then ``("stitch", 0.45)``, then ``("face tiles (NXxNY)", fraction)`` as face tasks
     finish; ``log``, if given, gets ``tiles`` (the grid's shape, per strip), ``strips`` (1 or
@@ -550,7 +589,8 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
     ``segments_sent`` (input segments sent to the tasks, over the input's count),
     ``worker_peak_bytes`` (the largest peak resident memory a task's process reported),
     ``fallback`` (True if the input was noded whole: no longer happens), ``float_failed``
-    (True if a task's floating-point noder failed and the tiles snap rounded), ``grid`` (the
+    (True if a task's floating-point noder failed and the tiles snap rounded; False with
+    ``noding="snap"``, where none ran), ``grid`` (the
     snap-rounding grid, map units; 0: floating-point), ``snap_grids_failed`` (grids a task
     failed on before ``grid``), and for the faces ``face_tiles``,
     ``face_margin``, ``face_retries``, ``face_parts_sent`` (parts sent over the parts'
@@ -569,10 +609,10 @@ def tiled_noder(tiles: tuple[int, int] | str, executor: Executor, tol: float,
             return None
         log.update(retries=0, fallback=False, worker_peak_bytes=0, segments_sent=0.0,
                    strips=1, grid=0.0, float_failed=False, snap_grids_failed=0)
-        got, sent, grid = _floating_in_tiles(lines, source, segs, tiles, executor, tol,
-                                             report, log)
+        got, sent, grid = (None, 0, 0.0) if noding == "snap" else _floating_in_tiles(
+            lines, source, segs, tiles, executor, tol, report, log)
         if got is None:  # snap rounded as the whole would be, in tiles
-            log["float_failed"] = True
+            log["float_failed"] = noding != "snap"
             got, sent, grid = _snapped_in_tiles(source, segs, tiles, executor, tol, report,
                                                 log)
         report("stitch", 0.45)
@@ -684,8 +724,8 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         sent += len(seg)
         xy, ptr, line = runs_of(seg, la, lb, lowner)
         sources = None if rseg is None else tuple(np.take(c, rseg, axis=0) for c in ref)
-        return executor.submit(node_tile, xy, ptr, source[line], trust, reach, own, done,
-                               sources, grid_size)
+        return executor.submit(trimmed, node_tile, xy, ptr, source[line], trust, reach, own,
+                               done, sources, grid_size)
 
     near, nptr = segments_by_tile(lo, hi, grid, 2 * margin)
     rnear = rptr = None
@@ -854,8 +894,8 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
         nonlocal sent
         sent += len(sel)
         xy = coords[ragged_arange(start[sel], count[sel])]
-        return sel, executor.submit(trace_tile, xy, count[sel], trust, complete, own, done,
-                                    arcs)
+        return sel, executor.submit(trimmed, trace_tile, xy, count[sel], trust, complete, own,
+                                    done, arcs)
 
     near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
     done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
