@@ -143,15 +143,16 @@ def _decompose(args: argparse.Namespace):
     tiles = getattr(args, "tiles", None)
     if tiles is None and (getattr(args, "workers", None) or getattr(args, "dask", None)):
         tiles = "auto"
+    noding = getattr(args, "noding", "auto")
     if tiles is None:
-        return decompose(env, args.lss, progress=Progress("decompose"))
+        return decompose(env, args.lss, progress=Progress("decompose"), noding=noding)
     from tether.decomposition.tiles import check_tiles
 
     tiles = check_tiles(tiles)  # refused before any worker starts
     executor, close = _tile_executor(args)
     try:
         return decompose(env, args.lss, progress=Progress("decompose"), tiles=tiles,
-                         executor=executor)
+                         executor=executor, noding=noding)
     finally:
         close()
 
@@ -182,6 +183,10 @@ def _add_tile_options(sp: argparse.ArgumentParser) -> None:
                     help="run the tiles on a Dask scheduler (implies --tiles auto; needs the "
                     "cluster extra)")
     sp.add_argument("--dask-timeout", type=float_arg, default=10.0, help=argparse.SUPPRESS)
+    sp.add_argument("--noding", choices=("auto", "snap"), default="auto",
+                    help="'snap': snap round the arrangement from the start, where the "
+                    "floating-point noder is known to fail on this map (default 'auto': "
+                    "floating point, snap rounding where it fails; docs/scale.md)")
 
 
 def cmd_decompose(args: argparse.Namespace) -> int:
