@@ -287,6 +287,7 @@ def test_merge_matches_reference(n, seed, angle):
     assert wraps > 0  # some arcs cross angle 0: the wrapped gap's start feature is tested
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, seed", [(40, 5), (300, 6)])
 def test_rod_rows_serve_moved_rods(n, seed):
     """The rows of ``rod_rows`` for a rod and a motion bound answer, for rods moved within that

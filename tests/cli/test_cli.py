@@ -56,6 +56,7 @@ def test_demo_runs(capsys):
     assert "gallery" in out and "free arc" in out
 
 
+@pytest.mark.slow
 def test_console_script_usage_error_is_status_2():
     proc = subprocess.run([sys.executable, "-m", "tether.cli", "arcs"], capture_output=True,
                           text=True)
@@ -117,6 +118,7 @@ def test_decompose_json_shape(capsys, tmp_path):
     assert out.read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow
 def test_check_command_exit_codes(capsys):
     assert main(["check", str(example_path("gallery")), "--lss", "2", "--samples", "5"]) == 0
     assert "0 point, 0 piece and 0 line disagreements" in capsys.readouterr().out

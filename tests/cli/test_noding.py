@@ -48,6 +48,7 @@ def test_snap_noding_gives_the_same_regions_cells_and_verdict(lss):
         assert len(vs.eliminated.cell) == len(va.eliminated.cell)
 
 
+@pytest.mark.slow
 def test_noding_on_the_command_line(capsys):
     args = ["analyze", str(example_path("gallery")), "--lss", "1", "--json"]
     assert main([*args, "--noding", "snap"]) == 0

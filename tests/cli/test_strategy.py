@@ -59,6 +59,7 @@ def test_simulate_path_file(capsys, tmp_path):
     assert code == 0 and "path vs paper" in out
 
 
+@pytest.mark.slow
 def test_simulate_lost_exits_zero(capsys):
     # the follow controller cannot pivot about a reflex vertex closer than Lss·vt/(vo+vt)
     code, out, _ = run(capsys, "simulate", GAL, "--lss", "2", "--vt", "0.9", "--vo", "1",

@@ -4,6 +4,7 @@ the search over every segment, and the nearest pick per row it relies on."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import tether.curves.project as P
 from tether._util.arrays import first_nearest, ragged_arange
@@ -11,6 +12,7 @@ from tether.curves import critical_curves
 from tether.examples.floorplan import floor_plan
 
 
+@pytest.mark.slow
 def test_pruned_conchoid_projection_equals_the_full_search(monkeypatch):
     """Projections on conchoids with the block-pruned nearest-segment search equal those with
     every segment of the curve (points on the polylines, at their vertices, and anywhere)."""

@@ -66,6 +66,7 @@ def test_square_room_quarter_lss_same_answer_at_every_scale_and_offset(side, off
     _clean(dec, 6)
 
 
+@pytest.mark.slow
 def test_square_room_verdict_verified_and_scan_catches_the_old_answer():
     dec = decompose(_square(4.0), 1.0)
     v = analyze(dec)
@@ -77,6 +78,7 @@ def test_square_room_verdict_verified_and_scan_catches_the_old_answer():
     assert not self_check(wrong).ok
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lss", _tiers(ROUND_LSS, (1.0,)))
 def test_room_with_pillar_exactly_lss_from_the_walls(lss):
     """A 4·lss room with a pillar exactly lss from every wall: the self-check failed before."""
@@ -122,6 +124,7 @@ TRANSFORMS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", _tiers(["corridor", "pillars_lss", "pillars_2lss", "steps"],
                                          ("steps",)))
 @pytest.mark.parametrize("how", _tiers(sorted(TRANSFORMS) + ["x2", "x1/8", "x10", "x0.1",
@@ -213,6 +216,7 @@ def test_cli_analyze_reports_a_critical_length(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["critical_lss"] is None
 
 
+@pytest.mark.slow
 def test_cli_check_lines_option(tmp_path, capsys):
     path = _write(tmp_path, room_with_pillars(0.5))
     assert main(["check", path, "--lss", "0.5", "--samples", "2", "--lines", "3",

@@ -17,6 +17,7 @@ class _Node:
         self.other: object = None
 
 
+@pytest.mark.slow
 def test_gc_paused_restores_the_collector_and_freezes_nothing():
     was = gc.isenabled()
     gc.enable()
@@ -97,6 +98,7 @@ def test_user_frame_results_equal_the_direct_computation_in_an_identity_frame():
     assert mine.cell_at(pts, ang) == direct.cell_at(pts, ang)
 
 
+@pytest.mark.slow
 def test_renumbered_map_reports_the_direct_computation_renamed():
     """A straight vertex renumbers the features: the user-frame results are the internal
     map's, features renamed through ``feature_names_map`` and codes through ``code_map``
@@ -190,6 +192,7 @@ def test_geometries_are_converted_lazily_all_at_once_and_equal_the_eager_convers
     assert dec.regions[2].polygon is dec.regions[2].polygon
 
 
+@pytest.mark.slow
 def test_lazy_geometries_pickle_and_locate_as_the_converted_ones():
     """Pickling before the first read keeps the internal geometries and the frame: the copy
     converts to the same bits; point location and the full dictionary are unchanged."""
@@ -269,6 +272,7 @@ def test_curves_converted_at_once_equal_each_curves_own_conversion():
         assert got.family is ref.family and got.frame is ref.frame
 
 
+@pytest.mark.slow
 def test_user_curves_converted_on_first_read_once():
     """Decomposing in a user frame leaves the curves unconverted until one is read; then all
     are converted once (the same objects on every read), equal to the eager conversion, and

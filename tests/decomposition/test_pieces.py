@@ -188,6 +188,7 @@ def test_describe_chains_against_a_dict_of_tuples(seed):
     assert len(descs) == len(set(descs))  # each distinct description once
 
 
+@pytest.mark.slow
 def test_dictionary_and_piece_between_read_the_columns():
     """The full dictionary's pieces (made from the columns) equal each piece's own
     dictionary and line; the simulator's piece between two regions is the first such piece."""

@@ -4,6 +4,7 @@ compared as integer rows against frozenset equality."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import GENERIC, interior_points
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -56,6 +57,7 @@ def test_structure_rows_of_empty_and_full():
     assert np.array_equal(eq, [[1, 0, 0, 0], [0, 1, 1, 0], [0, 1, 1, 0], [0, 0, 0, 1]])
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.floats(0.01, 0.5))
 def test_staged_clearance_equals_brute_force(seed, reach):
@@ -98,6 +100,7 @@ def test_crossing_table_gathers_each_points_rows():
     assert np.array_equal(got.point, np.sort(got.point))
 
 
+@pytest.mark.slow
 def test_part_candidates_cached_in_batches_equal_one_pass():
     """Candidates asked for some parts, then for more (cached, two batches), equal those of
     all the parts at once, in (part, rank) order."""

@@ -66,6 +66,7 @@ def test_vertex_circles_through_vertices(lss):
     assert_sound(Environment(square(0, 0, 4 * lss + 1.0), holes, "circles"), lss)
 
 
+@pytest.mark.slow
 def test_coincident_and_tangent_offsets():
     """Facing walls exactly 2 lss apart (their offsets coincide), a wall 1e-9 off that, and a
     hole whose corner circle is tangent to another hole's edge offset."""
@@ -76,6 +77,7 @@ def test_coincident_and_tangent_offsets():
     assert_sound(Environment(square(0, 0, 4.5), holes, "coincident"), lss)
 
 
+@pytest.mark.slow
 def test_nearly_collinear_walls():
     env = Environment([(0, 0), (2, 1e-10), (4, 0), (4, 3), (2, 3 - 1e-10), (0, 3)],
                       (square(1.0, 1.0, 0.4), square(2.6, 1.0, 0.4)), "collinear")
@@ -103,6 +105,7 @@ def test_snap_rounding_fallback_keeps_the_result(name, lss, failing_node):
     assert len(dec.regions) > 1
 
 
+@pytest.mark.slow
 def test_snap_rounding_fallback_same_verdict(monkeypatch):
     env = two_holes_on_a_line()
     exact = analyze(decompose(env, 0.5), near_critical=False)

@@ -66,6 +66,7 @@ def _same(a, b) -> None:
         assert c.project(q)[0] == d.project(q)[0]
 
 
+@pytest.mark.slow
 def test_round_trip_equal_and_analysis_equal(tmp_path):
     dec = decompose(GENERIC, 3.0)  # fresh: polygons in the internal frame, unions not made
     back = S.read_decomposition(S.write_decomposition(dec, tmp_path / "store", parts=2))

@@ -340,6 +340,7 @@ def test_cli_analyze_in_tiles_on_processes_same_verdict(capsys):
     assert tiled["counts"] == whole["counts"]
 
 
+@pytest.mark.slow
 def test_a_tile_the_noder_fails_on_means_all_tiles_snap_rounded(monkeypatch):
     """GEOS's floating-point noder failing in one tile: the input is snap rounded in tiles
     (never noded whole, never snap rounding on one tile only), and the parts are the
@@ -432,6 +433,7 @@ _FOUND = Environment(
 _FOUND_LSS = 7.061247415308198
 
 
+@pytest.mark.slow
 def test_found_map_pinned():
     """The counterexample, pinned: the decomposition in tiles is equal to the untiled one up
     to renumbering (the piece between the two regions at the cluster is ``B``, V9, in
@@ -459,6 +461,7 @@ def _crossings_and_vertices(env, lss):
     return ends, shapely.get_coordinates(whole.parts)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where", ["crossing", pytest.param("crossing+ulp", marks=_SLOW),
                                    pytest.param("vertex", marks=_SLOW),
                                    pytest.param("vertex-ulp", marks=_SLOW)])
@@ -495,6 +498,7 @@ def test_small_margin_many_retries_same_parts(monkeypatch):
     assert_same_parts(whole, tiled)
 
 
+@pytest.mark.slow
 def test_strips_followed(monkeypatch):
     """An input the untiled noding splits into two strips (its cut vertices rounded on the
     segments' halves) is split the same way before tiling, each strip tiled on its own: the

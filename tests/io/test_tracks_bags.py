@@ -101,6 +101,7 @@ def test_every_message_type_in_every_bag(tmp_path, version, storage, msgtype):
     assert tr.meta["receive_time_samples"] == 0
 
 
+@pytest.mark.slow
 def test_a_zero_stamp_falls_back_to_the_receive_time(tmp_path):
     samples = [(100.0, 100.5, 0.0, 0.0), (0, 101.5, 1.0, 0.0), (102.0, 102.5, 2.0, 0.0)]
     bag = _bag(tmp_path, 2, "mcap", {"/p": (MSGTYPES[0], samples)})
@@ -189,6 +190,7 @@ def test_columns_do_not_apply_to_bags(tmp_path):
         read_track(bag, columns=("t", "x", "y"))
 
 
+@pytest.mark.slow
 def test_without_rosbags_one_line(tmp_path, monkeypatch):
     bag = _bag(tmp_path, 1, None, {"/p": (MSGTYPES[0], SAMPLES)})
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)

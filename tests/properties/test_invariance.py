@@ -104,6 +104,7 @@ def test_similarity_invariance_many(name, sim):
     check_similarity(name, sim)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("offset", [1e5, 1e6, 1e7, 1e9])
 def test_far_offsets(offset):
     env, lss = CASES["square_hole"]

@@ -270,6 +270,7 @@ def test_garbage_json_never_a_traceback(tmp_path_factory, data, ext):
         assert "\n" not in str(exc)
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(raw=st.binary(max_size=300))
 def test_garbage_bytes_never_a_traceback(tmp_path_factory, raw):

@@ -73,6 +73,7 @@ def test_monitor_catches_rod_through_a_wall():
     assert ok.tolist() == [True, False]
 
 
+@pytest.mark.slow
 def test_follow_against_random_respects_vo_and_keeps_distance():
     w = world()
     r = simulate(w, FollowController(w), make_target("random", w), (2.0, 2.0, 0.5),
