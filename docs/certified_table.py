@@ -55,29 +55,27 @@ _CK = None  # the kernel the forked workers run from (set before the pool is mad
 
 
 def _one_run(task: tuple) -> tuple[bool, int]:
-    """(held, sampled states outside the field) of one run: ``task`` is (kind, x, y, a, seed)."""
-    kind, x, y, a, seed = task
+    """(held, sampled states outside the field) of one run: ``task`` is (kind, x, y, a, seed,
+    seconds)."""
+    kind, x, y, a, seed, seconds = task
     ck = _CK
     world = World(ck.env, lss=ck.lss, vt=ck.vt, vo=ck.vo)
     world.extra["certified"] = ck
     res = simulate(world, CertifiedController(), make_target(kind, world), (x, y, a),
-                   duration=_SECONDS, dt=0.02, seed=seed)
+                   duration=seconds, dt=0.02, seed=seed)
     return bool(res.held), int((ck.margin(res.trace.p, res.trace.a) < -1e-9).sum())
-
-
-_SECONDS = 15.0
 
 
 def runs(ck, starts: int, seconds: float, rng, workers: int = 1) -> tuple[int, int, int]:
     """(runs, lost, sampled states outside the field) of the certified controller from
     ``starts`` certified states per target kind, against every target kind, on ``workers``
     forked processes."""
-    global _CK, _SECONDS
-    _CK, _SECONDS = ck, seconds
+    global _CK
+    _CK = ck
     tasks = []
     for k, kind in enumerate(KINDS):
         pts, a = field_starts(ck, starts, rng)
-        tasks += [(kind, float(pts[i, 0]), float(pts[i, 1]), float(a[i]), 1000 * k + i)
+        tasks += [(kind, float(pts[i, 0]), float(pts[i, 1]), float(a[i]), 1000 * k + i, seconds)
                   for i in range(len(pts))]
     if workers > 1:
         import multiprocessing

@@ -50,11 +50,7 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         out["at"] = {"x": x, "y": y, "a": a, "in_kernel": bool(k.contains([[x, y]], a)[0]),
                      "margin": float(k.margin([[x, y]], a)[0])}
     if args.save is not None:
-        from tether._util.files import atomic_output
-
-        with atomic_output(args.save) as tmp:
-            with open(tmp, "wb") as fh:
-                k.save(fh)
+        _save(args.save, k)
     if args.plot:
         from tether.plot import kernel_figure, save
 
@@ -110,11 +106,7 @@ def _certified(args: argparse.Namespace, env) -> int:
         out["at"] = {"x": x, "y": y, "a": a, "certified": answer,
                      "margin": float(ck.margin([[x, y]], a)[0])}
     if args.save is not None:
-        from tether._util.files import atomic_output
-
-        with atomic_output(args.save) as tmp:
-            with open(tmp, "wb") as fh:
-                ck.save(fh)
+        _save(args.save, ck)
     if args.plot:
         from tether.plot import certified_figure, save
 
@@ -150,6 +142,15 @@ def _certified(args: argparse.Namespace, env) -> int:
         at = out["at"]
         print(f"  ({at['x']:g}, {at['y']:g}, {at['a']:g} rad) is {at['certified'].upper()}")
     return 0
+
+
+def _save(path: str, kernel) -> None:
+    """Write ``kernel`` (grid or certified) to ``path`` atomically: nothing half-written."""
+    from tether._util.files import atomic_output
+
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as fh:
+            kernel.save(fh)
 
 
 def register(add) -> None:
