@@ -58,8 +58,8 @@ from tether.game.cells import (
 )
 
 __all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
-           "free_mesh", "hat_gradients", "lifted_ends", "sight_widening", "window_min",
-           "window_min_at"]
+           "free_mesh", "hat_gradients", "heading_window_min", "lifted_ends", "sight_widening",
+           "window_min", "window_min_at"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -365,6 +365,33 @@ def window_min_at(x0: np.ndarray, x1: np.ndarray, vt: float, vo: float, sgn: flo
     lev = log2[length]  # floor(log2(length)): 2**lev <= length < 2**(lev + 1)
     row = lev * (2 * n)
     out = np.minimum(table[row + lo_i], table[row + lo_i + length - (1 << lev)])
+    out[full] = f_min
+    return out - lip * d / 2
+
+
+def heading_window_min(amin: np.ndarray, amax: np.ndarray, headings: int, vt: float,
+                       vo: float, sgn: float, n: int = 4096) -> np.ndarray:
+    """:func:`window_min` at the headings ``θ_j = 2π·j/headings`` (``j = 0..headings − 1``;
+    ``headings`` must divide ``n``), ``(m, headings)``: a lower bound of
+    ``min over a in [amin, amax]`` of ``f(θ_j − a)``.
+
+    ``θ_j`` is the grid point ``j·s`` (``s = n/headings``), so the window ``[θ_j − amax,
+    θ_j − amin]`` rounded outward to grid points is the row's window at ``θ = 0``,
+    ``[floor(−amax/d), ceil(−amin/d)]``, moved by ``j·s`` points: its length and level in
+    the sparse table are the row's, and only the start moves (the bound of
+    :func:`window_min_at`, rounded once per row instead of once per heading)."""
+    if n % headings:
+        raise ValueError(f"headings = {headings} does not divide n = {n}")
+    table, f_min, log2, lip = _min_table(float(vt), float(vo), float(sgn), int(n))
+    d = _TAU / n
+    lo0 = np.floor(-amax / d).astype(np.int64)
+    length = np.ceil(-amin / d).astype(np.int64) - lo0 + 1
+    full = length >= n
+    np.clip(length, 1, n, out=length)
+    lev = log2[length]
+    row = (lev * (2 * n))[:, None]
+    start = np.mod(lo0[:, None] + (n // headings) * np.arange(headings)[None, :], n) + row
+    out = np.minimum(table[start], table[start + (length - (1 << lev))[:, None]])
     out[full] = f_min
     return out - lip * d / 2
 

@@ -61,9 +61,9 @@ from tether.game.certificate import (
     certify,
     first_field,
     hat_gradients,
+    heading_window_min,
     lifted_ends,
     sight_widening,
-    window_min,
     window_min_at,
 )
 
@@ -248,6 +248,7 @@ class _RoundLP:
         self.row_t = np.zeros(0, np.int64)  # per end row: triangle (index into et),
         self.row_h = np.zeros(0, np.int64)  # heading,
         self.row_s = np.zeros(0)  # and end (-1 lower, +1 upper)
+        self.rhs = np.zeros(0)  # the end rows' right-hand sides in the model
 
     def add_cuts(self, cut: np.ndarray, u_all: np.ndarray) -> None:
         """Add the end rows of the (triangle of ``et``, heading) pairs of ``cut`` not in the
@@ -280,9 +281,14 @@ class _RoundLP:
                            np.concatenate([x_b[1], y_b[1]]))
         h.changeRowsBounds(2 * nv, idx, np.full(2 * nv, -np.inf),
                            np.concatenate([width - W_MIN, _TAU - width]))
-        ne = len(end_rhs)
-        h.changeRowsBounds(ne, (self.n_fixed + np.arange(ne)).astype(np.int32),
-                           np.full(ne, -np.inf), end_rhs)
+        # the end rows whose right-hand side changed (those of triangles whose ends moved,
+        # and the new rows): HiGHS's update costs per row given
+        old = np.full(len(end_rhs), np.nan)
+        old[:len(self.rhs)] = self.rhs
+        ch = np.flatnonzero(end_rhs != old)
+        h.changeRowsBounds(len(ch), (self.n_fixed + ch).astype(np.int32),
+                           np.full(len(ch), -np.inf), end_rhs[ch])
+        self.rhs = end_rhs.copy()
         h.run()
         status = h.getModelStatus()
         if status != highspy.HighsModelStatus.kOptimal:
@@ -414,7 +420,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         em = et[moved]
         seen[em] = now[moved]
         for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
-            S = window_min(Z[em].min(1), Z[em].max(1), th_all, vt, vo, sgn)
+            S = heading_window_min(Z[em].min(1), Z[em].max(1), headings, vt, vo, sgn)
             G = np.einsum("nvk,nv->nk", hat[em], Z[em])
             F = S + sgn * k * (G @ U_all.T) - margin / 2
             worst = np.argmin(F, axis=1)
