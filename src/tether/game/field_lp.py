@@ -249,6 +249,7 @@ class _RoundLP:
         self.row_h = np.zeros(0, np.int64)  # heading,
         self.row_s = np.zeros(0)  # and end (-1 lower, +1 upper)
         self.rhs = np.zeros(0)  # the end rows' right-hand sides in the model
+        self.ends = np.full((len(et), 6), np.nan)  # the lifted ends they were set for
 
     def add_cuts(self, cut: np.ndarray, u_all: np.ndarray) -> None:
         """Add the end rows of the (triangle of ``et``, heading) pairs of ``cut`` not in the
@@ -390,11 +391,18 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         t1 = time.perf_counter()
         # the end rows' right-hand sides: lower end k·(G + Σ x_j ∇φ_j)·u − s <= S − m,
         # upper end −k·(…)·u − s <= S − m, S at the row's triangle and heading
+        # (recomputed only for the rows of triangles whose ends moved, and new rows)
         model.add_cuts(cut[et], U_all)
         ti, hs, sg = model.row_t, model.row_h, model.row_s
+        now = np.concatenate([Lt[et], Ht[et]], axis=1)
+        fresh = ~(now == model.ends).all(axis=1)
+        model.ends = now
         rhs = np.empty(len(ti))
+        rhs[:len(model.rhs)] = model.rhs
+        redo = fresh[ti]
+        redo[len(model.rhs):] = True
         for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
-            m = sg == sgn
+            m = redo & (sg == sgn)
             amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
             G = np.einsum("nvk,nv->nk", hat[et], Z[et])
             tm, hm = ti[m], hs[m]
