@@ -84,21 +84,21 @@ def test_windows_from_cached_spans_are_free_by_the_rod_test():
             assert rod_is_free_many(env, pp, aa, 1.0).all()
 
 
-def test_highs_is_silent(capfd):
-    """The solver instance writes nothing on stdout or stderr (highspy's ``Highs`` class
-    prints a banner on stdout: the CLI's --json output must stay clean)."""
-    import highspy
+def test_lp_rounds_are_silent(capfd):
+    """Two rounds of the warm-started LP on a small room write nothing on stdout or stderr
+    (highspy's ``Highs`` class prints a banner on stdout: the CLI's --json output must stay
+    clean), and keep every field end inside its trust region."""
+    from tether.game import surveillance_kernel
+    from tether.game.certificate import first_field
+    from tether.game.field_lp import lp_field
 
-    from tether.game.field_lp import _highs
-
-    h = _highs()
-    lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = 1, 0
-    lp.col_cost_, lp.col_lower_, lp.col_upper_ = np.array([-1.0]), np.zeros(1), np.ones(1)
-    h.passModel(lp)
-    h.run()
-    assert h.getSolution().col_value[0] == 1.0
+    room = Environment([(0, 0), (4, 0), (4, 4), (0, 4)], name="room")
+    f = first_field(surveillance_kernel(room, 1.0, 0.3, 1.0, h=0.5, orientations=90))
+    capfd.readouterr()
+    r = lp_field(room, f.points, f.tri, f.lo, f.w, 1.0, 0.3, 1.0, rounds=2, rho=0.1)
     assert capfd.readouterr() == ("", "")
+    assert r.rounds == 2 or r.slack == 0.0
+    assert np.abs(r.lo - f.lo).max() <= 2 * 0.1 + 1e-6
 
 
 @pytest.mark.slow
