@@ -39,6 +39,7 @@ to every observer ``q + lss·u(a)`` is free. That segment is a rod from ``p`` of
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -57,7 +58,8 @@ from tether.game.cells import (
 )
 
 __all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
-           "free_mesh", "hat_gradients", "lifted_ends", "sight_widening", "window_min"]
+           "free_mesh", "hat_gradients", "heading_window_min", "lifted_ends", "sight_widening",
+           "window_min", "window_min_at"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -334,35 +336,89 @@ def window_min(amin: np.ndarray, amax: np.ndarray, th: np.ndarray, vt: float, vo
                sgn: float, n: int = 4096) -> np.ndarray:
     """A lower bound (map units per second) of ``min over a in [amin, amax]`` of
     ``f(θ − a) = sqrt(vo² − vt²cos²(θ − a)) + sgn·vt·sin(θ − a)``, per row and heading
-    ``θ = th[j]`` (``(m, Θ)``; ``amin <= amax``, radians, any branch).
+    ``θ = th[j]`` (``(m, Θ)``; ``amin <= amax``, radians, any branch): :func:`window_min_at`
+    of the windows ``[θ − amax, θ − amin]``."""
+    return window_min_at(th[None, :] - amax[:, None], th[None, :] - amin[:, None], vt, vo,
+                         sgn, n)
+
+
+def window_min_at(x0: np.ndarray, x1: np.ndarray, vt: float, vo: float, sgn: float,
+                  n: int = 4096) -> np.ndarray:
+    """A lower bound (map units per second) of ``min over x in [x0, x1]`` of
+    ``f(x) = sqrt(vo² − vt²cos²x) + sgn·vt·sin x``, element by element (``x0 <= x1``,
+    radians, any branch, arrays of one shape).
 
     ``f`` is tabulated at ``n`` points of the circle (spacing ``d = 2π/n``), and each window
-    ``[θ − amax, θ − amin]``, rounded outward to grid points, is answered by a sparse table of
-    minima (two lookups of one power-of-two length covering it; a window of a whole turn or
-    more takes the minimum of the table). Every point of the window is within ``d/2`` of a
-    grid point of the rounded window, and ``f`` is Lipschitz with constant ``r + vt``
+    ``[x0, x1]``, rounded outward to grid points, is answered by a sparse table of minima
+    (two lookups of one power-of-two length covering it; a window of a whole turn or more
+    takes the minimum of the table). Every point of the window is within ``d/2`` of a grid
+    point of the rounded window, and ``f`` is Lipschitz with constant ``r + vt``
     (``r = vt²/(2·sqrt(vo² − vt²))`` bounds the derivative of the square root), so
     subtracting ``(r + vt)·d/2`` from the table's minimum gives a lower bound."""
+    table, f_min, log2, lip = _min_table(float(vt), float(vo), float(sgn), int(n))
     d = _TAU / n
-    x = np.arange(n) * d
-    f = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x)
-    levels = [np.concatenate([f, f])]  # windows wrap once at most (longer ones: the minimum)
-    while (1 << len(levels)) <= n:
-        prev, j = levels[-1], len(levels) - 1
-        levels.append(np.minimum(prev[:-(1 << j)], prev[1 << j:]))
-    table = np.full((len(levels), 2 * n), np.inf)  # row j: minima over 2**j from each index
-    for j, row in enumerate(levels):
-        table[j, :len(row)] = row
-    lo_i = np.floor((th[None, :] - amax[:, None]) / d).astype(np.int64)
-    length = np.ceil((th[None, :] - amin[:, None]) / d).astype(np.int64) - lo_i + 1
+    lo_i = np.floor(x0 / d).astype(np.int64)
+    length = np.ceil(x1 / d).astype(np.int64) - lo_i + 1
     full = length >= n
     np.clip(length, 1, n, out=length)
     lo_i = np.mod(lo_i, n)
-    lev = np.frexp(length)[1] - 1  # floor(log2(length)): 2**lev <= length < 2**(lev + 1)
-    out = np.minimum(table[lev, lo_i], table[lev, lo_i + length - (1 << lev)])
-    out[full] = f.min()
-    lip = vt * vt / (2 * math.sqrt(vo * vo - vt * vt)) + vt
+    lev = log2[length]  # floor(log2(length)): 2**lev <= length < 2**(lev + 1)
+    row = lev * (2 * n)
+    out = np.minimum(table[row + lo_i], table[row + lo_i + length - (1 << lev)])
+    out[full] = f_min
     return out - lip * d / 2
+
+
+def heading_window_min(amin: np.ndarray, amax: np.ndarray, headings: int, vt: float,
+                       vo: float, sgn: float, n: int = 4096) -> np.ndarray:
+    """:func:`window_min` at the headings ``θ_j = 2π·j/headings`` (``j = 0..headings − 1``;
+    ``headings`` must divide ``n``), ``(m, headings)``: a lower bound of
+    ``min over a in [amin, amax]`` of ``f(θ_j − a)``.
+
+    ``θ_j`` is the grid point ``j·s`` (``s = n/headings``), so the window ``[θ_j − amax,
+    θ_j − amin]`` rounded outward to grid points is the row's window at ``θ = 0``,
+    ``[floor(−amax/d), ceil(−amin/d)]``, moved by ``j·s`` points: its length and level in
+    the sparse table are the row's, and only the start moves (the bound of
+    :func:`window_min_at`, rounded once per row instead of once per heading)."""
+    if n % headings:
+        raise ValueError(f"headings = {headings} does not divide n = {n}")
+    table, f_min, log2, lip = _min_table(float(vt), float(vo), float(sgn), int(n))
+    d = _TAU / n
+    lo0 = np.floor(-amax / d).astype(np.int64)
+    length = np.ceil(-amin / d).astype(np.int64) - lo0 + 1
+    full = length >= n
+    np.clip(length, 1, n, out=length)
+    lev = log2[length]
+    row = (lev * (2 * n))[:, None]
+    start = np.mod(lo0[:, None] + (n // headings) * np.arange(headings)[None, :], n) + row
+    out = np.minimum(table[start], table[start + (length - (1 << lev))[:, None]])
+    out[full] = f_min
+    return out - lip * d / 2
+
+
+@functools.lru_cache(maxsize=16)
+def _min_table(vt: float, vo: float, sgn: float, n: int
+               ) -> tuple[np.ndarray, float, np.ndarray, float]:
+    """The sparse table of :func:`window_min_at` (read-only, flattened: row ``j`` of length
+    ``2n`` holds the minima of ``f`` over ``2**j`` grid points from each index; windows wrap
+    once at most), ``f``'s minimum, ``floor(log2(k))`` for ``k = 0..n`` (``k = 0`` unused) and
+    the Lipschitz constant ``r + vt``."""
+    x = np.arange(n) * (_TAU / n)
+    f = np.sqrt(vo * vo - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x)
+    levels = [np.concatenate([f, f])]
+    while (1 << len(levels)) <= n:
+        prev, j = levels[-1], len(levels) - 1
+        levels.append(np.minimum(prev[:-(1 << j)], prev[1 << j:]))
+    table = np.full((len(levels), 2 * n), np.inf)
+    for j, row in enumerate(levels):
+        table[j, :len(row)] = row
+    table = table.ravel()
+    log2 = np.zeros(n + 1, dtype=np.int64)
+    log2[1:] = np.frexp(np.arange(1, n + 1))[1] - 1
+    table.flags.writeable = False
+    log2.flags.writeable = False
+    lip = vt * vt / (2 * math.sqrt(vo * vo - vt * vt)) + vt
+    return table, float(f.min()), log2, lip
 
 
 def end_slack(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt: float,

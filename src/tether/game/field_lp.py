@@ -25,18 +25,25 @@ is zero).
   region (sampled, minus its Lipschitz bound).
 
 **Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
+
+**Solver.** One HiGHS model (``highspy``) per search, kept across the rounds: the columns and
+most rows are the same every round; the trust region, the free windows, the widths and the
+end rows' bounds move, and cutting planes add end rows, so each round re-solves from the last
+basis instead of from scratch. The blocked spans behind the free windows depend on the mesh
+only and are computed once.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import highspy
 import numpy as np
 from scipy import sparse
-from scipy.optimize import linprog
 
 from tether.environment import Environment
 from tether.game.cells import (
@@ -54,12 +61,14 @@ from tether.game.certificate import (
     certify,
     first_field,
     hat_gradients,
+    heading_window_min,
     lifted_ends,
     sight_widening,
-    window_min,
+    window_min_at,
 )
 
-__all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "vortex_radius"]
+__all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "triangle_spans",
+           "vortex_radius", "windows_of_spans"]
 
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
@@ -107,32 +116,56 @@ def free_windows(env: Environment, xy: np.ndarray, ref: np.ndarray, lss: float,
     :data:`~tether.game.cells.ANGLE_MARGIN`. With a sensing delay (``grow = vt·d > 0``, map
     units) the window is that of check 1 with the delay: the triangle grown by ``grow``, rods
     ``lss + grow`` long, each blocked span widened by
-    :func:`~tether.game.certificate.sight_widening` more."""
-    n = len(xy)
+    :func:`~tether.game.certificate.sight_widening` more. The same as
+    :func:`triangle_spans` then :func:`windows_of_spans` (which a search repeats for new
+    ``ref`` without recomputing the spans)."""
+    return windows_of_spans(triangle_spans(env, xy, lss, grow), ref, len(xy))
+
+
+def triangle_spans(env: Environment, xy: np.ndarray, lss: float, grow: float = 0.0
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every blocked span of every triangle ``xy`` (n, 3, 2) of :func:`free_windows`:
+    ``(t, b0, b1)``, the triangle of each span and its ends (radians, widened as there),
+    sorted by ``t``. They depend on the geometry only, not on the field."""
     widen = ANGLE_MARGIN + sight_widening(grow, lss)
     if grow > 0:
         xy, lss = grow_triangles(xy, grow), lss + grow
-    f_lo = np.full(n, -np.inf)
-    f_hi = np.full(n, np.inf)
     quads = np.concatenate([xy, xy[:, 2:3]], axis=1)
     owner, verts = convex_pieces_of(env, quads)
-    if not len(owner):
+    ts, b0s, b1s = [np.zeros(0, np.int64)], [np.zeros(0)], [np.zeros(0)]
+    if len(owner):
+        piece, wall, walls = walls_near(env, verts, lss)
+        for s in range(0, len(piece), 200_000):
+            pc, wl = piece[s:s + 200_000], wall[s:s + 200_000]
+            b0, b1, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
+            ts.append(owner[pc][hit])
+            b0s.append(b0[hit] - widen)
+            b1s.append(b1[hit] + widen)
+    t, b0, b1 = np.concatenate(ts), np.concatenate(b0s), np.concatenate(b1s)
+    order = np.argsort(t, kind="stable")
+    return t[order], b0[order], b1[order]
+
+
+def windows_of_spans(spans: tuple[np.ndarray, np.ndarray, np.ndarray], ref: np.ndarray,
+                     n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The free windows ``(f_lo, f_hi)`` of :func:`free_windows` around ``ref`` (radians, per
+    triangle, ``n`` triangles) from the ``spans`` of :func:`triangle_spans`: each span is
+    shifted to start within ``[ref, ref + 2π)``; one that holds ``ref`` (or is the whole
+    circle) closes the window, else it bounds it above at its start and below at its end
+    minus ``2π``."""
+    t, b0, b1 = spans
+    f_lo = np.full(n, -np.inf)
+    f_hi = np.full(n, np.inf)
+    if not len(t):
         return f_lo, f_hi
-    piece, wall, walls = walls_near(env, verts, lss)
-    for s in range(0, len(piece), 200_000):
-        pc, wl = piece[s:s + 200_000], wall[s:s + 200_000]
-        b0, b1, hit = blocked_spans(verts[pc], walls[wl], lss, env.length_tol)
-        t = owner[pc][hit]
-        b0, b1 = b0[hit] - widen, b1[hit] + widen
-        r = ref[t]
-        whole = (b1 - b0) >= _TAU
-        k = np.floor((b0 - r) / _TAU)  # b0 shifted into [r, r + 2π)
-        b0, b1 = b0 - k * _TAU, b1 - k * _TAU
-        holds = whole | (b0 <= r) | (b1 - _TAU >= r)
-        up = np.where(holds, -np.inf, b0)
-        lo = np.where(holds, np.inf, b1 - _TAU)
-        np.minimum.at(f_hi, t, np.where(holds, -np.inf, up))
-        np.maximum.at(f_lo, t, np.where(holds, np.inf, lo))
+    r = ref[t]
+    whole = (b1 - b0) >= _TAU
+    k = np.floor((b0 - r) / _TAU)  # b0 shifted into [r, r + 2π)
+    b0, b1 = b0 - k * _TAU, b1 - k * _TAU
+    holds = whole | (b0 <= r) | (b1 - _TAU >= r)
+    first = np.flatnonzero(np.r_[True, t[1:] != t[:-1]])
+    f_hi[t[first]] = np.minimum.reduceat(np.where(holds, -np.inf, b0), first)
+    f_lo[t[first]] = np.maximum.reduceat(np.where(holds, np.inf, b1 - _TAU), first)
     return f_lo, f_hi
 
 
@@ -153,6 +186,125 @@ def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.
     return out & core
 
 
+class _RoundLP:
+    """The LP of :func:`lp_field`'s rounds, kept in one HiGHS model from round to round: the
+    columns and the width, proximal and core rows are the same every round, only bounds
+    move (the trust region, the free windows, the widths, the end rows' right-hand sides),
+    and the end rows of new cutting planes are added; HiGHS re-solves from the last basis
+    (dual simplex: a bound change keeps the basis dual feasible). Rebuilt only when the
+    core, hence the set of end-checked triangles ``et``, changes.
+
+    Columns: ``x`` (nv), ``y`` (nv), the slacks (2 per triangle of ``et``: lower end, upper
+    end), the proximal ``p``, ``q`` (nv each). Rows: widths (2·nv), proximal (4·nv), core
+    (``x = y`` on core vertices), then the end rows in the order they were added."""
+
+    def __init__(self, tri: np.ndarray, et: np.ndarray, hat: np.ndarray, core: np.ndarray,
+                 area_v: np.ndarray, k: float, headings: int) -> None:
+        nv = len(area_v)
+        self.nv, self.et, self.tri, self.hat, self.k = nv, et, tri, hat, k
+        self.nx = 2 * nv + 2 * len(et)
+        ncol = self.nx + 2 * nv
+        iv = np.arange(nv)
+        rows, cols, vals = [], [], []
+        # widths: x − y <= W − W_MIN ; y − x <= 2π − W (right-hand sides set every round)
+        for r0, sx in ((0, 1.0), (nv, -1.0)):
+            rows += [r0 + iv, r0 + iv]
+            cols += [iv, nv + iv]
+            vals += [np.full(nv, sx), np.full(nv, -sx)]
+        # proximal: ±x − p <= 0, ±y − q <= 0 (p, q priced PROXIMAL·area)
+        r0 = 2 * nv
+        for off in (0, nv):
+            for sx in (1.0, -1.0):
+                rows += [r0 + iv, r0 + iv]
+                cols += [off + iv, self.nx + off + iv]
+                vals += [np.full(nv, sx), np.full(nv, -1.0)]
+                r0 += nv
+        # core vertices keep the whole circle: x − y = 0
+        ci = np.flatnonzero(core)
+        rows += [r0 + np.arange(len(ci))] * 2
+        cols += [ci, nv + ci]
+        vals += [np.ones(len(ci)), -np.ones(len(ci))]
+        self.n_fixed = r0 + len(ci)
+        a = sparse.csc_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                      np.concatenate(cols))),
+                              shape=(self.n_fixed, ncol))
+        row_lo = np.full(self.n_fixed, -np.inf)
+        row_hi = np.zeros(self.n_fixed)
+        row_lo[r0:] = 0.0
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = ncol, self.n_fixed
+        lp.col_cost_ = np.concatenate([area_v, -area_v, np.full(2 * len(et), PENALTY),
+                                       PROXIMAL * area_v, PROXIMAL * area_v])
+        lp.col_lower_ = np.zeros(ncol)
+        lp.col_upper_ = np.full(ncol, np.inf)
+        lp.row_lower_, lp.row_upper_ = row_lo, row_hi
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.start_ = a.indptr.astype(np.int32)
+        lp.a_matrix_.index_ = a.indices.astype(np.int32)
+        lp.a_matrix_.value_ = a.data.astype(float)
+        self.h = _highs()
+        self.h.passModel(lp)
+        self.have = np.zeros((len(et), headings), bool)  # end rows in the model
+        self.row_t = np.zeros(0, np.int64)  # per end row: triangle (index into et),
+        self.row_h = np.zeros(0, np.int64)  # heading,
+        self.row_s = np.zeros(0)  # and end (-1 lower, +1 upper)
+        self.rhs = np.zeros(0)  # the end rows' right-hand sides in the model
+        self.ends = np.full((len(et), 6), np.nan)  # the lifted ends they were set for
+
+    def add_cuts(self, cut: np.ndarray, u_all: np.ndarray) -> None:
+        """Add the end rows of the (triangle of ``et``, heading) pairs of ``cut`` not in the
+        model yet (``u_all``: the headings' unit vectors): per pair and end,
+        ``−sgn·k·Σ_j (∇φ_j·u)·z_j − s <= rhs`` (the right-hand side set by :meth:`solve`)."""
+        ti, hs = np.nonzero(cut & ~self.have)
+        if not len(ti):
+            return
+        self.have[ti, hs] = True
+        coef = np.einsum("rvk,rk->rv", self.hat[self.et[ti]], u_all[hs])
+        vcols = self.tri[self.et[ti]]
+        for sgn, off, end in ((-1.0, 0, 0), (1.0, self.nv, 1)):
+            cols = np.column_stack([off + vcols, 2 * self.nv + 2 * ti + end])
+            vals = np.column_stack([-sgn * self.k * coef, np.full(len(ti), -1.0)])
+            self.h.addRows(len(ti), np.full(len(ti), -np.inf), np.full(len(ti), np.inf),
+                           cols.size, (4 * np.arange(len(ti))).astype(np.int32),
+                           cols.ravel().astype(np.int32), vals.ravel())
+            self.row_t = np.concatenate([self.row_t, ti])
+            self.row_h = np.concatenate([self.row_h, hs])
+            self.row_s = np.concatenate([self.row_s, np.full(len(ti), sgn)])
+
+    def solve(self, x_b: tuple[np.ndarray, np.ndarray], y_b: tuple[np.ndarray, np.ndarray],
+              width: np.ndarray, end_rhs: np.ndarray) -> tuple[str | None, np.ndarray]:
+        """Set the bounds of ``x`` and ``y`` (``(lower, upper)`` each), the widths ``W``
+        and the end rows' right-hand sides, and re-solve. Returns ``(None, z)`` (the
+        columns' values) when optimal, else ``(status, empty)``."""
+        nv, h = self.nv, self.h
+        idx = np.arange(2 * nv, dtype=np.int32)
+        h.changeColsBounds(2 * nv, idx, np.concatenate([x_b[0], y_b[0]]),
+                           np.concatenate([x_b[1], y_b[1]]))
+        h.changeRowsBounds(2 * nv, idx, np.full(2 * nv, -np.inf),
+                           np.concatenate([width - W_MIN, _TAU - width]))
+        # the end rows whose right-hand side changed (those of triangles whose ends moved,
+        # and the new rows): HiGHS's update costs per row given
+        old = np.full(len(end_rhs), np.nan)
+        old[:len(self.rhs)] = self.rhs
+        ch = np.flatnonzero(end_rhs != old)
+        h.changeRowsBounds(len(ch), (self.n_fixed + ch).astype(np.int32),
+                           np.full(len(ch), -np.inf), end_rhs[ch])
+        self.rhs = end_rhs.copy()
+        h.run()
+        status = h.getModelStatus()
+        if status != highspy.HighsModelStatus.kOptimal:
+            return h.modelStatusToString(status), np.zeros(0)
+        return None, np.asarray(h.getSolution().col_value)
+
+
+def _highs() -> Any:
+    """A silent HiGHS instance: highspy's bare binding where it exports one (its ``Highs``
+    subclass installs a logging callback that prints a banner on stdout)."""
+    h = getattr(highspy, "_Highs", highspy.Highs)()
+    h.setOptionValue("output_flag", False)
+    return h
+
+
 def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarray,
              w: np.ndarray, lss: float, vt: float, vo: float, rho: float = 0.25,
              margin: float = 0.03, rounds: int = 20, headings: int = 256,
@@ -167,8 +319,14 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     ``core``, a mask); ``release`` (map units, default three mean edge lengths): how near to a
     stuck slack a core vertex is released. ``progress`` gets each round's record. ``grow``
     (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
-    :func:`free_windows`). Returns the
-    ends per vertex (radians) and the search's record."""
+    :func:`free_windows`). Returns the ends per vertex (radians) and the search's record
+    (per round: ``t_windows``, ``t_lp``, ``t_ends``, the seconds spent on the free windows,
+    the LP, and the end rows' bounds with the cutting planes).
+
+    The blocked spans of the free windows are computed once (:func:`triangle_spans`); the LP
+    is one HiGHS model re-solved from its last basis (:class:`_RoundLP`); the cutting-plane
+    search looks again only at the triangles whose ends moved (the others' worst heading is
+    already a row or not violated)."""
     nv, nt = len(points), len(tri)
     xy = points[tri]
     if release is None:  # by default three mean edge lengths
@@ -196,6 +354,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     cen = xy.mean(axis=1)
     cut = np.zeros((nt, headings), bool)  # the headings whose end rows each triangle has
     cut[:, ::headings // 8] = True
+    seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
 
     def ends_checked() -> tuple[np.ndarray, np.ndarray]:
         et = np.flatnonzero(~core[tri].all(axis=1))  # triangles with end constraints
@@ -204,15 +363,20 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         return et, idle
 
     et, idle = ends_checked()
+    model = _RoundLP(tri, et, hat, core, area_v, k, headings)
+    t_spans = time.perf_counter()
+    spans = triangle_spans(env, xy, lss, grow)
+    t_spans = time.perf_counter() - t_spans  # counted with the first round's windows
     log = []
     slack_sum = np.inf
     r = 0
     for r in range(1, rounds + 1):
+        t0 = time.perf_counter()
         Lt, Ht, _ = lifted_ends(L, H - L, tri)
         # free windows around the middle of the vertices' common arc (else vertex 0's middle)
         cmid = np.where(Lt.max(1) <= Ht.min(1), (Lt.max(1) + Ht.min(1)) / 2,
                         (Lt[:, 0] + Ht[:, 0]) / 2)
-        f_lo, f_hi = free_windows(env, xy, cmid, lss, grow)
+        f_lo, f_hi = windows_of_spans(spans, cmid, nt)
         x_lb = np.full(nv, -rho)
         y_ub = np.full(nv, rho)
         np.maximum.at(x_lb, tri.ravel(), (f_lo[:, None] + WINDOW_GAP - Lt).ravel())
@@ -221,92 +385,63 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         y_lb = np.full(nv, -rho)
         x_lb[idle], x_ub[idle], y_lb[idle], y_ub[idle] = 0.0, 0.0, 0.0, 0.0
         bad = (x_lb > x_ub) | (y_lb > y_ub)
-        # rows: ends (per cut heading) and widths
-        rows, cols, vals, rhs = [], [], [], []
-        nrow = 0
-        for sgn, Z, off in ((-1.0, Lt, 0), (1.0, Ht, nv)):
-            amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
-            S = window_min(amin, amax, th_all, vt, vo, sgn)  # (len(et), headings)
-            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
-            ti, hs = np.nonzero(cut[et])  # rows: (triangle of et, heading) pairs
-            u = U_all[hs]  # (r, 2)
-            coef = np.einsum("rvk,rk->rv", hat[et[ti]], u)  # ∂(G·u)/∂z_j, (r, 3)
-            # lower end: k·(G + Σ x_j ∇φ_j)·u − s <= S − m ; upper: −k·(…)·u − s <= S − m
-            base = (G[ti] * u).sum(1)
-            b = S[ti, hs] - margin + sgn * k * base
-            nh = len(ti)
-            rows.append(nrow + np.repeat(np.arange(nh), 3))
-            cols.append(off + tri[et[ti]].ravel())
-            vals.append((-sgn * k * coef).ravel())
-            rows.append(nrow + np.arange(nh))
-            cols.append(2 * nv + 2 * ti + (0 if sgn < 0 else 1))
-            vals.append(np.full(nh, -1.0))
-            rhs.append(b)
-            nrow += nh
-        # widths: x − y <= W − W_MIN ; y − x <= 2π − W
-        W = H - L
-        iv = np.arange(nv)
-        for sx, bnd in ((1.0, W - W_MIN), (-1.0, _TAU - W)):
-            rows += [nrow + iv, nrow + iv]
-            cols += [iv, nv + iv]
-            vals += [np.full(nv, sx), np.full(nv, -sx)]
-            rhs.append(bnd)
-            nrow += nv
-        # proximal terms: |x_i| <= p_i, |y_i| <= q_i (columns after the slacks), priced
-        # PROXIMAL·area so that a move the width does not pay for is not made
-        nx_ = 2 * nv + 2 * len(et)
-        for off in (0, nv):
-            for sx in (1.0, -1.0):
-                rows += [nrow + iv, nrow + iv]
-                cols += [off + iv, nx_ + off + iv]
-                vals += [np.full(nv, sx), np.full(nv, -1.0)]
-                rhs.append(np.zeros(nv))
-                nrow += nv
-        A = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
-                                                      np.concatenate(cols))),
-                              shape=(nrow, nx_ + 2 * nv))
-        cvec = np.concatenate([area_v, -area_v, np.full(2 * len(et), PENALTY),
-                               PROXIMAL * area_v, PROXIMAL * area_v])
-        # core vertices keep the whole circle: y = x
-        bounds = np.concatenate([np.column_stack([x_lb, x_ub]), np.column_stack([y_lb, y_ub]),
-                                 np.column_stack([np.zeros(2 * len(et) + 2 * nv),
-                                                  np.full(2 * len(et) + 2 * nv, np.inf)])])
         if bad.any():  # a vertex whose reference is blocked: kept, and reported
-            bad_i = np.flatnonzero(bad)
-            bounds[bad_i] = 0.0
-            bounds[nv + bad_i] = 0.0
-            log.append({"round": r, "blocked_reference": int(len(bad_i))})
-        bub = np.concatenate(rhs)
-        eq_rows = np.flatnonzero(core)
-        Aeq = sparse.csr_matrix((np.concatenate([np.ones(len(eq_rows)), -np.ones(len(eq_rows))]),
-                                 (np.concatenate([np.arange(len(eq_rows))] * 2),
-                                  np.concatenate([eq_rows, nv + eq_rows]))),
-                                shape=(len(eq_rows), nx_ + 2 * nv))
-        res = linprog(cvec, A_ub=A, b_ub=bub, A_eq=Aeq,
-                      b_eq=np.zeros(len(eq_rows)), bounds=bounds, method="highs")
-        if res.status != 0:
-            log.append({"round": r, "status": res.message})
+            x_lb[bad], x_ub[bad], y_lb[bad], y_ub[bad] = 0.0, 0.0, 0.0, 0.0
+            log.append({"round": r, "blocked_reference": int(bad.sum())})
+        t1 = time.perf_counter()
+        # the end rows' right-hand sides: lower end k·(G + Σ x_j ∇φ_j)·u − s <= S − m,
+        # upper end −k·(…)·u − s <= S − m, S at the row's triangle and heading
+        # (recomputed only for the rows of triangles whose ends moved, and new rows)
+        model.add_cuts(cut[et], U_all)
+        ti, hs, sg = model.row_t, model.row_h, model.row_s
+        now = np.concatenate([Lt[et], Ht[et]], axis=1)
+        fresh = ~(now == model.ends).all(axis=1)
+        model.ends = now
+        rhs = np.empty(len(ti))
+        rhs[:len(model.rhs)] = model.rhs
+        redo = fresh[ti]
+        redo[len(model.rhs):] = True
+        for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
+            m = redo & (sg == sgn)
+            amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
+            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
+            tm, hm = ti[m], hs[m]
+            S = window_min_at(th_all[hm] - amax[tm], th_all[hm] - amin[tm], vt, vo, sgn)
+            rhs[m] = S - margin + sgn * k * (G[tm] * U_all[hm]).sum(1)
+        t2 = time.perf_counter()
+        status, z = model.solve((x_lb, x_ub), (y_lb, y_ub), H - L, rhs)
+        t3 = time.perf_counter()
+        if status is not None:
+            log.append({"round": r, "status": status})
             break
-        z = res.x
+        nx_ = 2 * nv + 2 * len(et)
         x, y, s = z[:nv], z[nv:2 * nv], z[2 * nv:nx_]
         L = L + x
         H = H + y
         slack_sum = float(s.sum())
         # cutting planes: for the new field, the headings that violate most per triangle
+        # (only where the ends moved since this triangle was last searched)
         added = 0
         Lt, Ht, _ = lifted_ends(L, H - L, tri)
+        now = np.concatenate([Lt[et], Ht[et]], axis=1)
+        moved = ~(now == seen[et]).all(axis=1)
+        em = et[moved]
+        seen[em] = now[moved]
         for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
-            S = window_min(Z[et].min(1), Z[et].max(1), th_all, vt, vo, sgn)
-            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
+            S = heading_window_min(Z[em].min(1), Z[em].max(1), headings, vt, vo, sgn)
+            G = np.einsum("nvk,nv->nk", hat[em], Z[em])
             F = S + sgn * k * (G @ U_all.T) - margin / 2
             worst = np.argmin(F, axis=1)
-            viol = F[np.arange(len(et)), worst] < 0
-            new = viol & ~cut[et, worst]
-            cut[et[new], worst[new]] = True
+            viol = F[np.arange(len(em)), worst] < 0
+            new = viol & ~cut[em, worst]
+            cut[em[new], worst[new]] = True
             added += int(new.sum())
+        t4 = time.perf_counter()
         move = float(max(np.abs(x).max(), np.abs(y).max()))
         entry = {"round": r, "slack": slack_sum, "move": move, "cuts_added": added,
-                 "mean_w": float(np.mean(H - L) / _TAU), "rows": nrow}
+                 "mean_w": float(np.mean(H - L) / _TAU), "rows": 6 * nv + len(ti),
+                 "t_windows": t1 - t0 + (t_spans if r == 1 else 0.0), "t_lp": t3 - t2,
+                 "t_ends": t2 - t1 + t4 - t3}
         entry["slack_at"] = [points[tri[et[j // 2]]].mean(0).round(2).tolist()
                              for j in np.argsort(-s)[:5] if s[j] > 1e-9]
         log.append(entry)
@@ -326,6 +461,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
                 break
             core[freed] = False
             et, idle = ends_checked()
+            model = _RoundLP(tri, et, hat, core, area_v, k, headings)
             entry["released"] = int(len(freed))
     return LPResult(L, H, slack_sum, r, log, core)
 
@@ -387,9 +523,14 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
         r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
                      core_radius=q * r_v, progress=progress, grow=grow)
         f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
+        t0 = time.perf_counter()
         checks = certify(f, env, lss, vt, vo, grow)
+        rec = [e for e in r.log if "t_lp" in e]
         log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
-                    "failing": int(checks.bad.sum())})
+                    "failing": int(checks.bad.sum()),
+                    "t_windows": sum(e["t_windows"] for e in rec),
+                    "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
+                    "t_certify": time.perf_counter() - t0})
         if checks.passed:
             break
     return f, checks
