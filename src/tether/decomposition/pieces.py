@@ -5,6 +5,7 @@ two regions' structures, exact) and the pieces' columns."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -28,8 +29,8 @@ from tether.environment import Environment
 from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs, z_order
 
 __all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL",
-           "PIECE_BATCH", "Candidates", "crossing_candidates", "longest_unresolved",
-           "make_chains", "make_pieces", "part_candidates"]
+           "PIECE_BATCH", "Candidates", "chain_crossings", "crossing_candidates",
+           "longest_unresolved", "make_chains", "make_pieces", "part_candidates"]
 
 
 def make_chains(arr: Arrangement, face_region: np.ndarray) -> Chains:
@@ -290,6 +291,30 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit."""
     sptr, ssrc = arr.chain_sources(chains)
     reg = region_rows(regions, 2 * env.n + 1)
+    got, kept, arcs, lines = chain_crossings(env, lss, curves, chains, cands, (sptr, ssrc),
+                                             reg, arr)
+    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
+    table = PieceTable(chains.pair[kept].astype(np.int64), got["q"], got["n"], got["eps"],
+                       got["ok"], desc, descs, Shapes(None, wkb=lines))
+    return table, len(chains) - len(kept), arcs
+
+
+def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: Chains,
+                    cands: Candidates, srcs: tuple[np.ndarray, np.ndarray],
+                    reg: tuple[StructureRows, np.ndarray], arr: Any
+                    ) -> tuple[dict[str, np.ndarray], np.ndarray, ArcTable,
+                               tuple[np.ndarray, np.ndarray]]:
+    """The crossings, their arcs and the lines of the pieces of ``chains`` (the work of
+    :func:`make_pieces` but the descriptions; also a tile's task,
+    :func:`tether.decomposition.tiles.pieces_tile`): the crossings chosen
+    :data:`PIECE_BATCH` chains at a time (:func:`_pick_crossings`; ``srcs``: the chains'
+    curves, CSR ``(ptr, src)`` into ``curves``; ``reg``: the structure rows and the row of
+    each region of ``chains.pair``), each batch's arcs at its chosen crossings kept and its
+    rounds' tables freed before the next; ``arr``: the arrangement, or any object whose
+    ``parts`` the chains' part ids index (:func:`_chain_geometries`). Returns the crossings
+    of the chains with a candidate (``q``, ``n``, ``eps``, ``ok``, in chain order), those
+    chains (``kept``), the arcs at both sides of their crossings (points ``0..k-1`` on the
+    ``+n`` side, ``k..2k-1`` on the other) and their lines as a WKB column ``(raw, ptr)``."""
     m = len(chains)
     got = {"q": np.zeros((m, 2)), "n": np.zeros((m, 2)), "eps": np.zeros(m),
            "ok": np.zeros(m, bool)}
@@ -297,8 +322,7 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
     for lo in range(0, max(m, 1), PIECE_BATCH):
         which = np.arange(lo, min(lo + PIECE_BATCH, m))
-        b, tables = _pick_crossings(env, chains, cands, None, curves, (sptr, ssrc), lss,
-                                    which, reg)
+        b, tables = _pick_crossings(env, chains, cands, None, curves, srcs, lss, which, reg)
         for f, col in got.items():
             col[which] = b[f]
         # the batch's arcs at its crossings kept, its rounds' tables freed (a lower peak)
@@ -318,10 +342,7 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
             else _crossing_table([], np.zeros((0, 3), np.int64)))
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
-    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
-    table = PieceTable(chains.pair[kept].astype(np.int64), got["q"][kept], got["n"][kept],
-                       got["eps"][kept], got["ok"][kept], desc, descs, Shapes(None, wkb=lines))
-    return table, len(chains) - len(kept), arcs
+    return {f: col[kept] for f, col in got.items()}, kept, arcs, lines
 
 
 #: Chains whose crossings are chosen at a time (:func:`make_pieces`): their rounds' arcs
@@ -381,9 +402,11 @@ def _describe_chains(sptr: np.ndarray, ssrc: np.ndarray, which: np.ndarray,
     return desc, descs
 
 
-def _chain_geometries(arr: Arrangement, chains: Chains, which: np.ndarray) -> np.ndarray:
+def _chain_geometries(arr: Any, chains: Chains, which: np.ndarray) -> np.ndarray:
     """The lines of the chains ``which`` (an object array): a chain's part, or its parts
-    merged into as few lines as they form (all multi-part chains at once)."""
+    merged into as few lines as they form (all multi-part chains at once); ``arr``: the
+    arrangement, or any object whose ``parts`` the chains' part ids index (linestrings, or
+    :class:`tether.decomposition.faces.PartLines`)."""
     size = chains.size[which]
     out = arr.parts[chains.parts[chains.ptr[which]]]  # single parts as they are
     multi = np.flatnonzero(size > 1)
