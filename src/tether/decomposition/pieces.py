@@ -4,6 +4,7 @@ two regions' structures, exact) and the pieces' columns."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,7 +31,8 @@ from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs
 
 __all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL",
            "PIECE_BATCH", "Candidates", "chain_crossings", "crossing_candidates",
-           "longest_unresolved", "make_chains", "make_pieces", "part_candidates"]
+           "joined_crossings", "longest_unresolved", "make_chains", "make_pieces",
+           "part_candidates"]
 
 
 def make_chains(arr: Arrangement, face_region: np.ndarray) -> Chains:
@@ -271,7 +273,8 @@ def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
 
 
 def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chains: Chains,
-                cands: Candidates, curves: list[Curve], lss: float
+                cands: Candidates, curves: list[Curve], lss: float,
+                crossings: Callable[..., tuple] | None = None
                 ) -> tuple[PieceTable, int, ArcTable]:
     """One piece per chain with a crossing sample. Returns the pieces (as columns), the
     number of chains dropped as below resolution (no candidate point clear of other curves by
@@ -288,11 +291,16 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     call has converged), and the peak is the arcs kept (those of the result) and one batch's
     rounds, not every chain's rounds at once (at 2,000 map vertices, 0.9 M chains: their
     first round's arcs and structures alone are about 1.8 M points' tables). A map of at
-    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit."""
+    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit.
+
+    ``crossings`` (default :func:`chain_crossings`) computes the crossings, arcs and lines,
+    called with :func:`chain_crossings`'s arguments; its ``kept`` (the chains of the pieces,
+    in the pieces' order) may be in any order (the tiles' tasks,
+    :func:`tether.decomposition.tiles.tiled_crossings`, give them tile by tile)."""
     sptr, ssrc = arr.chain_sources(chains)
     reg = region_rows(regions, 2 * env.n + 1)
-    got, kept, arcs, lines = chain_crossings(env, lss, curves, chains, cands, (sptr, ssrc),
-                                             reg, arr)
+    got, kept, arcs, lines = (crossings or chain_crossings)(env, lss, curves, chains, cands,
+                                                            (sptr, ssrc), reg, arr)
     desc, descs = _describe_chains(sptr, ssrc, kept, curves)
     table = PieceTable(chains.pair[kept].astype(np.int64), got["q"], got["n"], got["eps"],
                        got["ok"], desc, descs, Shapes(None, wkb=lines))
@@ -343,6 +351,37 @@ def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: C
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
     return {f: col[kept] for f, col in got.items()}, kept, arcs, lines
+
+
+def joined_crossings(results: list[tuple]) -> tuple[dict[str, np.ndarray], np.ndarray,
+                                                    ArcTable, tuple[np.ndarray, np.ndarray]]:
+    """The results of :func:`chain_crossings` on disjoint sets of chains (each one's ``kept``
+    given as the chains' global ids), as the result of one call on all of them whose pieces
+    are those of the first set, then those of the second, ...: the crossings concatenated,
+    the arcs' ``+n`` halves joined before the other halves (points renumbered), the lines'
+    WKB columns one after the other. Empties ``results``: each one's arrays are freed once
+    joined (the peak is the results and one joined column)."""
+    got = {f: np.concatenate([r[0][f] for r in results]) if results else
+           np.zeros((0, 2) if f in "qn" else 0, bool if f == "ok" else float)
+           for f in ("q", "n", "eps", "ok")}
+    kept = (np.concatenate([r[1] for r in results]) if results else
+            np.zeros(0, np.int64)).astype(np.int64)
+    raw = (np.concatenate([r[3][0] for r in results]) if results else
+           np.zeros(0, np.uint8))
+    ptr = np.zeros(len(kept) + 1, np.int64)
+    if results:
+        np.cumsum(np.concatenate([np.diff(r[3][1]) for r in results]), out=ptr[1:])
+    sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
+    for r in results:
+        if len(r[1]):
+            for side, part in zip(sides, _halves(r[2], len(r[1])), strict=True):
+                side.append(part)
+    results.clear()  # the arcs held by the halves only, which join_tables empties
+    halves = sides[0] + sides[1]
+    del sides
+    arcs = (join_tables(halves, release_memory) if halves
+            else _crossing_table([], np.zeros((0, 3), np.int64)))
+    return got, kept, arcs, (raw, ptr)
 
 
 #: Chains whose crossings are chosen at a time (:func:`make_pieces`): their rounds' arcs

@@ -31,6 +31,7 @@ from tether.decomposition.tiles import (
     TILE_SEGMENTS,
     check_tiles,
     process_executor,
+    tiled_crossings,
     tiled_noder,
 )
 from tether.decomposition.views import Pieces
@@ -47,8 +48,9 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
 
     With ``tiles``, the arrangement is noded, its faces traced and their free arcs computed
-    tile by tile (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal
-    to the untiled one up to the numbering of its regions and pieces (the same regions,
+    tile by tile, and so are the pieces' crossings, the arcs at them and the pieces' lines
+    (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal to the
+    untiled one up to the numbering of its regions and pieces (the same regions,
     structures, pieces and verdict).
 
     Parameters
@@ -63,10 +65,12 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     tiles : (int, int) or str, optional
         ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
         or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
-        per tile); None (default): untiled. Only the noding, the face tracing and the
-        faces' free arcs are tiled: the curves, regions and pieces are made whole, so the
-        memory check (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply
-        to the whole map.
+        per tile); None (default): untiled. Only the noding, the face tracing, the faces'
+        free arcs and the pieces' crossings, arcs and lines are tiled (the pieces on a grid
+        of their own, :func:`tether.decomposition.tiles.tiled_crossings`): the curves,
+        regions and the pieces' chains and candidates are made whole, so the memory check
+        (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply to the
+        whole map.
     executor : concurrent.futures.Executor, optional
         Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
         threads); by default local processes, one per core, started and shut down here
@@ -111,8 +115,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         None if shape == "auto" else shape[0] * shape[1], TILE_SEGMENTS, MAX_TILES)
     check_memory(env, lss, rel_tol, plan)  # issue 25: refused in milliseconds if it cannot fit
     own = process_executor() if shape is not None and executor is None else None
-    # the last tile task returns with the arrangement: tether's own workers shut down then
-    # (their memory freed before the regions and pieces), a caller's executor left as it is
+    # the last tile task returns with the pieces: tether's own workers shut down then (idle,
+    # their freed memory returned, in between), a caller's executor left as it is
     tiling = None if shape is None else (shape, executor or own,
                                          own.shutdown if own is not None else None)
     out, inner_lss = None, lss
@@ -143,8 +147,9 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                noding: str = "auto") -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
     reported as is, or in the user's frame of ``out`` (the result objects made once);
-    ``tiling``: ``(tiles, executor, done)`` to node the arrangement in tiles, ``done`` (or
-    None) called once the tiles' last task has returned; ``noding``: how the arrangement is
+    ``tiling``: ``(tiles, executor, done)`` to node the arrangement, trace its faces and
+    make the pieces' crossings in tiles, ``done`` (or None) called once the tiles' last task
+    (a pieces task) has returned; ``noding``: how the arrangement is
     noded (:data:`tether.decomposition.noding.NODINGS`)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
@@ -154,8 +159,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report,
                                                     arcs=(env, lss), noding=noding)
     arr = arrangement(env, curves, tol, noder, noding)
-    if tiling is not None and tiling[2] is not None:
-        tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     # the faces' points and free arcs: computed by the tiles' face tasks, or here
@@ -180,8 +183,11 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     # the regions made after that: their polygons and cells do not add to the grid's peak
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
+    crossings = None if tiling is None else tiled_crossings(tiling[0], tiling[1], report)
     pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
-                                                   lss)
+                                                   lss, crossings)
+    if tiling is not None and tiling[2] is not None:
+        tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     longest = longest_unresolved(arr, chains, cands)
     report("done", 1.0)
     if out is None:
