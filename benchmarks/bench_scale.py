@@ -33,8 +33,10 @@ of grids that failed before it), ``-`` in rows measured before the column existe
 ``--noding snap`` decomposes with ``noding="snap"`` (snap rounding from the start, where
 GEOS's floating-point noder is known to fail: the 4,000-vertex plan). Each row is also
 printed as JSON, with the main process's peak per stage (``stages``) and the largest
-worker's resident memory sampled over each stage (``worker stages``, MB: after the face
-tiles, what the idle workers hold).
+worker's resident memory sampled over each stage (``worker stages``, MB: between the face
+tiles and the pieces' tasks, what the idle workers hold), and, where the pieces are made in
+tiles (:func:`tether.decomposition.tiles.tiled_crossings`), their grid (``piece tiles``)
+and the largest peak a pieces task's process reported (``piece worker MB``).
 
 ``--stop-at GB`` stops a run (its workers killed) once its main process or one of its workers
 holds more than ``GB`` of resident memory (Linux): its row's verdict then says in which
@@ -86,6 +88,11 @@ def _logged(tiles, executor, tol, progress=None, log=None, **kw):
     noder_log["tol"] = tol
     return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
+piece_log = {}
+_crossings = getattr(pipeline, "tiled_crossings", None)  # the pieces in tiles, where made so
+if _crossings is not None:
+    pipeline.tiled_crossings = lambda tiles, executor, progress=None, log=None: _crossings(
+        tiles, executor, progress, piece_log)
 def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
     if not log.get("float_failed"):
         if log.get("grid"):  # noding="snap": no floating-point task ran
@@ -120,7 +127,8 @@ def stage_peak(name):  # the main process's peak over the stage that ends now
 def progress(stage, frac):
     marks.append((stage, time.perf_counter()))
     key = ("tiles" if stage.startswith("tiles") else
-           "face tiles" if stage.startswith("face tiles") else stage)
+           "face tiles" if stage.startswith("face tiles") else
+           "pieces" if stage.startswith("piece tiles") else stage)
     if key != last[0]:
         stage_peak(key)
 
@@ -206,7 +214,10 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
        "stages": {k: round(v_) for k, v_ in peaks.items()},
        "worker stages": dict(wpeaks),
-       "held": None if held is None else round(held)}
+       "held": None if held is None else round(held),
+       "piece tiles": "x".join(map(str, piece_log.get("piece_tiles", ()))) or None,
+       "piece worker MB": round(piece_log.get("piece_worker_peak_bytes", 0) / 2**20)
+       if piece_log else None}
 if compare:
     tether.curves.MAX_CURVE_VERTICES = 10**12
     whole = decompose(env, lss)

@@ -1,8 +1,8 @@
 """The tiles' workers and noding (tether/decomposition/tiles.py, issue 25): tether's own
-worker processes shut down once the last tile task (a pieces task) has returned (a caller's executor left
-alone), every task's freed memory returned before its result is sent, and ``noding="snap"``
-(snap rounding from the start) giving the untiled snap-rounded noding's parts bit for bit
-and, tiled, the untiled ``noding="snap"`` decomposition up to renumbering."""
+worker processes shut down once the last tile task (a pieces task) has returned (a caller's
+executor left alone), every task's freed memory returned before its result is sent, and
+``noding="snap"`` (snap rounding from the start) giving the untiled snap-rounded noding's
+parts bit for bit and, tiled, the untiled ``noding="snap"`` decomposition up to renumbering."""
 
 from __future__ import annotations
 

@@ -30,9 +30,9 @@ from tether.environment import Environment
 from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs, z_order
 
 __all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL",
-           "PIECE_BATCH", "Candidates", "chain_crossings", "crossing_candidates",
-           "joined_crossings", "longest_unresolved", "make_chains", "make_pieces",
-           "part_candidates"]
+           "PIECE_BATCH", "Candidates", "chain_crossings", "chain_descriptions",
+           "crossing_candidates", "joined_crossings", "longest_unresolved", "make_chains",
+           "make_pieces", "part_candidates"]
 
 
 def make_chains(arr: Arrangement, face_region: np.ndarray) -> Chains:
@@ -416,6 +416,20 @@ def longest_unresolved(arr: Arrangement, chains: Chains, cands: Candidates
     return {"length": float(length[i]),
             "regions": [f"R{r}" for r in chains.pair[dropped[i]].tolist()],
             "point": shapely.get_coordinates(mid)[0].tolist()}
+
+
+def chain_descriptions(sptr: np.ndarray, ssrc: np.ndarray, cands: Candidates,
+                       curves: list[Curve]) -> tuple[np.ndarray, list[tuple]]:
+    """The description id of every chain (-1 for a chain without a crossing candidate, which
+    makes no piece) and the distinct descriptions ``(curves, kinds, features)``, as
+    :func:`make_pieces` describes its pieces (``sptr``, ``ssrc``: the chains' curves,
+    :meth:`Arrangement.chain_sources`): for pieces written as they come, whatever their
+    order."""
+    kept = np.flatnonzero(cands.count > 0)
+    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
+    of = np.full(len(cands.count), -1, np.int64)
+    of[kept] = desc
+    return of, descs
 
 
 def _describe_chains(sptr: np.ndarray, ssrc: np.ndarray, which: np.ndarray,

@@ -993,7 +993,8 @@ def pieces_tile(env: Any, lss: float, curves: list[Curve], chains: Chains, cands
 
 def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
                     progress: Callable[[str, float], Any] | None = None,
-                    log: dict | None = None) -> Callable[..., tuple]:
+                    log: dict | None = None, sink: Callable[..., Any] | None = None
+                    ) -> Callable[..., tuple]:
     """The ``crossings`` of :func:`tether.decomposition.pieces.make_pieces` that computes
     the pieces' crossings, the arcs at both sides of them and their lines in ``tiles``
     (``(nx, ny)``, or ``"auto"``: about :data:`PIECE_TILE_CHAINS` chains a tile) on
@@ -1017,7 +1018,11 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
     the conchoids, whose projection starts from them). ``progress`` gets ``("piece tiles
     (NXxNY)", fraction)`` as tasks finish; ``log``, if given, gets ``piece_tiles`` (the
     grid's shape), ``piece_tasks`` (tasks run: tiles with chains) and
-    ``piece_worker_peak_bytes``."""
+    ``piece_worker_peak_bytes``. With ``sink``, each task's result is handed to it as it
+    comes, in tile order (``sink(crossings, chains, arcs, lines)``: the
+    :func:`tether.decomposition.pieces.chain_crossings` result of the tile, its ``kept`` as
+    global chain ids) and not kept: the crossings returned are those of no chain (a store
+    written tile by tile, :class:`tether.decomposition.store.PartWriter`)."""
     report = progress or (lambda stage, frac: None)
     log = {} if log is None else log
 
@@ -1057,7 +1062,11 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
             got, kept, arcs, lines, peak = f.result()
             futures[k] = None  # the future's result freed once joined
             log["piece_worker_peak_bytes"] = max(log["piece_worker_peak_bytes"], peak)
-            results.append((got, ids[kept], arcs, lines))
+            if sink is None:
+                results.append((got, ids[kept], arcs, lines))
+            else:
+                sink(got, ids[kept], arcs, lines)
+            del got, kept, arcs, lines
             report(stage, 0.85 + 0.14 * (k + 1) / len(futures))
         return joined_crossings(results)
 
