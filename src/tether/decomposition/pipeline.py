@@ -218,9 +218,10 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     if store is not None:
         return _stored(env, lss, tol, arr, curves, regions, cells, codes, chains, cands, out,
                        tiling, store, report)
-    crossings = None if tiling is None else tiled_crossings(tiling[0], tiling[1], report)
+    tiled = {} if tiling is None else {"crossings": tiled_crossings(tiling[0], tiling[1],
+                                                                    report)}
     pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
-                                                   lss, crossings)
+                                                   lss, **tiled)
     if tiling is not None and tiling[2] is not None:
         tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     longest = longest_unresolved(arr, chains, cands)
