@@ -1016,7 +1016,9 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
     A task's curves are copies of the chains' curves whose exact rows (their
     :class:`tether.curves.Family`) are only theirs (the same numbers; the polylines only for
     the conchoids, whose projection starts from them). ``progress`` gets ``("piece tiles
-    (NXxNY)", fraction)`` as tasks finish; ``log``, if given, gets ``piece_tiles`` (the
+    (NXxNY)", fraction)`` as tasks finish, in tile order; the tasks are submitted a few at a
+    time (:func:`_tasks_ahead`), each one's inputs made as it is submitted. ``log``, if
+    given, gets ``piece_tiles`` (the
     grid's shape), ``piece_tasks`` (tasks run: tiles with chains) and
     ``piece_worker_peak_bytes``. With ``sink``, each task's result is handed to it as it
     comes, in tile order (``sink(crossings, chains, arcs, lines)``: the
@@ -1048,29 +1050,43 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
         order = np.argsort(tile, kind="stable")  # chains tile by tile, in order within one
         bounds = np.searchsorted(tile[order], np.arange(grid.count + 1))
         log["piece_tiles"] = grid.shape
-        futures = []
-        for t in range(grid.count):
-            ids = order[bounds[t]:bounds[t + 1]]
-            if len(ids):
-                futures.append((ids, executor.submit(
-                    trimmed, pieces_tile, env, lss,
-                    *_task_inputs(ids, curves, chains, cands, srcs, reg, parts, start))))
-        log["piece_tasks"] = len(futures)
+        tasks = [order[bounds[t]:bounds[t + 1]] for t in range(grid.count)
+                 if bounds[t + 1] > bounds[t]]
+        log["piece_tasks"] = len(tasks)
+        ahead = _tasks_ahead(executor)
+
+        def submit(ids: np.ndarray) -> Any:
+            return executor.submit(trimmed, pieces_tile, env, lss,
+                                   *_task_inputs(ids, curves, chains, cands, srcs, reg, parts,
+                                                 start))
+
+        # at most ``ahead`` tasks' inputs made and waiting (each a copy of its chains' data)
+        futures = {k: submit(tasks[k]) for k in range(min(ahead, len(tasks)))}
         results = []
         stage = f"piece tiles ({grid.shape[0]}x{grid.shape[1]})"
-        for k, (ids, f) in enumerate(futures):
-            got, kept, arcs, lines, peak = f.result()
-            futures[k] = None  # the future's result freed once joined
+        for k, ids in enumerate(tasks):
+            got, kept, arcs, lines, peak = futures.pop(k).result()
+            if k + ahead < len(tasks):
+                futures[k + ahead] = submit(tasks[k + ahead])
             log["piece_worker_peak_bytes"] = max(log["piece_worker_peak_bytes"], peak)
             if sink is None:
                 results.append((got, ids[kept], arcs, lines))
             else:
                 sink(got, ids[kept], arcs, lines)
             del got, kept, arcs, lines
-            report(stage, 0.85 + 0.14 * (k + 1) / len(futures))
+            report(stage, 0.85 + 0.14 * (k + 1) / len(tasks))
         return joined_crossings(results)
 
     return crossings
+
+
+def _tasks_ahead(executor: Executor) -> int:
+    """How many pieces tasks :func:`tiled_crossings` keeps submitted: twice the workers of a
+    local pool (``max_workers``) and one more, so that none waits for work while the main
+    process holds few tasks' inputs; every task at once for another executor (a Dask
+    cluster's: its size is not known here)."""
+    workers = getattr(executor, "_max_workers", None)
+    return 2 * workers + 1 if isinstance(workers, int) and workers > 0 else MAX_TILES
 
 
 def _as_part_lines(parts: Any) -> PartLines:
