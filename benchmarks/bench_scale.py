@@ -96,8 +96,8 @@ pipeline.tiled_noder = _logged
 piece_log = {}
 _crossings = getattr(pipeline, "tiled_crossings", None)  # the pieces in tiles, where made so
 if _crossings is not None:
-    pipeline.tiled_crossings = lambda tiles, executor, progress=None, log=None: _crossings(
-        tiles, executor, progress, piece_log)
+    pipeline.tiled_crossings = lambda tiles, executor, progress=None, log=None, **kw: (
+        _crossings(tiles, executor, progress, piece_log, **kw))
 def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
     if not log.get("float_failed"):
         if log.get("grid"):  # noding="snap": no floating-point task ran

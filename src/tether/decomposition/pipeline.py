@@ -264,6 +264,8 @@ def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, re
                 out.pieces(table)
                 arcs = out.crossing_arcs(arcs)
             writer.pieces(table, arcs)
+            del table, arcs, got, lines
+            release_memory()  # the part's columns, freed: returned to the system
 
         crossings = tiled_crossings(tiling[0], tiling[1], report, sink=sink)
         crossings(env, lss, curves, chains, cands, (sptr, ssrc),
