@@ -33,8 +33,14 @@ of grids that failed before it), ``-`` in rows measured before the column existe
 ``--noding snap`` decomposes with ``noding="snap"`` (snap rounding from the start, where
 GEOS's floating-point noder is known to fail: the 4,000-vertex plan). Each row is also
 printed as JSON, with the main process's peak per stage (``stages``) and the largest
-worker's resident memory sampled over each stage (``worker stages``, MB: after the face
-tiles, what the idle workers hold).
+worker's resident memory sampled over each stage (``worker stages``, MB: between the face
+tiles and the pieces' tasks, what the idle workers hold), and, where the pieces are made in
+tiles (:func:`tether.decomposition.tiles.tiled_crossings`), their grid (``piece tiles``)
+and the largest peak a pieces task's process reported (``piece worker MB``).
+
+``--out DIR`` decomposes with ``out=DIR`` (``{n}`` in ``DIR`` is replaced by the size):
+the pieces and their crossings' arcs written to a store tile by tile as their tasks return
+(``docs/store.md``), G and the elimination built on the store read back.
 
 ``--stop-at GB`` stops a run (its workers killed) once its main process or one of its workers
 holds more than ``GB`` of resident memory (Linux): its row's verdict then says in which
@@ -75,6 +81,7 @@ n, workers, tiles = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 compare, strips = sys.argv[4] == "1", sys.argv[5] == "strips"
 stop_at = float(sys.argv[6]) * 1e9  # bytes of resident memory in one process; 0: never
 noding_mode = sys.argv[7]  # decompose's noding: auto or snap
+store = sys.argv[8] or None  # decompose's out: the store written tile by tile
 import tether.curves
 import tether.decomposition.noding as noding
 import tether.decomposition.pipeline as pipeline
@@ -86,6 +93,11 @@ def _logged(tiles, executor, tol, progress=None, log=None, **kw):
     noder_log["tol"] = tol
     return _noder(tiles, executor, tol, progress, noder_log, **kw)
 pipeline.tiled_noder = _logged
+piece_log = {}
+_crossings = getattr(pipeline, "tiled_crossings", None)  # the pieces in tiles, where made so
+if _crossings is not None:
+    pipeline.tiled_crossings = lambda tiles, executor, progress=None, log=None, **kw: (
+        _crossings(tiles, executor, progress, piece_log, **kw))
 def noder_name(log):  # float, or snap rounding's grid (in curve tolerances) and its retries
     if not log.get("float_failed"):
         if log.get("grid"):  # noding="snap": no floating-point task ran
@@ -120,7 +132,8 @@ def stage_peak(name):  # the main process's peak over the stage that ends now
 def progress(stage, frac):
     marks.append((stage, time.perf_counter()))
     key = ("tiles" if stage.startswith("tiles") else
-           "face tiles" if stage.startswith("face tiles") else stage)
+           "face tiles" if stage.startswith("face tiles") else
+           "pieces" if stage.startswith("piece tiles") else stage)
     if key != last[0]:
         stage_peak(key)
 
@@ -165,7 +178,7 @@ ex = process_executor(workers)
 w0 = time.perf_counter()
 threading.Thread(target=_stopper, daemon=True).start()
 dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex,
-                noding=noding_mode)
+                noding=noding_mode, **({"out": store} if store else {}))
 w1 = time.perf_counter()
 ex.shutdown()
 stage_peak("G")
@@ -206,7 +219,10 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "parts": noder_log.get("parts"), "faces": noder_log.get("faces"),
        "stages": {k: round(v_) for k, v_ in peaks.items()},
        "worker stages": dict(wpeaks),
-       "held": None if held is None else round(held)}
+       "held": None if held is None else round(held),
+       "piece tiles": "x".join(map(str, piece_log.get("piece_tiles", ()))) or None,
+       "piece worker MB": round(piece_log.get("piece_worker_peak_bytes", 0) / 2**20)
+       if piece_log else None}
 if compare:
     tether.curves.MAX_CURVE_VERTICES = 10**12
     whole = decompose(env, lss)
@@ -240,10 +256,11 @@ COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", 
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str,
-        stop_at: float = 0.0, noding: str = "auto") -> dict:
+        stop_at: float = 0.0, noding: str = "auto", store: str = "") -> dict:
     env = dict(os.environ, PYTHONPATH=src)
     out = subprocess.run([sys.executable, "-c", CHILD, str(n), str(workers), tiles,
-                          "1" if compare else "0", untiled, str(stop_at), noding],
+                          "1" if compare else "0", untiled, str(stop_at), noding,
+                          store.format(n=n) if store else ""],
                          capture_output=True,
                          text=True,
                          env=env, check=False)
@@ -276,6 +293,9 @@ def main() -> None:
     ap.add_argument("--noding", choices=("auto", "snap"), default="auto",
                     help="decompose's noding: auto (floating point, snap rounding where it "
                     "fails) or snap (snap rounding from the start)")
+    ap.add_argument("--out", default="", metavar="DIR",
+                    help="decompose with out=DIR ({n}: the size): the pieces written tile "
+                    "by tile to a store, G and the elimination on the store read back")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
     ap.add_argument("--doc", help="also write the rows as a Markdown table into this file")
     args = ap.parse_args()
@@ -285,7 +305,7 @@ def main() -> None:
     rows = []
     for n in args.sizes:
         row = run(n, args.workers, args.tiles, n in args.compare, args.untiled, args.src,
-                  args.stop_at, args.noding)
+                  args.stop_at, args.noding, args.out)
         rows.append(row)
         print("  ".join(f"{fmt(row.get(c)):>9}" for c in COLUMNS), flush=True)
         print(json.dumps(row), flush=True)  # every measure, the stages' included

@@ -1,8 +1,8 @@
 """The tiles' workers and noding (tether/decomposition/tiles.py, issue 25): tether's own
-worker processes shut down once the last tile task has returned (a caller's executor left
-alone), every task's freed memory returned before its result is sent, and ``noding="snap"``
-(snap rounding from the start) giving the untiled snap-rounded noding's parts bit for bit
-and, tiled, the untiled ``noding="snap"`` decomposition up to renumbering."""
+worker processes shut down once the last tile task (a pieces task) has returned (a caller's
+executor left alone), every task's freed memory returned before its result is sent, and
+``noding="snap"`` (snap rounding from the start) giving the untiled snap-rounded noding's
+parts bit for bit and, tiled, the untiled ``noding="snap"`` decomposition up to renumbering."""
 
 from __future__ import annotations
 
@@ -55,8 +55,9 @@ def _stages(events):
 
 
 def test_own_workers_shut_down_after_the_last_tile_task(monkeypatch):
-    """The executor decompose makes is shut down as the face structures begin: after every
-    tile task, before the regions and the pieces."""
+    """The executor decompose makes is shut down once the pieces' tasks, the last ones,
+    have returned: after every tile task, before the result is made; the pieces' tasks run
+    after the regions."""
     events = []
     monkeypatch.setattr(pipeline, "process_executor", lambda: _Recorder(events))
     env = load_example("rectangle")
@@ -64,11 +65,17 @@ def test_own_workers_shut_down_after_the_last_tile_task(monkeypatch):
     kinds = [e[0] if e[0] != "stage" else e[1] for e in events]
     down = kinds.index("shutdown")
     assert "task" in kinds[:down] and "task" not in kinds[down:]
-    assert kinds[down + 1] == "face structures"
+    assert kinds[down + 1] == "done"
     # every task goes through trimmed: its freed memory returned before its result is sent
     tasks = [e for e in events if e[0] == "task"]
     assert {e[1] for e in tasks} == {tiles_mod.trimmed}
-    assert {e[2] for e in tasks} == {tiles_mod.node_tile, tiles_mod.trace_tile}
+    assert {e[2] for e in tasks} == {tiles_mod.node_tile, tiles_mod.trace_tile,
+                                     tiles_mod.pieces_tile}
+    first_piece_task = next(i for i, e in enumerate(events) if e[0] == "task"
+                            and e[2] is tiles_mod.pieces_tile)
+    assert ("stage", "pieces") in events[:first_piece_task]
+    assert all(e[2] is tiles_mod.pieces_tile for e in events[first_piece_task:]
+               if e[0] == "task")
 
 
 @pytest.mark.slow

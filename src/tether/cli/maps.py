@@ -135,7 +135,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _decompose(args: argparse.Namespace):
+def _decompose(args: argparse.Namespace, out: str | None = None):
+    """The decomposition of the command's map, tiled as its options say; with ``out`` (a
+    tiled run only), written to that store tile by tile as it is made and read back."""
     from tether._util.progress import Progress
     from tether.decomposition import decompose
 
@@ -152,7 +154,7 @@ def _decompose(args: argparse.Namespace):
     executor, close = _tile_executor(args)
     try:
         return decompose(env, args.lss, progress=Progress("decompose"), tiles=tiles,
-                         executor=executor, noding=noding)
+                         executor=executor, noding=noding, out=out)
     finally:
         close()
 
@@ -196,8 +198,9 @@ def cmd_decompose(args: argparse.Namespace) -> int:
         from tether.decomposition.store import check_store_dir
 
         check_store_dir(args.out)
-    dec = _decompose(args)
-    if args.out is not None:
+    tiled = any(getattr(args, k, None) for k in ("tiles", "workers", "dask"))
+    dec = _decompose(args, args.out if tiled else None)  # tiled: written tile by tile
+    if args.out is not None and not tiled:
         from tether._util.progress import Progress
         from tether.decomposition.store import write_decomposition
 

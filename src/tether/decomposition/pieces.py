@@ -4,7 +4,9 @@ two regions' structures, exact) and the pieces' columns."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -28,8 +30,9 @@ from tether.environment import Environment
 from tether.spatial import SegmentGrid, point_segment_distance_xy, segment_pairs, z_order
 
 __all__ = ["ACROSS_BATCH", "CLEARANCE_BATCH", "CLEARANCE_STAGES", "CLEARANCE_Z_CELL",
-           "PIECE_BATCH", "Candidates", "crossing_candidates", "longest_unresolved",
-           "make_chains", "make_pieces", "part_candidates"]
+           "PIECE_BATCH", "Candidates", "chain_crossings", "chain_descriptions",
+           "crossing_candidates", "joined_crossings", "longest_unresolved", "make_chains",
+           "make_pieces", "part_candidates"]
 
 
 def make_chains(arr: Arrangement, face_region: np.ndarray) -> Chains:
@@ -270,7 +273,8 @@ def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
 
 
 def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chains: Chains,
-                cands: Candidates, curves: list[Curve], lss: float
+                cands: Candidates, curves: list[Curve], lss: float,
+                crossings: Callable[..., tuple] | None = None
                 ) -> tuple[PieceTable, int, ArcTable]:
     """One piece per chain with a crossing sample. Returns the pieces (as columns), the
     number of chains dropped as below resolution (no candidate point clear of other curves by
@@ -287,9 +291,38 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     call has converged), and the peak is the arcs kept (those of the result) and one batch's
     rounds, not every chain's rounds at once (at 2,000 map vertices, 0.9 M chains: their
     first round's arcs and structures alone are about 1.8 M points' tables). A map of at
-    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit."""
+    most :data:`PIECE_BATCH` chains is one batch: the computation of before, bit for bit.
+
+    ``crossings`` (default :func:`chain_crossings`) computes the crossings, arcs and lines,
+    called with :func:`chain_crossings`'s arguments; its ``kept`` (the chains of the pieces,
+    in the pieces' order) may be in any order (the tiles' tasks,
+    :func:`tether.decomposition.tiles.tiled_crossings`, give them tile by tile)."""
     sptr, ssrc = arr.chain_sources(chains)
     reg = region_rows(regions, 2 * env.n + 1)
+    got, kept, arcs, lines = (crossings or chain_crossings)(env, lss, curves, chains, cands,
+                                                            (sptr, ssrc), reg, arr)
+    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
+    table = PieceTable(chains.pair[kept].astype(np.int64), got["q"], got["n"], got["eps"],
+                       got["ok"], desc, descs, Shapes(None, wkb=lines))
+    return table, len(chains) - len(kept), arcs
+
+
+def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: Chains,
+                    cands: Candidates, srcs: tuple[np.ndarray, np.ndarray],
+                    reg: tuple[StructureRows, np.ndarray], arr: Any
+                    ) -> tuple[dict[str, np.ndarray], np.ndarray, ArcTable,
+                               tuple[np.ndarray, np.ndarray]]:
+    """The crossings, their arcs and the lines of the pieces of ``chains`` (the work of
+    :func:`make_pieces` but the descriptions; also a tile's task,
+    :func:`tether.decomposition.tiles.pieces_tile`): the crossings chosen
+    :data:`PIECE_BATCH` chains at a time (:func:`_pick_crossings`; ``srcs``: the chains'
+    curves, CSR ``(ptr, src)`` into ``curves``; ``reg``: the structure rows and the row of
+    each region of ``chains.pair``), each batch's arcs at its chosen crossings kept and its
+    rounds' tables freed before the next; ``arr``: the arrangement, or any object whose
+    ``parts`` the chains' part ids index (:func:`_chain_geometries`). Returns the crossings
+    of the chains with a candidate (``q``, ``n``, ``eps``, ``ok``, in chain order), those
+    chains (``kept``), the arcs at both sides of their crossings (points ``0..k-1`` on the
+    ``+n`` side, ``k..2k-1`` on the other) and their lines as a WKB column ``(raw, ptr)``."""
     m = len(chains)
     got = {"q": np.zeros((m, 2)), "n": np.zeros((m, 2)), "eps": np.zeros(m),
            "ok": np.zeros(m, bool)}
@@ -297,8 +330,7 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
     sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
     for lo in range(0, max(m, 1), PIECE_BATCH):
         which = np.arange(lo, min(lo + PIECE_BATCH, m))
-        b, tables = _pick_crossings(env, chains, cands, None, curves, (sptr, ssrc), lss,
-                                    which, reg)
+        b, tables = _pick_crossings(env, chains, cands, None, curves, srcs, lss, which, reg)
         for f, col in got.items():
             col[which] = b[f]
         # the batch's arcs at its crossings kept, its rounds' tables freed (a lower peak)
@@ -318,10 +350,38 @@ def make_pieces(env: Environment, arr: Arrangement, regions: list[Region], chain
             else _crossing_table([], np.zeros((0, 3), np.int64)))
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)
-    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
-    table = PieceTable(chains.pair[kept].astype(np.int64), got["q"][kept], got["n"][kept],
-                       got["eps"][kept], got["ok"][kept], desc, descs, Shapes(None, wkb=lines))
-    return table, len(chains) - len(kept), arcs
+    return {f: col[kept] for f, col in got.items()}, kept, arcs, lines
+
+
+def joined_crossings(results: list[tuple]) -> tuple[dict[str, np.ndarray], np.ndarray,
+                                                    ArcTable, tuple[np.ndarray, np.ndarray]]:
+    """The results of :func:`chain_crossings` on disjoint sets of chains (each one's ``kept``
+    given as the chains' global ids), as the result of one call on all of them whose pieces
+    are those of the first set, then those of the second, ...: the crossings concatenated,
+    the arcs' ``+n`` halves joined before the other halves (points renumbered), the lines'
+    WKB columns one after the other. Empties ``results``: each one's arrays are freed once
+    joined (the peak is the results and one joined column)."""
+    got = {f: np.concatenate([r[0][f] for r in results]) if results else
+           np.zeros((0, 2) if f in "qn" else 0, bool if f == "ok" else float)
+           for f in ("q", "n", "eps", "ok")}
+    kept = (np.concatenate([r[1] for r in results]) if results else
+            np.zeros(0, np.int64)).astype(np.int64)
+    raw = (np.concatenate([r[3][0] for r in results]) if results else
+           np.zeros(0, np.uint8))
+    ptr = np.zeros(len(kept) + 1, np.int64)
+    if results:
+        np.cumsum(np.concatenate([np.diff(r[3][1]) for r in results]), out=ptr[1:])
+    sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
+    for r in results:
+        if len(r[1]):
+            for side, part in zip(sides, _halves(r[2], len(r[1])), strict=True):
+                side.append(part)
+    results.clear()  # the arcs held by the halves only, which join_tables empties
+    halves = sides[0] + sides[1]
+    del sides
+    arcs = (join_tables(halves, release_memory) if halves
+            else _crossing_table([], np.zeros((0, 3), np.int64)))
+    return got, kept, arcs, (raw, ptr)
 
 
 #: Chains whose crossings are chosen at a time (:func:`make_pieces`): their rounds' arcs
@@ -358,6 +418,20 @@ def longest_unresolved(arr: Arrangement, chains: Chains, cands: Candidates
             "point": shapely.get_coordinates(mid)[0].tolist()}
 
 
+def chain_descriptions(sptr: np.ndarray, ssrc: np.ndarray, cands: Candidates,
+                       curves: list[Curve]) -> tuple[np.ndarray, list[tuple]]:
+    """The description id of every chain (-1 for a chain without a crossing candidate, which
+    makes no piece) and the distinct descriptions ``(curves, kinds, features)``, as
+    :func:`make_pieces` describes its pieces (``sptr``, ``ssrc``: the chains' curves,
+    :meth:`Arrangement.chain_sources`): for pieces written as they come, whatever their
+    order."""
+    kept = np.flatnonzero(cands.count > 0)
+    desc, descs = _describe_chains(sptr, ssrc, kept, curves)
+    of = np.full(len(cands.count), -1, np.int64)
+    of[kept] = desc
+    return of, descs
+
+
 def _describe_chains(sptr: np.ndarray, ssrc: np.ndarray, which: np.ndarray,
                      curves: list[Curve]) -> tuple[np.ndarray, list[tuple]]:
     """The descriptions of the chains ``which``, whose curves are ``ssrc[sptr[i]:sptr[i +
@@ -381,9 +455,11 @@ def _describe_chains(sptr: np.ndarray, ssrc: np.ndarray, which: np.ndarray,
     return desc, descs
 
 
-def _chain_geometries(arr: Arrangement, chains: Chains, which: np.ndarray) -> np.ndarray:
+def _chain_geometries(arr: Any, chains: Chains, which: np.ndarray) -> np.ndarray:
     """The lines of the chains ``which`` (an object array): a chain's part, or its parts
-    merged into as few lines as they form (all multi-part chains at once)."""
+    merged into as few lines as they form (all multi-part chains at once); ``arr``: the
+    arrangement, or any object whose ``parts`` the chains' part ids index (linestrings, or
+    :class:`tether.decomposition.faces.PartLines`)."""
     size = chains.size[which]
     out = arr.parts[chains.parts[chains.ptr[which]]]  # single parts as they are
     multi = np.flatnonzero(size > 1)

@@ -4,7 +4,9 @@ in the map's frame (:mod:`tether.decomposition.frame`)."""
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import Executor
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,19 +23,31 @@ from tether.curves.budget import (  # issue 25: the memory estimate, checked fir
 from tether.decomposition.arrangement import arrangement
 from tether.decomposition.faces import FaceRings
 from tether.decomposition.frame import UserFrame
-from tether.decomposition.model import Decomposition
+from tether.decomposition.model import Decomposition, region_rows
 from tether.decomposition.noding import check_noding, geos_message
-from tether.decomposition.pieces import longest_unresolved, make_pieces
+from tether.decomposition.pieces import (
+    chain_descriptions,
+    joined_crossings,
+    longest_unresolved,
+    make_pieces,
+)
 from tether.decomposition.regions import face_regions, make_regions
+from tether.decomposition.store import (
+    PartWriter,
+    check_store_dir,
+    read_decomposition,
+    write_decomposition,
+)
 from tether.decomposition.structure import face_arcs, structure_ids_of
 from tether.decomposition.tiles import (
     MAX_TILES,
     TILE_SEGMENTS,
     check_tiles,
     process_executor,
+    tiled_crossings,
     tiled_noder,
 )
-from tether.decomposition.views import Pieces
+from tether.decomposition.views import Pieces, PieceTable, Shapes
 from tether.environment import Environment
 from tether.errors import ArrangementError
 from tether.tolerances import REL_CURVE_TOL
@@ -43,12 +57,14 @@ __all__ = ["decompose"]
 
 def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
               progress: Any = None, tiles: tuple[int, int] | str | None = None,
-              executor: Executor | None = None, noding: str = "auto") -> Decomposition:
+              executor: Executor | None = None, noding: str = "auto",
+              out: str | os.PathLike | None = None) -> Decomposition:
     """Decompose the free space for rod length ``lss`` into regions, cells and pieces.
 
     With ``tiles``, the arrangement is noded, its faces traced and their free arcs computed
-    tile by tile (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal
-    to the untiled one up to the numbering of its regions and pieces (the same regions,
+    tile by tile, and so are the pieces' crossings, the arcs at them and the pieces' lines
+    (:mod:`tether.decomposition.tiles`, ``docs/scale.md``): the result is equal to the
+    untiled one up to the numbering of its regions and pieces (the same regions,
     structures, pieces and verdict).
 
     Parameters
@@ -63,10 +79,12 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     tiles : (int, int) or str, optional
         ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
         or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
-        per tile); None (default): untiled. Only the noding, the face tracing and the
-        faces' free arcs are tiled: the curves, regions and pieces are made whole, so the
-        memory check (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply
-        to the whole map.
+        per tile); None (default): untiled. Only the noding, the face tracing, the faces'
+        free arcs and the pieces' crossings, arcs and lines are tiled (the pieces on a grid
+        of their own, :func:`tether.decomposition.tiles.tiled_crossings`): the curves,
+        regions and the pieces' chains and candidates are made whole, so the memory check
+        (``docs/memory.md``) and :data:`tether.curves.MAX_CURVE_VERTICES` apply to the
+        whole map.
     executor : concurrent.futures.Executor, optional
         Runs the tiles' tasks (local processes, ``distributed.Client(...).get_executor()``,
         threads); by default local processes, one per core, started and shut down here
@@ -78,6 +96,16 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         ``"snap"``, snap rounding from the start, tiled or not (the same result where the
         floating-point noder fails, without the minutes its tile tasks can take to fail on
         a large map: ``docs/scale.md``).
+    out : str or path-like, optional
+        Also write the decomposition to this folder (a store, ``docs/store.md``; checked
+        before any work: missing, empty or an earlier store, replaced whole or not at all).
+        With ``tiles``, each tile's pieces and the arcs at their crossings are written into
+        a part of their own as its task returns and dropped from memory
+        (:class:`tether.decomposition.store.PartWriter`), the regions, cells and curves
+        and the index last; the decomposition returned is then the store read back
+        (:func:`tether.decomposition.store.read_decomposition`: its columns read, its
+        geometries and arcs when first used). Untiled, the decomposition is written once
+        made and returned as made.
 
     Returns
     -------
@@ -92,6 +120,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         :data:`tether.decomposition.noding.NODINGS`.
     ArrangementError
         If the geometry engine fails even with snap rounding (one line, no traceback).
+    OutputPathError
+        If ``out`` cannot be written, or holds something else than a store.
 
     Examples
     --------
@@ -107,12 +137,13 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     lss = check_lss(lss, env)
     noding = check_noding(noding)
     shape = None if tiles is None else check_tiles(tiles)
+    target = None if out is None else check_store_dir(out)  # refused before any work
     plan = None if shape is None else TilePlan(
         None if shape == "auto" else shape[0] * shape[1], TILE_SEGMENTS, MAX_TILES)
     check_memory(env, lss, rel_tol, plan)  # issue 25: refused in milliseconds if it cannot fit
     own = process_executor() if shape is not None and executor is None else None
-    # the last tile task returns with the arrangement: tether's own workers shut down then
-    # (their memory freed before the regions and pieces), a caller's executor left as it is
+    # the last tile task returns with the pieces: tether's own workers shut down then (idle,
+    # their freed memory returned, in between), a caller's executor left as it is
     tiling = None if shape is None else (shape, executor or own,
                                          own.shutdown if own is not None else None)
     out, inner_lss = None, lss
@@ -121,7 +152,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
         inner_lss = check_lss(lss * env.frame.scale, env.internal)
     try:
         with gc_paused(), tiled_checks(plan):  # the late check: the tiled estimate
-            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling, noding)
+            dec = _decompose(env.internal, inner_lss, rel_tol, progress, out, tiling, noding,
+                             target if tiling is not None else None)
     except GEOSException as exc:  # never a traceback from the geometry engine
         raise ArrangementError(f"geometry engine failed on map {env.name!r} at lss {lss:g}: "
                                f"{geos_message(exc)}") from exc
@@ -130,6 +162,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
             own.shutdown()
     if out is not None:
         release_memory()  # the arrangement and the internal frame's geometries, freed
+    if target is not None and tiling is None:
+        write_decomposition(dec, target)
     return dec
 
 
@@ -140,12 +174,15 @@ def _polygons(faces: np.ndarray | FaceRings) -> np.ndarray:
 
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                out: UserFrame | None = None, tiling: tuple | None = None,
-               noding: str = "auto") -> Decomposition:
+               noding: str = "auto", store: Path | None = None) -> Decomposition:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
     reported as is, or in the user's frame of ``out`` (the result objects made once);
-    ``tiling``: ``(tiles, executor, done)`` to node the arrangement in tiles, ``done`` (or
-    None) called once the tiles' last task has returned; ``noding``: how the arrangement is
-    noded (:data:`tether.decomposition.noding.NODINGS`)."""
+    ``tiling``: ``(tiles, executor, done)`` to node the arrangement, trace its faces and
+    make the pieces' crossings in tiles, ``done`` (or None) called once the tiles' last task
+    (a pieces task) has returned; ``noding``: how the arrangement is
+    noded (:data:`tether.decomposition.noding.NODINGS`); ``store`` (with ``tiling``): the
+    folder the pieces are written to tile by tile (:func:`_stored`), the decomposition
+    returned read back from it."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -154,8 +191,6 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report,
                                                     arcs=(env, lss), noding=noding)
     arr = arrangement(env, curves, tol, noder, noding)
-    if tiling is not None and tiling[2] is not None:
-        tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     release_memory()  # the noder's and the face tracing's temporaries
     report("face structures", 0.5)
     # the faces' points and free arcs: computed by the tiles' face tasks, or here
@@ -180,8 +215,15 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     # the regions made after that: their polygons and cells do not add to the grid's peak
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
+    if store is not None:
+        return _stored(env, lss, tol, arr, curves, regions, cells, codes, chains, cands, out,
+                       tiling, store, report)
+    tiled = {} if tiling is None else {"crossings": tiled_crossings(tiling[0], tiling[1],
+                                                                    report)}
     pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
-                                                   lss)
+                                                   lss, **tiled)
+    if tiling is not None and tiling[2] is not None:
+        tiling[2]()  # no task left: the workers' memory freed now, not when decompose returns
     longest = longest_unresolved(arr, chains, cands)
     report("done", 1.0)
     if out is None:
@@ -199,3 +241,59 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                             Pieces(pieces), tol / out.scale, unresolved_pieces, longest,
                             _crossing_arcs=out.crossing_arcs(arcs), _cell_codes=codes)
     return dec
+
+
+def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, regions: Any,
+            cells: Any, codes: Any, chains: Any, cands: Any, out: UserFrame | None,
+            tiling: tuple, store: Path, report: Any) -> Decomposition:
+    """The pieces made in tiles and written to ``store`` as each tile's task returns (a
+    part per tile: its pieces, in the user's frame of ``out`` if given, and the arcs at
+    their crossings, :class:`tether.decomposition.store.PartWriter`), none kept; then the
+    regions, cells, curves and the pieces' descriptions, and the index. Returns the store
+    read back: the decomposition :func:`_decompose` would return, its pieces in the same
+    (tile by tile) order."""
+    sptr, ssrc = arr.chain_sources(chains)
+    desc_of, descs = chain_descriptions(sptr, ssrc, cands, curves)
+    pair = chains.pair
+    with PartWriter(store) as writer:
+        def sink(got: dict, kept: np.ndarray, arcs: Any, lines: tuple) -> None:
+            table = PieceTable(pair[kept].astype(np.int64), got["q"], got["n"],
+                               got["eps"], got["ok"], desc_of[kept], [],
+                               Shapes(None, wkb=lines))
+            if out is not None:
+                out.pieces(table)
+                arcs = out.crossing_arcs(arcs)
+            writer.pieces(table, arcs)
+            del table, arcs, got, lines
+            release_memory()  # the part's columns, freed: returned to the system
+
+        crossings = tiled_crossings(tiling[0], tiling[1], report, sink=sink)
+        crossings(env, lss, curves, chains, cands, (sptr, ssrc),
+                  region_rows(regions, 2 * env.n + 1), arr)
+        if tiling[2] is not None:
+            tiling[2]()  # no task left: the workers' memory freed now
+        unresolved = int(np.count_nonzero(cands.count == 0))
+        longest = longest_unresolved(arr, chains, cands)
+        none = joined_crossings([])
+        table = PieceTable(np.zeros((0, 2), np.int64), none[0]["q"], none[0]["n"],
+                           none[0]["eps"], none[0]["ok"], np.zeros(0, np.int64), descs,
+                           Shapes(None, wkb=none[3]))
+        del arr, chains, cands
+        if out is None:
+            dec = Decomposition(env, lss, tuple(curves), regions, cells, Pieces(table), tol,
+                                unresolved, longest, _crossing_arcs=none[2],
+                                _cell_codes=codes)
+        else:
+            out.regions(regions)
+            if not out.same:
+                table.descs = [(c, k, out.features(f)) for c, k, f in descs]
+            if longest is not None:
+                longest["length"] /= out.scale
+                longest["point"] = out.points(longest["point"])[0].tolist()
+            dec = Decomposition(out.env, out.lss, out.curves(curves), regions, cells,
+                                Pieces(table), tol / out.scale, unresolved, longest,
+                                _crossing_arcs=out.crossing_arcs(none[2]), _cell_codes=codes)
+        writer.finish(dec)
+    del dec, regions, cells
+    report("done", 1.0)
+    return read_decomposition(store)

@@ -49,12 +49,17 @@ from tether.decomposition.views import (
 )
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "StoredCurves", "check_store_dir", "read_decomposition",
-           "write_decomposition"]
+__all__ = ["FORMAT", "TABLES", "VERSION", "PartWriter", "StoredCurves", "check_store_dir",
+           "part_arcs", "read_decomposition", "write_decomposition"]
 
-#: The store's format name and version (``index.json``'s ``format`` and ``version``)
+#: The store's format name and version (``index.json``'s ``format`` and ``version``).
+#: Version 2: each part's ``arcs`` are those of its own pieces' crossings (version 1, also
+#: read: the whole table's rows split in runs, ``full_points`` whole)
 FORMAT = "tether-decomposition"
-VERSION = 1
+VERSION = 2
+
+#: The versions read (:func:`read_decomposition`)
+_READ_VERSIONS = (1, 2)
 
 #: The tables of a part and their columns (documented in ``docs/store.md``)
 TABLES = {
@@ -120,19 +125,129 @@ def write_decomposition(dec: Decomposition, path: str | os.PathLike, parts: int 
             rows = {}
             for j, (table, fn) in enumerate(_WRITERS.items()):
                 report(table, (k * len(_WRITERS) + j) / (parts * len(_WRITERS)))
-                lo, hi = _split(total[table], parts, k)
-                np.savez(tmp / name / f"{table}.npz", **fn(dec, lo, hi, memo))
+                # the arcs: those of the part's pieces (version 2), as many rows as they have
+                lo, hi = _split(total["pieces" if table == "arcs" else table], parts, k)
+                cols = fn(dec, lo, hi, memo)
+                if table == "arcs":
+                    lo = memo.get("arc_rows", 0)
+                    hi = memo["arc_rows"] = lo + len(cols["point"])
+                np.savez(tmp / name / f"{table}.npz", **cols)
                 rows[table] = [lo, hi]
             entries.append({"name": name, "rows": rows})
-        index = {"format": FORMAT, "version": VERSION, "map": dec.env.to_dict(),
-                 "lss": dec.lss, "curve_tol": dec.curve_tol,
-                 "unresolved_pieces": dec.unresolved_pieces,
-                 "unresolved_longest": dec.unresolved_longest,
-                 "feature_names": _feature_names(dec), "counts": dec.counts,
-                 "parts": entries}
-        (tmp / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
+        _write_index(tmp, dec, dec.counts, entries)
     report("done", 1.0)
     return target
+
+
+def _write_index(folder: Path, dec: Decomposition, counts: dict, entries: list[dict]) -> None:
+    """The store's ``index.json`` for ``dec`` (its map, ``lss``, tolerances and names),
+    ``counts`` and the parts ``entries``."""
+    index = {"format": FORMAT, "version": VERSION, "map": dec.env.to_dict(),
+             "lss": dec.lss, "curve_tol": dec.curve_tol,
+             "unresolved_pieces": dec.unresolved_pieces,
+             "unresolved_longest": dec.unresolved_longest,
+             "feature_names": _feature_names(dec), "counts": counts, "parts": entries}
+    (folder / "index.json").write_text(json.dumps(index, indent=1, allow_nan=False) + "\n")
+
+
+class PartWriter:
+    """A store written part by part, as a computation in tiles makes it
+    (:func:`tether.decomposition.decompose` with ``out``): the pieces of each tile, with the
+    arcs at their crossings, written into a part of their own as they come
+    (:meth:`pieces`, numbered after those before), then the regions, cells and curves and
+    the pieces' descriptions into the first part, and the index (:meth:`finish`). Used as a
+    context manager: the store is written into a temporary folder beside ``path`` and
+    renamed onto it when :meth:`finish` has run and the block ends without an exception;
+    otherwise removed, ``path`` left as it was (:func:`write_decomposition`'s rule).
+
+    Raises
+    ------
+    OutputPathError
+        If the folder cannot be written, or holds something else than a store.
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.target = check_store_dir(path)
+        self._whole = _folder_written_whole(self.target)
+        self._tmp: Path | None = None
+        self._parts: list[dict] = []  # the pieces' parts' entries, in order
+        self._done = False
+
+    def __enter__(self) -> PartWriter:
+        self._tmp = self._whole.__enter__()
+        return self
+
+    def __exit__(self, *exc: Any) -> bool | None:
+        if exc[0] is None and not self._done:
+            exc = (RuntimeError, RuntimeError("PartWriter closed before finish()"), None)
+        return self._whole.__exit__(*exc)
+
+    def pieces(self, table: PieceTable, arcs: ArcTable) -> None:
+        """Write a part of pieces: the rows of ``table`` (their descriptions' ids global:
+        the descriptions are written by :meth:`finish`) and the arcs at their crossings
+        (points ``0..k-1`` the ``+n`` sides, ``k..2k-1`` the others, :func:`part_arcs`);
+        its other tables empty."""
+        name = f"part-{len(self._parts) + 1:05d}"
+        lo = self._parts[-1]["rows"]["pieces"][1] if self._parts else 0
+        alo = self._parts[-1]["rows"]["arcs"][1] if self._parts else 0
+        folder = self._tmp / name
+        folder.mkdir()
+        memo = {"descs": _desc_columns([])}
+        cols = _piece_columns(_HoldsPieces(Pieces(table)), 0, len(table), memo)
+        np.savez(folder / "pieces.npz", **cols)
+        np.savez(folder / "arcs.npz", **part_arcs(arcs))
+        for t in ("regions", "cells", "curves"):
+            np.savez(folder / f"{t}.npz", **_EMPTY[t]())
+        self._parts.append({"name": name, "rows": {
+            "regions": [0, 0], "cells": [0, 0], "curves": [0, 0],
+            "pieces": [lo, lo + len(table)], "arcs": [alo, alo + len(arcs.point)]}})
+
+    def finish(self, dec: Decomposition) -> None:
+        """Write the first part, from ``dec`` (the regions, cells and curves, whole; its
+        pieces none, but the descriptions the parts' pieces refer to), and the index: the
+        counts ``dec``'s, the pieces those of the parts written."""
+        folder = self._tmp / "part-00000"
+        folder.mkdir()
+        memo: dict[str, Any] = {"arcs": dec.crossing_arcs()}
+        total = _table_rows(dec, memo)
+        rows = {}
+        for table, fn in _WRITERS.items():
+            np.savez(folder / f"{table}.npz", **fn(dec, 0, total[table], memo))
+            rows[table] = [0, total[table]]
+        npieces = self._parts[-1]["rows"]["pieces"][1] if self._parts else 0
+        _write_index(self._tmp, dec, {**dec.counts, "pieces": npieces},
+                     [{"name": "part-00000", "rows": rows}, *self._parts])
+        self._done = True
+
+
+class _HoldsPieces:
+    """What :func:`_piece_columns` reads of a decomposition: its ``pieces``."""
+
+    def __init__(self, pieces: Pieces) -> None:
+        self.pieces = pieces
+
+
+def _empty_regions() -> dict[str, np.ndarray]:
+    i, f, ptr = np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64)
+    return {"area": f, "point": np.zeros((0, 2)), "structure": i, "polygon_ptr": ptr,
+            "polygon_wkb": np.zeros(0, np.uint8), "union_ptr": ptr, "face_ptr": ptr,
+            "face_wkb": np.zeros(0, np.uint8), "internal_frame": np.zeros(0, bool),
+            "structures_ptr": ptr, "structures_pairs": np.zeros((0, 2), np.int64)}
+
+
+def _empty_curves() -> dict[str, np.ndarray]:
+    i, f, f2, ptr = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 2)), np.zeros(1, np.int64)
+    return {"id": i, "kind": np.zeros(0, "<U1"), "index": i, "domain": f2,
+            "interval_ptr": ptr, "intervals": f2, "feature_ptr": ptr,
+            "features": np.zeros(0, "<U1"), "polyline_ptr": ptr, "vertex_ptr": ptr,
+            "vertices": f2, "params": f, "fam_p": f2, "fam_d": f2, "fam_w": f2, "fam_lo": f,
+            "fam_hi": f, "fam_lss": f}
+
+
+#: The columns of a part's empty tables (:meth:`PartWriter.pieces`; whole-table columns
+#: empty: the reader takes the first part's)
+_EMPTY = {"regions": _empty_regions, "curves": _empty_curves,
+          "cells": lambda: {k: np.zeros(0, np.int64) for k in TABLES["cells"]}}
 
 
 def _table_rows(dec: Decomposition, memo: dict) -> dict[str, int]:
@@ -338,18 +453,22 @@ def _piece_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str
         if isinstance(geoms, Shapes):  # decoded since (read meanwhile)
             geoms, frame = geoms.held()
         wkb, ptr = _wkb(geoms[lo:hi])
-    if "descs" not in memo:
-        cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
-        fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
-        memo["descs"] = {  # the distinct descriptions (a table of their own, in every part)
-            "desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
-            "desc_curve_ptr": cptr, "desc_curves": cvals,
-            "desc_feature_ptr": fptr, "desc_features": fvals}
+    if "descs" not in memo:  # the distinct descriptions (a table of their own, in every part)
+        memo["descs"] = _desc_columns(dlist)
     return {"pair": np.asarray(pair[lo:hi], np.int64), "q": np.asarray(q[lo:hi], float),
             "n": np.asarray(n[lo:hi], float), "eps": np.asarray(eps[lo:hi], float),
             "ok": np.asarray(ok[lo:hi], bool), "desc": np.asarray(desc[lo:hi], np.int64),
             "internal_frame": np.full(hi - lo, frame is not None, dtype=bool),
             "geometry_ptr": ptr, "geometry_wkb": wkb, **memo["descs"]}
+
+
+def _desc_columns(dlist: list[tuple]) -> dict[str, np.ndarray]:
+    """The columns of the pieces' distinct descriptions ``(curves, kind, features)``."""
+    cptr, cvals = _ragged([np.array(d[0], np.int64) for d in dlist], dtype=np.int64)
+    fptr, fvals = _ragged([np.array(d[2], dtype=str) for d in dlist], dtype=str)
+    return {"desc_kind": np.array([d[1] for d in dlist], dtype=str).reshape(-1),
+            "desc_curve_ptr": cptr, "desc_curves": cvals,
+            "desc_feature_ptr": fptr, "desc_features": fvals}
 
 
 def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
@@ -380,11 +499,23 @@ def _curve_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str
 
 
 def _arc_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:
+    """The arcs at the crossings of pieces ``lo:hi`` (version 2): their points numbered in
+    the part, ``0..k-1`` the ``+n`` sides of its ``k`` pieces, ``k..2k-1`` the others."""
     t = memo["arcs"]  # read once (from a store, each call reads them)
-    # ``full`` has one entry per point, not per row: kept whole (not split by part)
-    return {"point": t.point[lo:hi], "start": t.start[lo:hi], "end": t.end[lo:hi],
-            "start_code": t.start_code[lo:hi], "end_code": t.end_code[lo:hi],
-            "full_points": np.asarray(t.full, bool)}
+    m = len(t.full) // 2
+    a0, a1, b0, b1 = np.searchsorted(t.point, [lo, hi, m + lo, m + hi]).tolist()
+    return part_arcs(ArcTable(
+        np.concatenate((t.point[a0:a1] - lo, t.point[b0:b1] - (m + lo) + (hi - lo))),
+        *(np.concatenate((getattr(t, f)[a0:a1], getattr(t, f)[b0:b1]))
+          for f in ("start", "end", "start_code", "end_code")),
+        np.concatenate((t.full[lo:hi], t.full[m + lo:m + hi]))))
+
+
+def part_arcs(t: ArcTable) -> dict[str, np.ndarray]:
+    """A part's ``arcs`` columns from the arcs of its pieces' crossings (points ``0..k-1`` on
+    the ``+n`` sides of its ``k`` pieces, in its pieces' order, ``k..2k-1`` the others)."""
+    return {"point": t.point, "start": t.start, "end": t.end, "start_code": t.start_code,
+            "end_code": t.end_code, "full_points": np.asarray(t.full, bool)}
 
 
 #: The tables' writers: ``fn(dec, lo, hi, memo)`` gives rows ``lo:hi``'s columns (ragged
@@ -434,9 +565,10 @@ def _read_index(root: Path, shown: str) -> dict:
         raise InvalidParameterError(f"{shown}: index.json cannot be read: {exc}") from None
     if not isinstance(index, dict) or index.get("format") != FORMAT:
         raise InvalidParameterError(f"{shown}: index.json is not a {FORMAT} index")
-    if index.get("version") != VERSION:
+    if index.get("version") not in _READ_VERSIONS:
         raise InvalidParameterError(f"{shown}: store version {index.get('version')!r} is not "
-                                    f"supported (this tether reads version {VERSION})")
+                                    f"supported (this tether reads versions "
+                                    f"{', '.join(map(str, _READ_VERSIONS))})")
     if not isinstance(index.get("parts"), list) or not index["parts"]:
         raise InvalidParameterError(f"{shown}: index.json lists no parts")
     return index
@@ -517,8 +649,10 @@ def _concat(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
                 pieces.append(p[name][1:] + shift)
                 shift += int(p[name][-1])
             out[name] = np.concatenate(pieces)
-        else:
-            out[name] = np.concatenate([p[name] for p in parts])
+        else:  # parts without rows (a part of pieces' empty tables) add nothing
+            full = [p[name] for p in parts if len(p[name])]
+            out[name] = np.concatenate(full) if len(full) > 1 else \
+                full[0] if full else parts[0][name]
     return out
 
 
@@ -556,7 +690,9 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                                wkb=(partial(operator.getitem, pc, "geometry_wkb"),
                                     pc["geometry_ptr"])))
     a = t["arcs"]  # read on each use, never held (G's build reads them once)
-    arcs = partial(_arc_table, a._paths, a._shown)
+    arcs = (partial(_arc_table, a._paths, a._shown) if index["version"] == 1 else
+            partial(_part_arc_table, a._paths, a._shown,
+                    [int(np.diff(part["rows"]["pieces"])[0]) for part in index["parts"]]))
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
     got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
            "pieces": len(pieces)}
@@ -576,6 +712,36 @@ def _arc_table(paths: list[Path], shown: str) -> ArcTable:
         a[col] = _concat([_load(p, shown, (col,)) for p in paths])[col]
     return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full_points"])
+
+
+def _part_arc_table(paths: list[Path], shown: str, counts: list[int]) -> ArcTable:
+    """The crossings' arcs of a version 2 store (each part's arcs those of its ``counts[p]``
+    pieces' crossings, :func:`part_arcs`), read from its parts now: the ``+n`` sides of
+    every part's pieces (points ``0..m-1`` in the pieces' order, the parts' pieces
+    consecutive), then the other sides, column by column (no sort)."""
+    m = sum(counts)
+    first = np.cumsum([0, *counts[:-1]])  # each part's first piece
+    point = [_load(p, shown, ("point",))["point"] for p in paths]
+    cut = [int(np.searchsorted(pt, k)) for pt, k in zip(point, counts, strict=True)]
+    pt = np.concatenate(
+        [pt[:c].astype(np.int64) + f for pt, c, f in zip(point, cut, first, strict=True)]
+        + [pt[c:].astype(np.int64) - k + m + f
+           for pt, c, k, f in zip(point, cut, counts, first, strict=True)])
+    del point
+    a = {"point": pt.astype(np.int32 if 2 * m < 2**31 else np.int64)}
+    for col in ("start", "end", "start_code", "end_code"):  # one column's parts at a time
+        got = [_load(p, shown, (col,))[col] for p in paths]
+        a[col] = np.concatenate([g[:c] for g, c in zip(got, cut, strict=True)]
+                                + [g[c:] for g, c in zip(got, cut, strict=True)])
+        del got
+    full = [_load(p, shown, ("full_points",))["full_points"] for p in paths]
+    a["full"] = np.concatenate([f[:k] for f, k in zip(full, counts, strict=True)]
+                               + [f[k:] for f, k in zip(full, counts, strict=True)])
+    for f, k in zip(full, counts, strict=True):
+        if len(f) != 2 * k:
+            raise ValueError(f"a part's arcs have {len(f)} points for its {k} pieces")
+    return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
+                    a["full"])
 
 
 def _internal(cols: dict[str, np.ndarray]) -> bool:

@@ -88,7 +88,8 @@ import math
 import multiprocessing
 from collections.abc import Callable
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -98,8 +99,9 @@ from shapely.errors import GEOSException
 from tether._util.arrays import first_max_per_group, ragged_arange, row_ids
 from tether._util.memory import release_memory
 from tether._util.threads import single_threaded, thread_count
+from tether.curves import Curve
 from tether.decomposition import noding
-from tether.decomposition.arrangement import SOURCE_BATCH
+from tether.decomposition.arrangement import SOURCE_BATCH, Chains
 from tether.decomposition.faces import (
     FaceRings,
     PartLines,
@@ -108,19 +110,26 @@ from tether.decomposition.faces import (
     part_segments,
 )
 from tether.decomposition.noding import SNAP_GRIDS, node_floating, node_snapped
-from tether.decomposition.structure import FaceArcs, face_arcs
+from tether.decomposition.pieces import Candidates, chain_crossings, joined_crossings
+from tether.decomposition.structure import FaceArcs, StructureRows, face_arcs
 from tether.errors import ArrangementError, InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
-__all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "SNAP_MARGIN_PIXELS",
-           "TILE_MARGIN", "TILE_SEGMENTS",
+__all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "PIECE_TILE_CHAINS",
+           "SNAP_MARGIN_PIXELS", "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
-           "mask_around", "node_tile", "part_sources", "process_executor", "runs_of",
-           "segments_by_tile", "tile_box", "tile_grid", "tiled_noder", "trace_tile", "trimmed"]
+           "mask_around", "node_tile", "part_sources", "pieces_tile", "process_executor",
+           "runs_of", "segments_by_tile", "tile_box", "tile_grid", "tiled_crossings",
+           "tiled_noder", "trace_tile", "trimmed"]
 
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
 TILE_SEGMENTS = 250_000
+
+#: Chains per tile aimed at when the pieces' tiles are chosen automatically (``"auto"``,
+#: :func:`tiled_crossings`): one :data:`tether.decomposition.pieces.PIECE_BATCH` per task,
+#: so a task's peak is about one batch's rounds and its result.
+PIECE_TILE_CHAINS = 100_000
 
 #: The most tiles chosen automatically, and the most a grid may have (``nx * ny``).
 MAX_TILES = 64
@@ -210,11 +219,13 @@ def check_tiles(tiles: Any) -> tuple[int, int] | str:
     return nx, ny
 
 
-def auto_tiles(segments: int, width: float, height: float) -> tuple[int, int]:
+def auto_tiles(segments: int, width: float, height: float, per_tile: int = TILE_SEGMENTS
+               ) -> tuple[int, int]:
     """The grid for ``segments`` input segments over a ``width x height`` box: about
-    :data:`TILE_SEGMENTS` segments per tile (at most :data:`MAX_TILES` tiles), the tiles about
-    square. Depends on the input's size only, never on the number of workers."""
-    n = min(max(math.ceil(segments / TILE_SEGMENTS), 1), MAX_TILES)
+    ``per_tile`` (:data:`TILE_SEGMENTS`) segments per tile (at most :data:`MAX_TILES` tiles),
+    the tiles about square. Depends on the input's size only, never on the number of
+    workers."""
+    n = min(max(math.ceil(segments / per_tile), 1), MAX_TILES)
     aspect = width / height if width > 0 and height > 0 else 1.0
     nx = min(max(round(math.sqrt(n * aspect)), 1), n)
     ny = math.ceil(n / nx)
@@ -963,3 +974,180 @@ def _joined_arcs(got: list[tuple[FaceArcs, int]]) -> FaceArcs:
                     np.concatenate([fa.point + o for (fa, _), o in zip(got, oks, strict=True)]),
                     np.concatenate([fa.start_code for fa, _ in got]),
                     np.concatenate([fa.end_code for fa, _ in got]))
+
+
+# ----------------------------------------------------------------------------- the pieces
+def pieces_tile(env: Any, lss: float, curves: list[Curve], chains: Chains, cands: Candidates,
+                srcs: tuple[np.ndarray, np.ndarray], reg: tuple[StructureRows, np.ndarray],
+                parts: PartLines) -> tuple:
+    """A tile's pieces task: :func:`tether.decomposition.pieces.chain_crossings` on the
+    tile's chains, numbered for the task (:func:`tiled_crossings` makes its arguments:
+    ``chains`` over the parts ``parts``, ``chains.pair`` indexing the region rows ``reg``,
+    ``srcs`` indexing ``curves``, the curves those chains run along). Returns
+    ``chain_crossings``'s crossings, kept chains (task-local), arcs and lines' WKB, and this
+    process's peak resident memory (bytes, 0 where unknown)."""
+    got = chain_crossings(env, lss, curves, chains, cands, srcs, reg,
+                          SimpleNamespace(parts=parts))
+    return (*got, _peak_rss())
+
+
+def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
+                    progress: Callable[[str, float], Any] | None = None,
+                    log: dict | None = None, sink: Callable[..., Any] | None = None
+                    ) -> Callable[..., tuple]:
+    """The ``crossings`` of :func:`tether.decomposition.pieces.make_pieces` that computes
+    the pieces' crossings, the arcs at both sides of them and their lines in ``tiles``
+    (``(nx, ny)``, or ``"auto"``: about :data:`PIECE_TILE_CHAINS` chains a tile) on
+    ``executor``, one task per tile (:func:`pieces_tile`), the main process receiving
+    compact arrays (coordinates, flags, the arcs' columns, WKB bytes) and joining them
+    (:func:`tether.decomposition.pieces.joined_crossings`): the pieces come tile by tile,
+    in chain order within a tile.
+
+    **Ownership.** A chain belongs to the tile (:meth:`TileGrid.tile_of`, on a grid of the
+    chains' anchors, :func:`tile_grid`) of its *anchor*, the lexicographically smaller end
+    of its first part: a function of the chain, so every chain is computed by exactly one
+    task, and near the tile, so a task's curves are mostly the tile's. A chain's pieces
+    depend on that chain alone (its candidates, the curves it runs along, the structures of
+    its two regions, the map; :func:`tether.decomposition.pieces.chain_crossings`), all of
+    which its task gets: the same pieces, arcs and lines as in one process, but the
+    crossing's sample and normal, which may move by about 1e-9 (map units) with the chains
+    a Gauss-Newton projection runs with (:func:`tether.curves.project_many` stops once every
+    row of a call has converged), as with :data:`tether.decomposition.pieces.PIECE_BATCH`.
+    A task's curves are copies of the chains' curves whose exact rows (their
+    :class:`tether.curves.Family`) are only theirs (the same numbers; the polylines only for
+    the conchoids, whose projection starts from them). ``progress`` gets ``("piece tiles
+    (NXxNY)", fraction)`` as tasks finish, in tile order; the tasks are submitted a few at a
+    time (:func:`_tasks_ahead`), each one's inputs made as it is submitted. ``log``, if
+    given, gets ``piece_tiles`` (the
+    grid's shape), ``piece_tasks`` (tasks run: tiles with chains) and
+    ``piece_worker_peak_bytes``. With ``sink``, each task's result is handed to it as it
+    comes, in tile order (``sink(crossings, chains, arcs, lines)``: the
+    :func:`tether.decomposition.pieces.chain_crossings` result of the tile, its ``kept`` as
+    global chain ids) and not kept: the crossings returned are those of no chain (a store
+    written tile by tile, :class:`tether.decomposition.store.PartWriter`)."""
+    report = progress or (lambda stage, frac: None)
+    log = {} if log is None else log
+
+    def crossings(env: Any, lss: float, curves: list[Curve], chains: Chains,
+                  cands: Candidates, srcs: tuple[np.ndarray, np.ndarray],
+                  reg: tuple[StructureRows, np.ndarray], arr: Any) -> tuple:
+        log.update(piece_tiles=(0, 0), piece_tasks=0, piece_worker_peak_bytes=0)
+        if len(chains) == 0:
+            return joined_crossings([])
+        parts = _as_part_lines(arr.parts)
+        start = np.cumsum(parts.count) - parts.count
+        first = chains.parts[chains.ptr[:-1]]
+        a, b = parts.xy[start[first]], parts.xy[start[first] + parts.count[first] - 1]
+        lower = (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (a[:, 1] <= b[:, 1]))
+        anchor = np.where(lower[:, None], a, b)
+        shape = tiles
+        if tiles == "auto":
+            span = anchor.max(axis=0) - anchor.min(axis=0)
+            shape = auto_tiles(len(chains), float(span[0]), float(span[1]),
+                               PIECE_TILE_CHAINS)
+        grid = tile_grid(anchor, shape)
+        tile = grid.tile_of(anchor)
+        order = np.argsort(tile, kind="stable")  # chains tile by tile, in order within one
+        bounds = np.searchsorted(tile[order], np.arange(grid.count + 1))
+        log["piece_tiles"] = grid.shape
+        tasks = [order[bounds[t]:bounds[t + 1]] for t in range(grid.count)
+                 if bounds[t + 1] > bounds[t]]
+        log["piece_tasks"] = len(tasks)
+        ahead = _tasks_ahead(executor)
+
+        def submit(ids: np.ndarray) -> Any:
+            return executor.submit(trimmed, pieces_tile, env, lss,
+                                   *_task_inputs(ids, curves, chains, cands, srcs, reg, parts,
+                                                 start))
+
+        # at most ``ahead`` tasks' inputs made and waiting (each a copy of its chains' data)
+        futures = {k: submit(tasks[k]) for k in range(min(ahead, len(tasks)))}
+        results = []
+        stage = f"piece tiles ({grid.shape[0]}x{grid.shape[1]})"
+        for k, ids in enumerate(tasks):
+            got, kept, arcs, lines, peak = futures.pop(k).result()
+            if k + ahead < len(tasks):
+                futures[k + ahead] = submit(tasks[k + ahead])
+            log["piece_worker_peak_bytes"] = max(log["piece_worker_peak_bytes"], peak)
+            if sink is None:
+                results.append((got, ids[kept], arcs, lines))
+            else:
+                sink(got, ids[kept], arcs, lines)
+            del got, kept, arcs, lines
+            report(stage, 0.85 + 0.14 * (k + 1) / len(tasks))
+        return joined_crossings(results)
+
+    return crossings
+
+
+def _tasks_ahead(executor: Executor) -> int:
+    """How many pieces tasks :func:`tiled_crossings` keeps submitted: twice the workers of a
+    local pool (``max_workers``) and one more, so that none waits for work while the main
+    process holds few tasks' inputs; every task at once for another executor (a Dask
+    cluster's: its size is not known here)."""
+    workers = getattr(executor, "_max_workers", None)
+    return 2 * workers + 1 if isinstance(workers, int) and workers > 0 else MAX_TILES
+
+
+def _as_part_lines(parts: Any) -> PartLines:
+    """The arrangement's parts as :class:`PartLines` (as they are, or read from
+    linestrings)."""
+    if isinstance(parts, PartLines):
+        return parts
+    geoms = np.asarray(parts, dtype=object)
+    return PartLines(shapely.get_coordinates(geoms), shapely.get_num_coordinates(geoms),
+                     shapely.length(geoms))
+
+
+def _task_inputs(ids: np.ndarray, curves: list[Curve], chains: Chains, cands: Candidates,
+                 srcs: tuple[np.ndarray, np.ndarray], reg: tuple[StructureRows, np.ndarray],
+                 parts: PartLines, start: np.ndarray) -> tuple:
+    """The arguments of :func:`pieces_tile` (after the map and ``lss``) for the chains
+    ``ids`` (increasing), numbered for the task: their curves (:func:`_curves_subset`),
+    their chains over their own parts, their candidates, their curves' CSR, the structure
+    rows of their regions and their parts' coordinates (``start``: each part's first row in
+    ``parts.xy``)."""
+    size = chains.size[ids]
+    pid = chains.parts[ragged_arange(chains.ptr[ids], size)]  # a part is in one chain
+    sub = PartLines(np.take(parts.xy, ragged_arange(start[pid], parts.count[pid]), axis=0),
+                    parts.count[pid], parts.length[pid])
+    regions, pair = np.unique(chains.pair[ids], return_inverse=True)
+    rows, reg_of = reg
+    used, reg_local = np.unique(reg_of[regions], return_inverse=True)
+    ccount = cands.count[ids]
+    crow = ragged_arange(cands.ptr[ids], ccount)
+    sptr, ssrc = srcs
+    scount = sptr[ids + 1] - sptr[ids]
+    mine, src = np.unique(ssrc[ragged_arange(sptr[ids], scount)], return_inverse=True)
+    local = Chains(pair.reshape(-1, 2), np.r_[0, np.cumsum(size)], np.arange(len(pid)))
+    cand = Candidates(np.r_[0, np.cumsum(ccount)], np.take(cands.q, crow, axis=0),
+                      cands.eps[crow])
+    return (_curves_subset(curves, mine), local, cand,
+            (np.r_[0, np.cumsum(scount)], src.astype(np.int64)),
+            (_rows_subset(rows, used), reg_local.astype(np.int64)), sub)
+
+
+def _rows_subset(rows: StructureRows, ids: np.ndarray) -> StructureRows:
+    """The structure rows ``ids`` of ``rows``, numbered ``0..len(ids) - 1``."""
+    count = rows.ptr[ids + 1] - rows.ptr[ids]
+    return StructureRows(rows.kind[ids], np.r_[0, np.cumsum(count)].astype(rows.ptr.dtype),
+                         rows.pairs[ragged_arange(rows.ptr[ids], count)])
+
+
+def _curves_subset(curves: list[Curve], ids: np.ndarray) -> list[Curve]:
+    """The curves ``ids`` as a list of their own: copies whose families hold only their
+    exact rows (:meth:`tether.curves.Family.rows`, the same numbers), their polylines kept
+    for the conchoids only (the projection's start, :func:`tether.curves.project_many`;
+    lines and circles are projected exactly)."""
+    out: list[Curve | None] = [None] * len(ids)
+    kinds: dict[str, list[int]] = {}
+    for k, c in enumerate(ids.tolist()):
+        kinds.setdefault(curves[c].kind, []).append(k)
+    for kind, ks in kinds.items():
+        mine = [curves[c] for c in ids[ks].tolist()]
+        fam = mine[0].family.rows(np.array([c.index for c in mine], dtype=np.int64))
+        light = kind in "ABCD"
+        for j, (k, c) in enumerate(zip(ks, mine, strict=True)):
+            out[k] = replace(c, family=fam, index=j, polylines=() if light else c.polylines,
+                             params=() if light else c.params)
+    return out
