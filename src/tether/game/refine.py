@@ -197,27 +197,31 @@ def undecided_points(ck: CertifiedKernel, optimistic: Any) -> np.ndarray:
 
 
 def mark_triangles(ck: CertifiedKernel, optimistic: Any) -> np.ndarray:
-    """The triangles of ``ck``'s mesh to split (bool mask): those whose closure holds a
-    lattice point with an undecided state (:func:`undecided_points`), and, when ``ck`` is not
-    certified, those that fail its checks."""
-    mark = _touching(ck.field, undecided_points(ck, optimistic))
-    if ck.checks is not None and not ck.certified:
-        mark |= ck.checks.bad
-    return mark
+    """The triangles of ``ck``'s mesh to split (bool mask): those that fail its checks when
+    ``ck`` is not certified (there the whole free space is undecided, and the failures are
+    what a finer mesh may cure); else those whose closure holds a lattice point with an
+    undecided state (:func:`undecided_points`)."""
+    if not ck.certified:
+        if ck.checks is None:  # no field to refine (a closed arc in the first field)
+            return np.zeros(len(ck.field.tri), dtype=bool)
+        return ck.checks.bad.copy()
+    return _touching(ck.field, undecided_points(ck, optimistic))
 
 
 def _split_round(ck: CertifiedKernel, optimistic: Any) -> tuple[ArcField, int]:
-    """One round's split: the marked triangles bisected (:func:`refine_field`), then the
-    triangles of the result that still touch an undecided lattice point bisected once more,
-    so that the star of such a point shrinks every round (newest-vertex bisection halves its
-    edges every second split). Returns the field and the number of triangles marked first."""
+    """One round's split: the marked triangles bisected (:func:`refine_field`); for a certified
+    field, the triangles of the result that still touch an undecided lattice point bisected
+    once more, so that the star of such a point shrinks every round (newest-vertex bisection
+    halves its edges every second split). Returns the field and the number of triangles marked
+    first."""
     mark = mark_triangles(ck, optimistic)
     if not mark.any():
         return ck.field, 0
     g = refine_field(ck.field, mark)
-    again = _touching(g, undecided_points(ck, optimistic))
-    if again.any():
-        g = refine_field(g, again)
+    if ck.certified:
+        again = _touching(g, undecided_points(ck, optimistic))
+        if again.any():
+            g = refine_field(g, again)
     return g, int(mark.sum())
 
 
