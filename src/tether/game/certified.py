@@ -194,7 +194,8 @@ class CertifiedKernel:
             "search": self.log,
             "seconds": self.seconds,
             **({"delay": self.delay} if self.delay > 0 else {}),
-            **({"refined": self.refined, "refine": self.refine_log} if self.refined else {}),
+            **({"refined": self.refined, "refine": self.refine_log} if self.refine_log
+               else {}),
         }
 
     def save(self, path: str | Path) -> None:
