@@ -173,9 +173,14 @@ def _refine(args: argparse.Namespace, ck, outer):
     from tether.game.refine import refine_certified
 
     def say(e: dict) -> None:
-        if "stopped" in e:
+        if e.get("stopped") == "max_vertices":
             print(f"refine round {e['round']}: stopped, the mesh would have {e['would_have']} "
                   f"vertices (--max-vertices)", file=sys.stderr, flush=True)
+            return
+        if e.get("stopped") == "failed":
+            print(f"refine round {e['round']}: stopped, the refined field fails the checks "
+                  f"({e['failing']} triangles): the previous field kept", file=sys.stderr,
+                  flush=True)
             return
         kept = {"lp": "", "search": ", field searched again",
                 "carried": ", the LP's field failed the checks: the previous field kept"}

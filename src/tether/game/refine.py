@@ -276,8 +276,11 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
         and ``refined`` the number of rounds that split the mesh.
 
     A round whose widened field fails :func:`~tether.game.certificate.certify` keeps the
-    field carried over without the LP (the previous field on the finer mesh, certified iff the
-    previous one was) and says so in its record (``"kept": "carried"``).
+    field carried over without the LP (the previous field on the finer mesh, certified where
+    the previous one was) and says so in its record (``"kept": "carried"``). Should the
+    carried field fail too (possible with a sensing delay only, where check 1 runs on grown
+    triangles), the previous field is kept and the refinement stops (``"stopped":
+    "failed"``).
     """
     _check_budget(max_rounds, max_vertices, width)
     t0 = time.perf_counter()
@@ -303,6 +306,11 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
                 progress(log[-1])
             break
         g, checks, how = _widen(env, g, lss, vt, vo, grow, cur.certified, lp_rounds)
+        if how == "failed":  # neither the LP's field nor the carried one passes: keep cur
+            log.append({"round": r, "stopped": "failed", "failing": int(checks.bad.sum())})
+            if progress is not None:
+                progress(log[-1])
+            break
         cur = _kernel_like(ck, g, checks, cur.refined + 1)
         band = undecided_band(cur, optimistic)
         log.append(_record(r, cur, band, t0, marked=marked, kept=how))
@@ -315,29 +323,35 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
 
 def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
            was_certified: bool, lp_rounds: int) -> tuple[ArcField, Any, str]:
-    """The field carried over to the finer mesh, widened by the LP: ``(field, checks, how)``,
-    ``how`` ``"lp"`` when the widened field is kept, ``"carried"`` when it failed and the
-    carried field is kept. Without a certified field yet, the search of
-    :func:`~tether.game.field_lp.solve_field` runs from the carried field."""
-    carried = certify(g, env, lss, vt, vo, grow)
-    if not was_certified:  # the search's tries of the core's size, as solve_field's
-        best, best_checks = g, carried
-        for q in (0.0, 2 / 3, 1.0):
-            res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=60,
-                           core_radius=q * vortex_radius(lss, vt, vo), grow=grow)
-            found = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
-            checks = certify(found, env, lss, vt, vo, grow)
-            if checks.bad.sum() < best_checks.bad.sum():
-                best, best_checks = found, checks
-            if checks.passed:
-                break
-        return best, best_checks, "search" if best is not g else "carried"
-    res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=lp_rounds, grow=grow)
-    wide = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
-    checks = certify(wide, env, lss, vt, vo, grow)
-    if checks.passed:
-        return wide, checks, "lp"
-    return g, carried, "carried"
+    """The field carried over to the finer mesh, widened: ``(field, checks, how)``.
+
+    From a certified field: the LP's field if :func:`~tether.game.certificate.certify` passes
+    it (``how`` = ``"lp"``), else the carried field if it passes (``"carried"``; it does
+    without a delay, ``docs/certified.md`` (R3)), else the carried field and its failing
+    checks (``"failed"``: the caller keeps the previous field). Without a certified field
+    yet: the search's three core sizes (as :func:`~tether.game.field_lp.solve_field`'s) from
+    the carried field, the one with the fewest failing triangles kept (``"search"``, or
+    ``"carried"`` when none has fewer than the carried field)."""
+    if was_certified:
+        res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=lp_rounds,
+                       grow=grow)
+        wide = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
+        checks = certify(wide, env, lss, vt, vo, grow)
+        if checks.passed:
+            return wide, checks, "lp"
+        carried = certify(g, env, lss, vt, vo, grow)
+        return g, carried, "carried" if carried.passed else "failed"
+    best, best_checks = g, certify(g, env, lss, vt, vo, grow)
+    for q in (0.0, 2 / 3, 1.0):
+        res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=60,
+                       core_radius=q * vortex_radius(lss, vt, vo), grow=grow)
+        found = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
+        checks = certify(found, env, lss, vt, vo, grow)
+        if checks.bad.sum() < best_checks.bad.sum():
+            best, best_checks = found, checks
+        if checks.passed:
+            break
+    return best, best_checks, "search" if best is not g else "carried"
 
 
 def _kernel_like(ck: CertifiedKernel, f: ArcField, checks: Any, refined: int
