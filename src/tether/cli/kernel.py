@@ -183,9 +183,10 @@ def _refine(args: argparse.Namespace, ck, outer):
                   flush=True)
             return
         kept = {"lp": "", "search": ", field searched again",
-                "carried": ", the LP's field failed the checks: the previous field kept"}
-        print(f"refine round {e['round']}: {e['vertices']} vertices, "
-              f"{'certified' if e['certified'] else 'NOT certified'}, undecided "
+                "carried": ", the LP's field failed the checks: the previous field kept"
+                if e["certified"] else ", the search found no better field"}
+        state = "certified" if e["certified"] else f"NOT certified ({e['failing']} fail)"
+        print(f"refine round {e['round']}: {e['vertices']} vertices, {state}, undecided "
               f"{100 * e['undecided_share']:.2f}%, reach {e['reach']:.3g} (95%: "
               f"{e['reach_95']:.3g}){kept.get(e.get('kept'), '')}, {e['seconds']:.1f} s",
               file=sys.stderr, flush=True)

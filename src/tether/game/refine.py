@@ -239,6 +239,7 @@ def _record(r: int, ck: CertifiedKernel, band: Band, t0: float, **extra: Any) ->
     """One round's record (JSON-ready)."""
     return {"round": r, "vertices": int(len(ck.field.points)),
             "triangles": int(len(ck.field.tri)), "certified": ck.certified,
+            "failing": None if ck.checks is None else int(ck.checks.bad.sum()),
             "undecided_share": band.share, "reach": band.reach, "reach_95": band.reach_95,
             "volume": band.volume, "contradictions": band.contradictions,
             "seconds": time.perf_counter() - t0, **extra}
