@@ -171,3 +171,36 @@ def test_certified_delay_json_and_text(capsys):
 def test_certified_delay_bad_input(capsys, extra, message):
     assert main([*BASE, *extra]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_certified_refine_json_and_progress(capsys, tmp_path):
+    """``--certified --refine --max-vertices --json``: one record per round in ``refine``
+    (round 0 the uniform mesh; round 1 stopped by the vertex budget), each round's band on
+    stderr, and the band of the field kept."""
+    room = tmp_path / "room6.json"
+    room.write_text(json.dumps({"name": "room6", "boundary": [[0, 0], [6, 0], [6, 6],
+                                                              [0, 6]]}))
+    args = ["kernel", str(room), "--lss", "1", "--vt", "0.3", "--vo", "1", "--certified",
+            "--h", "0.5", "--refine", "2", "--max-vertices", "200", "--json"]
+    assert main(args) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert out["certified"] is True
+    rounds = out["refine"]
+    assert rounds[0]["round"] == 0 and rounds[0]["vertices"] == out["mesh"]["vertices"]
+    assert rounds[1]["stopped"] == "max_vertices" and rounds[1]["would_have"] > 200
+    assert rounds[0]["undecided_share"] == pytest.approx(out["band"]["share"])
+    assert "refine round 0:" in cap.err and "--max-vertices" in cap.err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--refine", "2"], "apply to --certified only"),
+    (["--band-width", "0.3"], "apply to --certified only"),
+    (["--certified", "--band-width", "-1"], "--band-width must be a finite number >= 0"),
+    (["--certified", "--refine", "-1"], "--refine"),
+])
+def test_refine_bad_input(capsys, extra, message):
+    assert main([*BASE, *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1

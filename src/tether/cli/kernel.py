@@ -18,6 +18,9 @@ from tether.cli.common import (
 
 __all__ = ["cmd_kernel", "register"]
 
+#: Refinement rounds of ``--band-width`` or ``--max-vertices`` without ``--refine``.
+DEFAULT_ROUNDS = 4
+
 
 def cmd_kernel(args: argparse.Namespace) -> int:
     """``tether kernel``: compute or load the surveillance kernel and report it; exit status."""
@@ -39,6 +42,18 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         from tether.errors import InvalidParameterError
 
         raise InvalidParameterError("--delay applies to --certified only")
+    refining = (args.refine, args.band_width, args.max_vertices) != (None, None, None)
+    if refining and not args.certified:
+        from tether.errors import InvalidParameterError
+
+        raise InvalidParameterError("--refine, --band-width and --max-vertices apply to "
+                                    "--certified only")
+    if args.band_width is not None and not (math.isfinite(args.band_width)
+                                            and args.band_width >= 0):
+        from tether.errors import InvalidParameterError
+
+        raise InvalidParameterError(f"--band-width must be a finite number >= 0, got "
+                                    f"{args.band_width}")
     if args.certified:
         return _certified(args, env)
     k = surveillance_kernel(env, args.lss, args.vt, args.vo, h=args.h,
@@ -98,6 +113,11 @@ def _certified(args: argparse.Namespace, env) -> int:
     # the optimistic kernel on the same lattice: the unsafe answer, and the band between
     outer = surveillance_kernel(env, args.lss, args.vt, args.vo, h=ck.h,
                                 orientations=args.orientations, scheme="outer")
+    if (args.refine, args.band_width, args.max_vertices) != (None, None, None):
+        ck = _refine(args, ck, outer)
+        out = ck.to_dict()
+        frac, err = ck.safe_fraction(samples=20_000)
+        out["safe_fraction"], out["safe_fraction_error"] = frac, err
     band = undecided_band(ck, outer)
     out["band"] = band.to_dict()
     if args.at is not None:
@@ -116,7 +136,8 @@ def _certified(args: argparse.Namespace, env) -> int:
         return 0
     m = out["mesh"]
     print(f"map {out['map']!r}, lss {ck.lss:g}, vt {ck.vt:g}, vo {ck.vo:g} (certified)")
-    print(f"  mesh h {ck.h:.4g}: {m['vertices']} vertices, {m['triangles']} triangles")
+    refined = f", refined in {ck.refined} rounds" if ck.refined else ""
+    print(f"  mesh h {ck.h:.4g}{refined}: {m['vertices']} vertices, {m['triangles']} triangles")
     if ck.delay > 0:
         r = ck.vt * ck.delay
         print(f"  sensing delay {ck.delay:g} s: the observer sees the target {ck.delay:g} s late; "
@@ -142,6 +163,37 @@ def _certified(args: argparse.Namespace, env) -> int:
         at = out["at"]
         print(f"  ({at['x']:g}, {at['y']:g}, {at['a']:g} rad) is {at['certified'].upper()}")
     return 0
+
+
+def _refine(args: argparse.Namespace, ck, outer):
+    """``--refine`` / ``--band-width`` / ``--max-vertices``: ``ck`` refined where its band is,
+    each round's band on stderr."""
+    import sys
+
+    from tether.game.refine import refine_certified
+
+    def say(e: dict) -> None:
+        if e.get("stopped") == "max_vertices":
+            print(f"refine round {e['round']}: stopped, the mesh would have {e['would_have']} "
+                  f"vertices (--max-vertices)", file=sys.stderr, flush=True)
+            return
+        if e.get("stopped") == "failed":
+            print(f"refine round {e['round']}: stopped, the refined field fails the checks "
+                  f"({e['failing']} triangles): the previous field kept", file=sys.stderr,
+                  flush=True)
+            return
+        kept = {"lp": "", "search": ", field searched again",
+                "carried": ", the LP's field failed the checks: the previous field kept"
+                if e["certified"] else ", the search found no better field"}
+        state = "certified" if e["certified"] else f"NOT certified ({e['failing']} fail)"
+        print(f"refine round {e['round']}: {e['vertices']} vertices, {state}, undecided "
+              f"{100 * e['undecided_share']:.2f}%, reach {e['reach']:.3g} (95%: "
+              f"{e['reach_95']:.3g}){kept.get(e.get('kept'), '')}, {e['seconds']:.1f} s",
+              file=sys.stderr, flush=True)
+
+    rounds = args.refine if args.refine is not None else DEFAULT_ROUNDS
+    return refine_certified(ck, outer, max_rounds=rounds, max_vertices=args.max_vertices,
+                            width=args.band_width, progress=say)
 
 
 def _save(path: str, kernel) -> None:
@@ -179,6 +231,17 @@ def register(add) -> None:
                     help="with --certified: sensing delay in seconds (the observer sees the "
                          "target D s late; safe then holds for the seen position, the line of "
                          "sight to the true one is free, and the distance is lss +/- vt*D)")
+    sp.add_argument("--refine", type=int_range(0, 100), metavar="ROUNDS",
+                    help="with --certified: split the mesh's triangles where the certified and "
+                         "the optimistic kernel disagree and widen the field again, at most "
+                         f"ROUNDS times (default {DEFAULT_ROUNDS} with --band-width or "
+                         "--max-vertices); the band after each round on stderr")
+    sp.add_argument("--band-width", type=float_arg, metavar="W",
+                    help="with --certified: refine until the band's reach is at most W map "
+                         "units (measured on the lattice of spacing --h: below h only when "
+                         "nothing is undecided there)")
+    sp.add_argument("--max-vertices", type=int_range(3, 10**8), metavar="N",
+                    help="with --certified: refine no further than N mesh vertices")
     sp.add_argument("--at", nargs=3, type=finite_arg, metavar=("X", "Y", "A"),
                     help="also report whether (x, y, a) (a in radians) is in the kernel")
     sp.add_argument("--json", action="store_true", help="print JSON")

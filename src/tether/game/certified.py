@@ -64,6 +64,13 @@ class CertifiedKernel:
         target's position ``d`` seconds late, the field holds the *seen* state, and the line
         of sight from the observer to the true target is free (``docs/certified.md``,
         "Sensing delay"); the distance observer–target is then within ``lss ± vt·d``.
+    refined : int
+        Rounds of adaptive refinement that split the mesh
+        (:func:`tether.game.refine.refine_certified`; 0: the uniform mesh of spacing ``h``).
+        The mesh is then finer than ``h`` where the band was; ``h`` stays the spacing it
+        started from (and that of the optimistic kernel's lattice).
+    refine_log : list of dict
+        The refinement's record, one entry per round (empty without refinement).
     """
 
     env: Environment
@@ -78,6 +85,8 @@ class CertifiedKernel:
     frame: Frame = field(default_factory=identity_frame)
     space: Environment | None = None
     delay: float = 0.0
+    refined: int = 0
+    refine_log: list = field(default_factory=list)
 
     @property
     def game(self) -> tuple[Environment, float, float, float]:
@@ -185,6 +194,8 @@ class CertifiedKernel:
             "search": self.log,
             "seconds": self.seconds,
             **({"delay": self.delay} if self.delay > 0 else {}),
+            **({"refined": self.refined, "refine": self.refine_log} if self.refine_log
+               else {}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -194,6 +205,9 @@ class CertifiedKernel:
 
         f = self.field
         extra = {"delay": np.array(self.delay)} if self.delay > 0 else {}
+        if self.refined:  # the mesh is not uniform: its refinement edges are in tri's order
+            extra["refined"] = np.array(self.refined)
+            extra["refine_log"] = np.array(json.dumps(self.refine_log))
         np.savez_compressed(path, points=f.points, tri=f.tri, lo=f.lo, w=f.w, **extra,
                             params=np.array([self.lss, self.vt, self.vo, self.h]),
                             frame=np.array([*self.frame.origin, self.frame.scale,
@@ -218,12 +232,15 @@ def load_certified(path: str | Path) -> CertifiedKernel:
         log = json.loads(str(d["log"]))
         env = from_dict(json.loads(str(d["map"])))
         delay = float(d["delay"]) if "delay" in d.files else 0.0
+        refined = int(d["refined"]) if "refined" in d.files else 0
+        refine_log = json.loads(str(d["refine_log"])) if refined else []
     frame = Frame(np.array([ox, oy]), scale)
     if internal and not (np.array_equal(env.frame.origin, frame.origin)
                          and env.frame.scale == scale):
         raise ValueError("the field's frame is not the map's normalized frame")
     ck = CertifiedKernel(env, lss, vt, vo, h, f, None, log, 0.0, frame,
-                         env.internal if internal else None, check_delay(delay, vt, lss))
+                         env.internal if internal else None, check_delay(delay, vt, lss),
+                         refined, refine_log)
     ck.checks = certify(f, *ck.game, grow=ck.grow)
     ck.seconds = time.perf_counter() - t0
     return ck
