@@ -241,8 +241,8 @@ def free_near_split(tri: np.ndarray, n_old: int, ring: int = RING) -> np.ndarray
     (the children's, whose smaller triangles see fewer blocked spans) are bounded by
     gradients the LP can shape on every side. Further out the carried field was already
     the LP's optimum on the coarser mesh (the previous round's), so a second ring buys
-    little and costs a second shell of rows (``docs/certified.md``, "Adaptive refinement",
-    measures both).
+    little and costs a second shell of rows (on the room at vt/vo 0.3, three rounds: the
+    same band with one ring or two).
 
     Examples
     --------
