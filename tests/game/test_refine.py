@@ -193,6 +193,8 @@ def test_bad_budgets_are_one_line_errors():
         refine_certified(None, None, max_rounds=-1)
     with pytest.raises(InvalidParameterError, match="band width"):
         refine_certified(None, None, width=float("nan"))
+    with pytest.raises(InvalidParameterError, match="ring"):
+        refine_certified(None, None, ring=-1)
 
 
 # --- the loop on a room (slow) -------------------------------------------------------------

@@ -262,8 +262,11 @@ def free_near_split(tri: np.ndarray, n_old: int, ring: int = RING) -> np.ndarray
     return free
 
 
-def _check_budget(max_rounds: int, max_vertices: int | None, width: float | None) -> None:
-    """One-line errors for a bad budget."""
+def _check_budget(max_rounds: int, max_vertices: int | None, width: float | None,
+                  ring: int | None = None) -> None:
+    """One-line errors for a bad budget (or ring width)."""
+    if ring is not None and not (isinstance(ring, (int, np.integer)) and ring >= 0):
+        raise InvalidParameterError(f"ring must be None or an integer >= 0, got {ring!r}")
     if not (isinstance(max_rounds, (int, np.integer)) and max_rounds >= 0):
         raise InvalidParameterError(f"max_rounds must be an integer >= 0, got {max_rounds!r}")
     if max_vertices is not None and not max_vertices > 0:
@@ -326,7 +329,7 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
     triangles), the previous field is kept and the refinement stops (``"stopped":
     "failed"``).
     """
-    _check_budget(max_rounds, max_vertices, width)
+    _check_budget(max_rounds, max_vertices, width, ring)
     t0 = time.perf_counter()
     env, lss, vt, vo = ck.game
     grow = ck.grow
