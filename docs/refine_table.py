@@ -11,6 +11,12 @@ Usage::
     python docs/refine_table.py                          # rewrites the table
     python docs/refine_table.py --only gallery:0.3       # that row group only
     python docs/refine_table.py --quick                  # the room at 0.3, one round, prints
+    python docs/refine_table.py --only nonconvex_corner:0.3 --whole  # and the LP everywhere
+
+The refined row widens the field by the LP local to the split triangles (one ring around
+them, :data:`tether.game.refine.RING`); ``--whole`` adds a row refined the same way with the
+LP over the whole mesh every round (``ring=None``, the search before issue #22's local LP),
+for the time and band it costs.
 
 The docs are written after every map and ratio, each round's band on stderr.
 
@@ -70,8 +76,9 @@ RUN_HEAD = ("| map | vt/vo | mesh | runs from certified starts | lost | states o
 
 
 def group(name: str, ratio: float, h: float, fine, rounds: int, starts: int, seconds: float,
-          workers: int, rng) -> tuple[list[str], list[str]]:
-    """The band rows and the runs row of one map and ratio."""
+          workers: int, rng, whole: bool = False) -> tuple[list[str], list[str]]:
+    """The band rows and the runs row of one map and ratio (``whole``: and the refined row
+    with the LP over the whole mesh)."""
     ct = _certified_table()
     band, run = [], []
     env = load_map(example_path(name))
@@ -93,6 +100,13 @@ def group(name: str, ratio: float, h: float, fine, rounds: int, starts: int, sec
     secs = ck.seconds + time.perf_counter() - t0
     band.append(_cells(name, ratio, f"h = {h:g} refined, {rk.refined} rounds", rk, outer, secs))
     print(band[-1], flush=True)
+    if whole:
+        t0 = time.perf_counter()
+        wk = refine_certified(ck, outer, max_rounds=rounds, ring=None)
+        secs = ck.seconds + time.perf_counter() - t0
+        band.append(_cells(name, ratio, f"h = {h:g} refined, {wk.refined} rounds, LP on the "
+                           "whole mesh", wk, outer, secs))
+        print(band[-1], flush=True)
     if rk.certified and starts:
         n, lost, out = ct.runs(rk, starts, seconds, rng, workers)
         run.append(f"| {name} | {ratio:g} | h = {h:g} refined, {rk.refined} rounds | {n} | "
@@ -144,6 +158,8 @@ def main() -> None:
                          "repeatable")
     ap.add_argument("--starts", type=int, default=4,
                     help="random certified starts per target kind and refined field (default 4)")
+    ap.add_argument("--whole", action="store_true",
+                    help="also refine with the LP over the whole mesh every round (a row more)")
     ap.add_argument("--workers", type=int, default=1,
                     help="processes for the runs (forked; default 1)")
     args = ap.parse_args()
@@ -155,7 +171,7 @@ def main() -> None:
         if only and (name, ratio) not in only:
             continue
         rows = group(name, ratio, h, fine, rounds, args.starts, 15.0, args.workers,
-                     np.random.default_rng(i))  # the same starts whichever groups run
+                     np.random.default_rng(i), args.whole)  # same starts whatever runs
         write(DOCS / "certified.md", {(name, ratio): rows}, args.starts)
 
 

@@ -22,6 +22,7 @@ from tether.game.certificate import ArcField, certify, free_mesh
 from tether.game.certified import CertifiedKernel, certified_kernel, load_certified
 from tether.game.refine import (
     bisect,
+    free_near_split,
     longest_edge_first,
     mark_triangles,
     refine_certified,
@@ -192,6 +193,8 @@ def test_bad_budgets_are_one_line_errors():
         refine_certified(None, None, max_rounds=-1)
     with pytest.raises(InvalidParameterError, match="band width"):
         refine_certified(None, None, width=float("nan"))
+    with pytest.raises(InvalidParameterError, match="ring"):
+        refine_certified(None, None, ring=-1)
 
 
 # --- the loop on a room (slow) -------------------------------------------------------------
@@ -238,6 +241,46 @@ def test_refined_room_is_certified_and_its_band_counts_match_contains(refined):
     twin = CertifiedKernel(ck.env, LSS, VT, VO, 0.5, carried, certify(carried, *ck.game),
                            frame=ck.frame, space=ck.space)
     assert (twin.contains(q[ok], a[ok]) == ck.contains(q[ok], a[ok])).all()
+
+
+@pytest.mark.slow
+def test_widening_moves_only_near_the_split(refined):
+    """The round's LP moved only the vertices of the split triangles and one ring around them:
+    every other vertex (all of them old ones) keeps the uniform field's arc bit for bit, some
+    free vertex widened, and the field is certified (``test_refined_room_...`` checks it
+    state by state)."""
+    ck, _, rk = refined
+    n_old = len(ck.field.points)
+    free = free_near_split(rk.field.tri, n_old)
+    assert (free[n_old:]).all() and not free.all()
+    held = np.flatnonzero(~free)
+    assert np.array_equal(rk.field.lo[held], ck.field.lo[held])
+    assert np.array_equal(rk.field.w[held], ck.field.w[held])
+    old_free = np.flatnonzero(free[:n_old])
+    assert (rk.field.w[old_free] > ck.field.w[old_free] + 1e-6).any()
+    assert rk.certified and rk.refine_log[1]["kept"] == "lp"
+
+
+def test_free_near_split_against_adjacency():
+    """On a randomly bisected mesh: ring 0 is the vertices of the triangles holding a new
+    vertex; each ring adds exactly the vertices sharing a triangle with a free one (brute
+    force over the vertices)."""
+    pts, tri, _ = free_mesh(L_SHAPE, 1.0, _lattice(L_SHAPE, 1.0))
+    tri = longest_edge_first(pts, tri)
+    rng = np.random.default_rng(3)
+    p, t, _ = bisect(pts, tri, rng.random(len(tri)) < 0.2)
+    n_old = len(pts)
+    want = np.zeros(len(p), bool)
+    for row in t:
+        if (row >= n_old).any():
+            want[row] = True
+    near = [set() for _ in range(len(p))]  # the vertices sharing a triangle with each
+    for row in t.tolist():
+        for v in row:
+            near[v].update(row)
+    for ring in range(3):
+        assert np.array_equal(free_near_split(t, n_old, ring), want)
+        want = np.array([any(want[u] for u in near[v]) for v in range(len(p))])
 
 
 @pytest.mark.slow

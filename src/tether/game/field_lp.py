@@ -46,6 +46,7 @@ import numpy as np
 from scipy import sparse
 
 from tether.environment import Environment
+from tether.errors import InvalidParameterError
 from tether.game.cells import (
     ANGLE_MARGIN,
     blocked_spans,
@@ -195,32 +196,41 @@ class _RoundLP:
     core, hence the set of end-checked triangles ``et``, changes.
 
     Columns: ``x`` (nv), ``y`` (nv), the slacks (2 per triangle of ``et``: lower end, upper
-    end), the proximal ``p``, ``q`` (nv each). Rows: widths (2·nv), proximal (4·nv), core
-    (``x = y`` on core vertices), then the end rows in the order they were added."""
+    end), the proximal ``p``, ``q`` (one per live vertex each). Rows: widths (2 per live
+    vertex), proximal (4 per live vertex), core (``x = y`` on live core vertices), then the
+    end rows in the order they were added. The *live* vertices (``live``, indices; default
+    all) are those the LP may move: a vertex held at its reference (``x``, ``y`` bounded to 0
+    by :meth:`solve`) needs no width, proximal or core row, its columns only enter the end
+    rows of the triangles it shares with live vertices."""
 
     def __init__(self, tri: np.ndarray, et: np.ndarray, hat: np.ndarray, core: np.ndarray,
-                 area_v: np.ndarray, k: float, headings: int) -> None:
+                 area_v: np.ndarray, k: float, headings: int,
+                 live: np.ndarray | None = None) -> None:
         nv = len(area_v)
         self.nv, self.et, self.tri, self.hat, self.k = nv, et, tri, hat, k
+        iv = np.arange(nv) if live is None else np.asarray(live, np.int64)
+        nl = len(iv)
+        self.live = iv
         self.nx = 2 * nv + 2 * len(et)
-        ncol = self.nx + 2 * nv
-        iv = np.arange(nv)
+        ncol = self.nx + 2 * nl
         rows, cols, vals = [], [], []
         # widths: x − y <= W − W_MIN ; y − x <= 2π − W (right-hand sides set every round)
-        for r0, sx in ((0, 1.0), (nv, -1.0)):
-            rows += [r0 + iv, r0 + iv]
+        for r0, sx in ((0, 1.0), (nl, -1.0)):
+            rows += [r0 + np.arange(nl)] * 2
             cols += [iv, nv + iv]
-            vals += [np.full(nv, sx), np.full(nv, -sx)]
+            vals += [np.full(nl, sx), np.full(nl, -sx)]
         # proximal: ±x − p <= 0, ±y − q <= 0 (p, q priced PROXIMAL·area)
-        r0 = 2 * nv
-        for off in (0, nv):
+        r0 = 2 * nl
+        for off, poff in ((0, 0), (nv, nl)):
             for sx in (1.0, -1.0):
-                rows += [r0 + iv, r0 + iv]
-                cols += [off + iv, self.nx + off + iv]
-                vals += [np.full(nv, sx), np.full(nv, -1.0)]
-                r0 += nv
+                rows += [r0 + np.arange(nl)] * 2
+                cols += [off + iv, self.nx + poff + np.arange(nl)]
+                vals += [np.full(nl, sx), np.full(nl, -1.0)]
+                r0 += nl
         # core vertices keep the whole circle: x − y = 0
-        ci = np.flatnonzero(core)
+        on = np.zeros(nv, bool)
+        on[iv] = True
+        ci = np.flatnonzero(core & on)
         rows += [r0 + np.arange(len(ci))] * 2
         cols += [ci, nv + ci]
         vals += [np.ones(len(ci)), -np.ones(len(ci))]
@@ -234,7 +244,7 @@ class _RoundLP:
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = ncol, self.n_fixed
         lp.col_cost_ = np.concatenate([area_v, -area_v, np.full(2 * len(et), PENALTY),
-                                       PROXIMAL * area_v, PROXIMAL * area_v])
+                                       PROXIMAL * area_v[iv], PROXIMAL * area_v[iv]])
         lp.col_lower_ = np.zeros(ncol)
         lp.col_upper_ = np.full(ncol, np.inf)
         lp.row_lower_, lp.row_upper_ = row_lo, row_hi
@@ -276,12 +286,13 @@ class _RoundLP:
         """Set the bounds of ``x`` and ``y`` (``(lower, upper)`` each), the widths ``W``
         and the end rows' right-hand sides, and re-solve. Returns ``(None, z)`` (the
         columns' values) when optimal, else ``(status, empty)``."""
-        nv, h = self.nv, self.h
+        nv, h, iv = self.nv, self.h, self.live
         idx = np.arange(2 * nv, dtype=np.int32)
         h.changeColsBounds(2 * nv, idx, np.concatenate([x_b[0], y_b[0]]),
                            np.concatenate([x_b[1], y_b[1]]))
-        h.changeRowsBounds(2 * nv, idx, np.full(2 * nv, -np.inf),
-                           np.concatenate([width - W_MIN, _TAU - width]))
+        nw = 2 * len(iv)
+        h.changeRowsBounds(nw, np.arange(nw, dtype=np.int32), np.full(nw, -np.inf),
+                           np.concatenate([width[iv] - W_MIN, _TAU - width[iv]]))
         # the end rows whose right-hand side changed (those of triangles whose ends moved,
         # and the new rows): HiGHS's update costs per row given
         old = np.full(len(end_rhs), np.nan)
@@ -310,7 +321,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              margin: float = 0.03, rounds: int = 20, headings: int = 256,
              core_radius: float = 0.0, core: np.ndarray | None = None,
              release: float | None = None,
-             progress: Callable[[dict], Any] | None = None, grow: float = 0.0) -> LPResult:
+             progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
+             fixed: np.ndarray | None = None) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
@@ -326,9 +338,47 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     The blocked spans of the free windows are computed once (:func:`triangle_spans`); the LP
     is one HiGHS model re-solved from its last basis (:class:`_RoundLP`); the cutting-plane
     search looks again only at the triangles whose ends moved (the others' worst heading is
-    already a row or not violated)."""
+    already a row or not violated).
+
+    ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
+    search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
+    split the mesh). They stay columns of the LP, bounded to 0, rather than being moved to
+    the right-hand sides: the end rows of a triangle with fixed and free vertices are then
+    the same rows as without ``fixed`` (one code path, and the same field when ``fixed`` is
+    None or all False), and a column fixed by its bounds is never basic, so it costs the
+    simplex nothing. What scales with the mesh is dropped instead: the width, proximal and
+    core rows and the proximal columns of fixed vertices (:class:`_RoundLP`'s live
+    vertices), the end rows and the cutting-plane search of triangles whose three vertices
+    are fixed (their ends do not move; :func:`~tether.game.certificate.certify` checks
+    them), and the blocked spans of those triangles (their free windows bound fixed
+    vertices only). A fixed core vertex is never released. Soundness does not depend on
+    ``fixed``: the field is certified by ``certify`` or not at all.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tether import Environment
+    >>> from tether.game.certificate import free_mesh
+    >>> env = Environment([(0, 0), (4, 0), (4, 4), (0, 4)])
+    >>> lattice = np.stack(np.meshgrid(np.arange(5.0), np.arange(5.0)), -1).reshape(-1, 2)
+    >>> pts, tri, _ = free_mesh(env, 1.0, lattice)
+    >>> lo, w = np.full(len(pts), 1.0), np.full(len(pts), 2.0)  # rods from 1 to 3 rad
+    >>> fixed = np.ones(len(pts), bool)
+    >>> fixed[1] = False  # the vertex at (2, 1): only its ends may move
+    >>> r = lp_field(env, pts, tri, lo, w, 1.0, 0.3, 1.0, rounds=2, fixed=fixed)
+    >>> np.flatnonzero((r.lo != lo) | (r.hi != lo + w)).tolist()
+    [1]
+    """
     nv, nt = len(points), len(tri)
     xy = points[tri]
+    if fixed is not None:
+        fixed = np.asarray(fixed)
+        if fixed.shape != (nv,) or fixed.dtype != bool:
+            raise InvalidParameterError(
+                f"fixed must be a bool mask of the {nv} vertices, got dtype {fixed.dtype} "
+                f"and shape {fixed.shape}")
+        if not fixed.any():
+            fixed = None  # nothing held: the search over the whole mesh
     if release is None:  # by default three mean edge lengths
         release = 3 * float(np.mean(np.hypot(*(xy[:, 1] - xy[:, 0]).T)))
     e1, e2 = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
@@ -356,16 +406,27 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     cut[:, ::headings // 8] = True
     seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
 
+    # triangles with a vertex the LP may move (all without ``fixed``), and those vertices
+    live_t = np.ones(nt, bool) if fixed is None else ~fixed[tri].all(axis=1)
+    live = None if fixed is None else np.flatnonzero(~fixed)
+
     def ends_checked() -> tuple[np.ndarray, np.ndarray]:
-        et = np.flatnonzero(~core[tri].all(axis=1))  # triangles with end constraints
+        et = np.flatnonzero(~core[tri].all(axis=1) & live_t)  # triangles with end constraints
         idle = core.copy()  # vertices of no end-checked triangle: their gap place stays
         idle[tri[et].ravel()] = False
+        if fixed is not None:
+            idle |= fixed
         return et, idle
 
     et, idle = ends_checked()
-    model = _RoundLP(tri, et, hat, core, area_v, k, headings)
+    model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
     t_spans = time.perf_counter()
-    spans = triangle_spans(env, xy, lss, grow)
+    if fixed is None:
+        spans = triangle_spans(env, xy, lss, grow)
+    else:  # the spans of triangles with a free vertex, numbered in the whole mesh
+        at = np.flatnonzero(live_t)
+        t_s, b0_s, b1_s = triangle_spans(env, xy[at], lss, grow)
+        spans = (at[t_s], b0_s, b1_s)
     t_spans = time.perf_counter() - t_spans  # counted with the first round's windows
     log = []
     slack_sum = np.inf
@@ -457,11 +518,13 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             near = cKDTree(hot).query_ball_point(points[core], release)
             freed = np.flatnonzero(core)[np.array([len(q) > 0 for q in near], bool)]
             freed = freed[~protected[freed]]
+            if fixed is not None:
+                freed = freed[~fixed[freed]]
             if not len(freed):
                 break
             core[freed] = False
             et, idle = ends_checked()
-            model = _RoundLP(tri, et, hat, core, area_v, k, headings)
+            model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
             entry["released"] = int(len(freed))
     return LPResult(L, H, slack_sum, r, log, core)
 

@@ -43,10 +43,13 @@ from tether.game.certificate import ArcField, certify
 from tether.game.certified import CertifiedKernel
 from tether.game.field_lp import lp_field, vortex_radius
 
-__all__ = ["bisect", "longest_edge_first", "mark_triangles", "refine_certified",
-           "refine_field", "undecided_points"]
+__all__ = ["RING", "bisect", "free_near_split", "longest_edge_first", "mark_triangles",
+           "refine_certified", "refine_field", "undecided_points"]
 
 _TAU = math.tau
+#: Rings of triangles around the split ones whose vertices the widening LP may move (the rest
+#: keep the carried ends): :func:`free_near_split`.
+RING = 1
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:
@@ -225,8 +228,45 @@ def _split_round(ck: CertifiedKernel, optimistic: Any) -> tuple[ArcField, int]:
     return g, int(mark.sum())
 
 
-def _check_budget(max_rounds: int, max_vertices: int | None, width: float | None) -> None:
-    """One-line errors for a bad budget."""
+def free_near_split(tri: np.ndarray, n_old: int, ring: int = RING) -> np.ndarray:
+    """The vertices (bool mask) a round's widening may move on a mesh refined from one of
+    ``n_old`` vertices (vertices ``>= n_old`` are the new midpoints): those of the split
+    triangles' children (every child holds a new vertex) and of ``ring`` rings of triangles
+    around them (each ring: every triangle with a vertex already free frees its other two).
+
+    Why a ring: a vertex's ends enter the end rows of every triangle of its star, through
+    the triangle's gradient. A free vertex whose star holds fixed vertices can widen only as
+    far as the gradient towards them allows; with one ring, every triangle that touches a
+    split triangle has its three vertices free, so the vertices where the free windows grew
+    (the children's, whose smaller triangles see fewer blocked spans) are bounded by
+    gradients the LP can shape on every side. Further out the carried field was already
+    the LP's optimum on the coarser mesh (the previous round's), so a second ring buys
+    little and costs a second shell of rows (on the room at vt/vo 0.3, three rounds: the
+    same band with one ring or two).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tri = np.array([[0, 1, 2], [1, 7, 2], [7, 3, 2], [3, 4, 2], [4, 5, 6]])
+    >>> np.flatnonzero(free_near_split(tri, 7, ring=0)).tolist()  # the children of vertex 7
+    [1, 2, 3, 7]
+    >>> np.flatnonzero(free_near_split(tri, 7, ring=1)).tolist()
+    [0, 1, 2, 3, 4, 7]
+    """
+    tri = np.asarray(tri)
+    nv = int(tri.max()) + 1 if len(tri) else 0
+    free = np.zeros(nv, dtype=bool)
+    free[tri[(tri >= n_old).any(axis=1)].ravel()] = True
+    for _ in range(ring):
+        free[tri[free[tri].any(axis=1)].ravel()] = True
+    return free
+
+
+def _check_budget(max_rounds: int, max_vertices: int | None, width: float | None,
+                  ring: int | None = None) -> None:
+    """One-line errors for a bad budget (or ring width)."""
+    if ring is not None and not (isinstance(ring, (int, np.integer)) and ring >= 0):
+        raise InvalidParameterError(f"ring must be None or an integer >= 0, got {ring!r}")
     if not (isinstance(max_rounds, (int, np.integer)) and max_rounds >= 0):
         raise InvalidParameterError(f"max_rounds must be an integer >= 0, got {max_rounds!r}")
     if max_vertices is not None and not max_vertices > 0:
@@ -248,7 +288,8 @@ def _record(r: int, ck: CertifiedKernel, band: Band, t0: float, **extra: Any) ->
 def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
                      max_vertices: int | None = None, width: float | None = None,
                      lp_rounds: int = 20,
-                     progress: Callable[[dict], Any] | None = None) -> CertifiedKernel:
+                     progress: Callable[[dict], Any] | None = None,
+                     ring: int | None = RING) -> CertifiedKernel:
     """Refine ``ck``'s mesh where its band is (module docstring) and widen the field again.
 
     Parameters
@@ -269,6 +310,11 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
         LP rounds per widening (:func:`~tether.game.field_lp.lp_field`).
     progress : callable, optional
         Gets each round's record (a dict).
+    ring : int or None
+        The widening of a certified field moves only the vertices of the split triangles and
+        of this many rings of triangles around them (:func:`free_near_split`); the others
+        keep the carried ends. None: the LP over the whole mesh. :func:`certify` checks the
+        whole field either way. A field not certified yet is searched over the whole mesh.
 
     Returns
     -------
@@ -283,7 +329,7 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
     triangles), the previous field is kept and the refinement stops (``"stopped":
     "failed"``).
     """
-    _check_budget(max_rounds, max_vertices, width)
+    _check_budget(max_rounds, max_vertices, width, ring)
     t0 = time.perf_counter()
     env, lss, vt, vo = ck.game
     grow = ck.grow
@@ -306,7 +352,8 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
             if progress is not None:
                 progress(log[-1])
             break
-        g, checks, how = _widen(env, g, lss, vt, vo, grow, cur.certified, lp_rounds)
+        free = None if ring is None else free_near_split(g.tri, len(cur.field.points), ring)
+        g, checks, how = _widen(env, g, lss, vt, vo, grow, cur.certified, lp_rounds, free)
         if how == "failed":  # neither the LP's field nor the carried one passes: keep cur
             log.append({"round": r, "stopped": "failed", "failing": int(checks.bad.sum())})
             if progress is not None:
@@ -323,7 +370,8 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
 
 
 def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
-           was_certified: bool, lp_rounds: int) -> tuple[ArcField, Any, str]:
+           was_certified: bool, lp_rounds: int, free: np.ndarray | None = None
+           ) -> tuple[ArcField, Any, str]:
     """The field carried over to the finer mesh, widened: ``(field, checks, how)``.
 
     From a certified field: the LP's field if :func:`~tether.game.certificate.certify` passes
@@ -332,10 +380,11 @@ def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
     checks (``"failed"``: the caller keeps the previous field). Without a certified field
     yet: the search's three core sizes (as :func:`~tether.game.field_lp.solve_field`'s) from
     the carried field, the one with the fewest failing triangles kept (``"search"``, or
-    ``"carried"`` when none has fewer than the carried field)."""
+    ``"carried"`` when none has fewer than the carried field). ``free``: the vertices the
+    LP from a certified field may move (None: all)."""
     if was_certified:
         res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=lp_rounds,
-                       grow=grow)
+                       grow=grow, fixed=None if free is None else ~free)
         wide = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
         checks = certify(wide, env, lss, vt, vo, grow)
         if checks.passed:
