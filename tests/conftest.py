@@ -167,3 +167,14 @@ def followed_pairs(dec, piece, steps=60) -> set[tuple[str, str]]:
     ra, rb = piece.regions
     return {(cell_name(ra, *start[i][2:]), cell_name(rb, *prev[j][2:]))
             for i, js in reach.items() for j in js}
+
+
+def lattice_states(kernel, outer) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(free, safe, maybe)`` masks over every state of ``outer``'s lattice, state by state:
+    free, held by ``kernel`` (and free), held by ``outer`` (and free). The brute force the
+    undecided band's counts are checked against."""
+    g = outer.grid
+    pts = np.repeat(g.points, g.n_a, axis=0)
+    ang = np.tile(g.angles, len(g.points))
+    free = g.free.ravel()
+    return free, kernel.contains(pts, ang) & free, outer.contains(pts, ang) & free

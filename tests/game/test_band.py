@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import lattice_states
 
 from tether import Environment
 from tether.game import surveillance_kernel
@@ -54,11 +55,7 @@ def test_band_counts_and_reach_against_brute_force(outer, cut):
     ck = _LeftOf(cut)
     band = undecided_band(ck, outer)
     g = outer.grid
-    pts = np.repeat(g.points, g.n_a, axis=0)
-    ang = np.tile(g.angles, len(g.points))
-    free = g.free.ravel()
-    safe = ck.contains(pts, ang) & free
-    maybe = outer.contains(pts, ang) & free
+    free, safe, maybe = lattice_states(ck, outer)
     assert band.free_states == int(free.sum())
     assert band.certified_states == int(safe.sum())
     assert band.undecided_states == int((maybe & ~safe).sum())

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from conftest import L_SHAPE, SQUARE_HOLE
+from conftest import L_SHAPE, SQUARE_HOLE, lattice_states
 
 from tether import Environment
 from tether.errors import InvalidParameterError
@@ -222,12 +222,7 @@ def test_refined_room_is_certified_and_its_band_counts_match_contains(refined):
     _conforms(rk.space, rk.field.points, rk.field.tri)
     band, band0 = undecided_band(rk, outer), undecided_band(ck, outer)
     assert band.undecided_states < band0.undecided_states
-    g = outer.grid
-    pts = np.repeat(g.points, g.n_a, axis=0)
-    ang = np.tile(g.angles, len(g.points))
-    free = g.free.ravel()
-    safe = rk.contains(pts, ang) & free
-    maybe = outer.contains(pts, ang) & free
+    _, safe, maybe = lattice_states(rk, outer)
     assert band.certified_states == int(safe.sum())
     assert band.undecided_states == int((maybe & ~safe).sum())
     assert band.contradictions == int((safe & ~maybe).sum()) == 0
