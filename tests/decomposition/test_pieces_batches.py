@@ -10,11 +10,9 @@ and a tiled decomposition with tiny batches equals the untiled one up to renumbe
 
 from __future__ import annotations
 
-from concurrent.futures import Executor, Future
-
 import numpy as np
 import pytest
-from conftest import GENERIC
+from conftest import GENERIC, SerialExecutor
 from renumbering import assert_equal_up_to_renumbering
 
 from tether.arcs import free_arcs_many
@@ -22,13 +20,6 @@ from tether.decomposition import decompose, pipeline
 from tether.decomposition import pieces as pieces_mod
 from tether.decomposition.structure import crossing_points
 from tether.examples.floorplan import floor_plan
-
-
-class _Serial(Executor):
-    def submit(self, fn, /, *args, **kwargs):
-        f = Future()
-        f.set_result(fn(*args, **kwargs))
-        return f
 
 
 def _inputs(monkeypatch, env, lss):
@@ -84,5 +75,5 @@ def test_tiled_with_tiny_batches_equals_untiled(monkeypatch):
     lss = (env.bounds[2] - env.bounds[0]) / 15
     whole = decompose(env, lss)
     monkeypatch.setattr(pieces_mod, "PIECE_BATCH", 5)
-    tiled = decompose(env, lss, tiles=(3, 3), executor=_Serial())
+    tiled = decompose(env, lss, tiles=(3, 3), executor=SerialExecutor())
     assert_equal_up_to_renumbering(whole, tiled)

@@ -7,10 +7,10 @@ in place)."""
 from __future__ import annotations
 
 import json
-from concurrent.futures import Executor, Future
 
 import numpy as np
 import pytest
+from conftest import SerialExecutor
 
 import tether.decomposition.store as S
 from tether.analysis import analyze
@@ -19,13 +19,6 @@ from tether.decomposition import decompose
 from tether.errors import OutputPathError
 from tether.examples import load as load_example
 from tether.examples import path as example_path
-
-
-class _Serial(Executor):
-    def submit(self, fn, /, *args, **kwargs):
-        f = Future()
-        f.set_result(fn(*args, **kwargs))
-        return f
 
 
 def _same(a, b):
@@ -50,8 +43,8 @@ def _same(a, b):
 def test_written_tile_by_tile_reads_back_as_the_tiled_run(tmp_path, name, tiles):
     env = load_example(name)
     lss = 0.3 * env.diameter if name != "gallery" else 1.0
-    mem = decompose(env, lss, tiles=tiles, executor=_Serial())
-    back = decompose(env, lss, tiles=tiles, executor=_Serial(), out=tmp_path / "s")
+    mem = decompose(env, lss, tiles=tiles, executor=SerialExecutor())
+    back = decompose(env, lss, tiles=tiles, executor=SerialExecutor(), out=tmp_path / "s")
     _same(mem, back)
     index = json.loads((tmp_path / "s" / "index.json").read_text())
     assert index["version"] == S.VERSION == 2
@@ -87,7 +80,7 @@ def test_failure_part_way_leaves_the_earlier_store(tmp_path, monkeypatch):
     env = load_example("rectangle")
     lss = 0.3 * env.diameter
     target = tmp_path / "s"
-    first = decompose(env, lss, tiles=(4, 4), executor=_Serial(), out=target)
+    first = decompose(env, lss, tiles=(4, 4), executor=SerialExecutor(), out=target)
     before = sorted(p.name for p in target.iterdir())
     real = S.PartWriter.pieces
     calls = []
@@ -100,7 +93,7 @@ def test_failure_part_way_leaves_the_earlier_store(tmp_path, monkeypatch):
 
     monkeypatch.setattr(S.PartWriter, "pieces", failing)
     with pytest.raises(OutputPathError, match="No space left"):
-        decompose(env, 0.25 * env.diameter, tiles=(4, 4), executor=_Serial(), out=target)
+        decompose(env, 0.25 * env.diameter, tiles=(4, 4), executor=SerialExecutor(), out=target)
     assert sorted(p.name for p in target.iterdir()) == before
     assert [p.name for p in tmp_path.iterdir()] == ["s"]  # no temporary folder left
     _same(first, S.read_decomposition(target))

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import collections
 import math
-from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 
 import lattice_maps as lm
 import numpy as np
 import pytest
 import shapely
-from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE, random_maps
+from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE, SerialExecutor, random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from renumbering import assert_equal_up_to_renumbering
@@ -41,17 +41,8 @@ from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
 
 
-class _Serial(Executor):
-    """Runs each task at once, in this thread: the tiles' code without processes."""
-
-    def submit(self, fn, /, *args, **kwargs):
-        f = Future()
-        f.set_result(fn(*args, **kwargs))
-        return f
-
-
 def _tiled(env, lss, tiles):
-    return decompose(env, lss, tiles=tiles, executor=_Serial())
+    return decompose(env, lss, tiles=tiles, executor=SerialExecutor())
 
 
 # ---------------------------------------------------------------- equality on the maps
@@ -367,7 +358,7 @@ def test_a_tile_the_noder_fails_on_means_all_tiles_snap_rounded(monkeypatch):
     monkeypatch.setattr(tiles_mod, "node_floating", flaky)
     env = load_example("gallery")
     log = {}
-    noder = tiles_mod.tiled_noder((2, 2), _Serial(), 1e-6 * env.internal.diameter, log=log)
+    noder = tiles_mod.tiled_noder((2, 2), SerialExecutor(), 1e-6 * env.internal.diameter, log=log)
     from tether.curves import critical_curves
     from tether.decomposition.arrangement import arrangement
 
@@ -404,7 +395,8 @@ def _arrangements(env, lss, tiles, **kw):
     tol = REL_CURVE_TOL * inner.diameter
     log = {}
     return (arrangement(inner, curves, tol),
-            arrangement(inner, curves, tol, tiled_noder(tiles, _Serial(), tol, log=log, **kw)),
+            arrangement(inner, curves, tol,
+                        tiled_noder(tiles, SerialExecutor(), tol, log=log, **kw)),
             log)
 
 

@@ -11,13 +11,12 @@ of the whole."""
 from __future__ import annotations
 
 import functools
-from concurrent.futures import Executor, Future
 
 import lattice_maps as lm
 import numpy as np
 import pytest
 import shapely
-from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE, random_maps
+from conftest import GENERIC, L_SHAPE, SQUARE_HOLE, STAR_HOLE, SerialExecutor, random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -31,15 +30,6 @@ from tether.decomposition.tiles import TileGrid, grown, trace_tile
 from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
 from tether.tolerances import REL_CURVE_TOL
-
-
-class _Serial(Executor):
-    """Runs each task at once, in this thread."""
-
-    def submit(self, fn, /, *args, **kwargs):
-        f = Future()
-        f.set_result(fn(*args, **kwargs))
-        return f
 
 
 @functools.lru_cache(maxsize=4)
@@ -82,7 +72,7 @@ def assert_same_faces(whole, faces, part_faces):
 def _traced(whole, tiles, log=None):
     coords, count = part_ends(whole.parts)[:2]
     log = {} if log is None else log
-    got = tiles_mod._faces_in_tiles(coords, count, tiles, _Serial(), lambda s, f: None, log)
+    got = tiles_mod._faces_in_tiles(coords, count, tiles, SerialExecutor(), lambda s, f: None, log)
     assert got is not None and not log["face_fallback"]
     return got[:2]
 
@@ -211,7 +201,7 @@ def test_face_tasks_free_arcs_same_structures():
     tol = REL_CURVE_TOL * inner.diameter
     coords, count = part_ends(whole.parts)[:2]
     log = {}
-    faces, pf, fa = tiles_mod._faces_in_tiles(coords, count, (4, 3), _Serial(),
+    faces, pf, fa = tiles_mod._faces_in_tiles(coords, count, (4, 3), SerialExecutor(),
                                               lambda s, f: None, log, (inner, lss_in, tol))
     assert_same_faces(whole, faces, pf)
     wa = face_arcs(inner, whole.faces, tol, whole.grid, lss_in)
@@ -286,7 +276,7 @@ def test_tiled_arrangement_holds_arrays_with_the_whole_lengths_and_areas():
     tol = REL_CURVE_TOL * inner.diameter
     curves = critical_curves(inner, lss)
     whole = arrangement(inner, curves, tol)
-    tiled = arrangement(inner, curves, tol, tiled_noder((3, 2), _Serial(), tol))
+    tiled = arrangement(inner, curves, tol, tiled_noder((3, 2), SerialExecutor(), tol))
     assert isinstance(tiled.parts, PartLines) and isinstance(tiled.faces, FaceRings)
     key = {shapely.get_coordinates(p).tobytes(): k for k, p in enumerate(whole.parts)}
     m = np.array([key[shapely.get_coordinates(p).tobytes()] for p in tiled.parts.lines()])

@@ -9,13 +9,11 @@ with forced small tiles; and a real input GEOS's floating-point noder fails on, 
 
 from __future__ import annotations
 
-from concurrent.futures import Executor, Future
-
 import lattice_maps as lm
 import numpy as np
 import pytest
 import shapely
-from conftest import GENERIC, STAR_HOLE, random_maps
+from conftest import GENERIC, STAR_HOLE, SerialExecutor, random_maps
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from renumbering import assert_equal_up_to_renumbering
@@ -30,15 +28,6 @@ from tether.examples import load as load_example
 from tether.examples.floorplan import floor_plan
 
 _SLOW = pytest.mark.slow
-
-
-class _Serial(Executor):
-    """Runs each task at once, in this thread (a replaced ``shapely.node`` reaches it)."""
-
-    def submit(self, fn, /, *args, **kwargs):
-        f = Future()
-        f.set_result(fn(*args, **kwargs))
-        return f
 
 
 def _fail(*args, **kwargs):
@@ -66,7 +55,7 @@ def _arrangements(env, lss, tiles):
     curves = critical_curves(inner, ilss)
     log = {}
     tiled = arrangement(inner, curves, tol,
-                        tiled_noder(tiles, _Serial(), tol, log=log, arcs=(inner, ilss)))
+                        tiled_noder(tiles, SerialExecutor(), tol, log=log, arcs=(inner, ilss)))
     return arrangement(inner, curves, tol), tiled, log
 
 
@@ -89,7 +78,7 @@ def assert_same_parts(whole, tiled):
 def _both(env, lss, tiles):
     """The untiled and the tiled decompositions (floating-point noder failing: both snap
     rounded)."""
-    return decompose(env, lss), decompose(env, lss, tiles=tiles, executor=_Serial())
+    return decompose(env, lss), decompose(env, lss, tiles=tiles, executor=SerialExecutor())
 
 
 # ------------------------------------------------------------- what the union returns
@@ -271,7 +260,7 @@ def test_real_float_failure_snap_rounded_in_tiles(executor):
     assert grid == SNAP_GRIDS[0] * tol
     xy, idx = shapely.get_coordinates(lines, return_index=True)
     k = np.flatnonzero(idx[1:] == idx[:-1])
-    ex = _Serial() if executor == "serial" else process_executor(2)
+    ex = SerialExecutor() if executor == "serial" else process_executor(2)
     try:
         log = {}
         got = tiled_noder((3, 3), ex, tol, log=log)(lines, np.arange(len(lines)),
@@ -322,7 +311,7 @@ def test_real_floor_plan_knot_snap_rounded_in_tiles():
     k = np.flatnonzero(idx[1:] == idx[:-1])
     for tiles in [(2, 2), (3, 1)]:
         log = {}
-        got = tiled_noder(tiles, _Serial(), tol, log=log)(lines, np.arange(len(lines)),
+        got = tiled_noder(tiles, SerialExecutor(), tol, log=log)(lines, np.arange(len(lines)),
                                                           (xy[k], xy[k + 1], idx[k]))
         assert log["float_failed"] and got[4] == grid
         assert _wkb(got[0].lines()) == _wkb(whole)
