@@ -68,9 +68,14 @@ from tether.game.certificate import (
     window_min_at,
 )
 
-__all__ = ["LPResult", "free_windows", "lp_field", "solve_field", "triangle_spans",
-           "vortex_radius", "windows_of_spans"]
+__all__ = ["CORE_TRIES", "LPResult", "SEARCH_ROUNDS", "free_windows", "lp_field", "solve_field",
+           "triangle_spans", "vortex_radius", "windows_of_spans"]
 
+#: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
+#: whole-circle vertex in the core, released where needed)
+CORE_TRIES = (0.0, 2 / 3, 1.0)
+#: LP rounds of one try of the search
+SEARCH_ROUNDS = 60
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
 #: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
@@ -537,7 +542,7 @@ def vortex_radius(lss: float, vt: float, vo: float) -> float:
 
 
 def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
-                tries: tuple[float, ...] = (0.0, 2 / 3, 1.0), rounds: int = 60,
+                tries: tuple[float, ...] = CORE_TRIES, rounds: int = SEARCH_ROUNDS,
                 progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
                 start: ArcField | None = None) -> tuple[ArcField, Checks | None, list]:
     """The first field :func:`~tether.game.certificate.certify` passes, searched from

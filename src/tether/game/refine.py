@@ -41,7 +41,7 @@ from tether.errors import InvalidParameterError
 from tether.game.band import Band, lattice_classes, undecided_band
 from tether.game.certificate import ArcField, certify
 from tether.game.certified import CertifiedKernel
-from tether.game.field_lp import lp_field, vortex_radius
+from tether.game.field_lp import CORE_TRIES, SEARCH_ROUNDS, lp_field, vortex_radius
 
 __all__ = ["RING", "bisect", "free_near_split", "longest_edge_first", "mark_triangles",
            "refine_certified", "refine_field", "undecided_points"]
@@ -392,8 +392,8 @@ def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
         carried = certify(g, env, lss, vt, vo, grow)
         return g, carried, "carried" if carried.passed else "failed"
     best, best_checks = g, certify(g, env, lss, vt, vo, grow)
-    for q in (0.0, 2 / 3, 1.0):
-        res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=60,
+    for q in CORE_TRIES:
+        res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=SEARCH_ROUNDS,
                        core_radius=q * vortex_radius(lss, vt, vo), grow=grow)
         found = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
         checks = certify(found, env, lss, vt, vo, grow)
