@@ -712,7 +712,12 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     if a task's noder failed (the tasks not yet started are cancelled). ``ref``: the
     segments ``(a, b, source)`` the sources are found among (None: the input's own);
     ``grid_size``: the snap-rounding grid (map units; 0: floating-point noding), which
-    widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells."""
+    widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells. A floating-point
+    task gets the input within twice the margin of its tile (a retry, within the margin of
+    its region); a snap-rounding task within the margin and :data:`SNAP_MARGIN_PIXELS`
+    cells (or twice ``reach``) more: a snap-rounded part depends on the input within about
+    two cells of it, so the parts in the trust region, and the ends missed there, are
+    those of the whole input."""
     la, lb, lowner, source = group
     if len(la) == 0:
         return [], 0
@@ -723,6 +728,9 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     nx, ny = grid.shape
     margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach,
                  SNAP_MARGIN_PIXELS * grid_size)
+    # the input a task gets beyond its trust region: floating-point, the margin again (the
+    # noder's later passes); snap rounded, what a part within the trust region depends on
+    pad = margin if grid_size == 0 else max(SNAP_MARGIN_PIXELS * grid_size, 2 * reach)
     log["tiles"], log["margin"] = grid.shape, margin
     rlo = rhi = None
     if ref is not None:
@@ -738,7 +746,7 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         return executor.submit(trimmed, node_tile, xy, ptr, source[line], trust, reach, own,
                                done, sources, grid_size)
 
-    near, nptr = segments_by_tile(lo, hi, grid, 2 * margin)
+    near, nptr = segments_by_tile(lo, hi, grid, margin + pad)
     rnear = rptr = None
     if ref is not None:
         rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
@@ -773,7 +781,7 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         futures = {}
         for t, r in pending.items():  # larger regions around the parts not vouched for
             trust = mask_around(r[5], margin * 2.0 ** level, margin)
-            futures[t] = submit(_segments_near(trust, lo, hi, margin),
+            futures[t] = submit(_segments_near(trust, lo, hi, pad),
                                 None if ref is None else _segments_near(trust, rlo, rhi,
                                                                         2 * reach),
                                 trust, r[4], done[t])
