@@ -1,7 +1,7 @@
-"""The search's end rows (issue #22, "Speed"): per triangle and end, a few evenly spaced
-headings plus the cutting planes of the headings that violate most, and a core vertex whose
-free windows exclude the whole circle held at its reference instead of making the LP
-infeasible. Independent checks: the rows are counted from the model itself, and every
+"""The search's end rows (issue #22, "Speed"): per triangle and end, evenly spaced base
+headings plus the cutting planes of the headings that violate most (paired across the two
+ends by default), and a core vertex whose boxes cannot meet held at its reference instead of
+making the LP infeasible. Independent checks: the rows are counted from the model itself, and every
 returned field is judged by ``certify``-free geometry (its ends stay within the trust
 region and the free windows)."""
 
@@ -95,7 +95,7 @@ def test_seeded_cuts_are_only_violated_headings(mesh, monkeypatch):
     w = np.full(len(pts), 1.5)
     seen = _rows(monkeypatch)
     field_lp.lp_field(ROOM4, pts, tri, lo, w, LSS, VT, VO, rounds=1, base_headings=0,
-                      seed_cuts=True)
+                      seed_cuts=True, paired_ends=False)
     have = seen[0]
     assert (have.sum(axis=1) <= 1).all() and have.any()
     Lt, Ht, _ = lifted_ends(lo, w, tri)
@@ -108,3 +108,20 @@ def test_seeded_cuts_are_only_violated_headings(mesh, monkeypatch):
         G = np.einsum("nvk,nv->nk", hat[t], Z[t])
         F = S[np.arange(len(t)), hd] + sgn * LSS * VT * (G * U[hd]).sum(1) - 0.03 / 2
         assert (F < 0).all()
+
+
+def test_paired_ends_hold_the_same_headings(mesh, monkeypatch):
+    """By default (``paired_ends``) every heading with a row for one end has one for the
+    other, round after round; unpaired, the cutting planes of the two ends differ."""
+    pts, tri = mesh
+    rng = np.random.default_rng(3)
+    lo = rng.uniform(0, 2 * math.pi, len(pts))
+    w = np.full(len(pts), 1.5)
+    seen = _rows(monkeypatch)
+    field_lp.lp_field(ROOM4, pts, tri, lo, w, LSS, VT, VO, rounds=3)
+    assert len(seen) >= 2
+    assert all((h[:, :, 0] == h[:, :, 1]).all() for h in seen)
+    seen.clear()
+    field_lp.lp_field(ROOM4, pts, tri, lo, w, LSS, VT, VO, rounds=3, paired_ends=False,
+                      seed_cuts=True, base_headings=0)
+    assert any((h[:, :, 0] != h[:, :, 1]).any() for h in seen)

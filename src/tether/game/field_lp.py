@@ -22,9 +22,9 @@ is zero).
   cutting planes, ``lss·vt·G_lo·u(θ) <= S_lo(θ) − m`` and ``−lss·vt·G_hi·u(θ) <= S_hi(θ) − m``,
   where ``G`` is the (linear) gradient and ``S(θ)`` the smallest of ``sqrt(vo² − vt²cos²(θ − a))
   ∓ vt·sin(θ − a)`` over the orientations ``a`` the end can take on ``T`` within the trust
-  region (sampled, minus its Lipschitz bound). Each end has its own rows: the
-  :data:`BASE_HEADINGS` evenly spaced headings from the start, and per round the heading that
-  violates most (a cutting plane), seeded from the reference before the first LP.
+  region (sampled, minus its Lipschitz bound). The headings: :data:`BASE_HEADINGS` evenly
+  spaced ones from the start, and per round and end the one that violates most (a cutting
+  plane; by default its rows are added for both ends).
 
 **Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
 
@@ -79,10 +79,10 @@ CORE_TRIES = (0.0, 2 / 3, 1.0)
 #: LP rounds of one try of the search
 SEARCH_ROUNDS = 60
 #: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
-#: per end (the rest are cutting planes). 2 keeps the first LPs from widening blindly (with 0
-#: or 1 the search stalls: gallery at N = 64, vt/vo 0.3, 38 triangles fail after 60 rounds)
-#: at a quarter of the rows of the 8 (both ends per heading) used before.
-BASE_HEADINGS = 2
+#: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
+#: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
+#: or with unpaired ends, the gallery at N = 100 needs a second core size or is not certified).
+BASE_HEADINGS = 8
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
 #: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
@@ -346,7 +346,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              release: float | None = None,
              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
              fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
-             seed_cuts: bool = True) -> LPResult:
+             seed_cuts: bool = False, paired_ends: bool = True) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
@@ -368,7 +368,9 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     has from the start, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
     one heading per triangle, end and round at most, the one that violates most).
     ``seed_cuts``: add the reference field's own cutting planes before the first LP (else
-    the first LP sees the base headings only).
+    the first LP sees the base headings only). ``paired_ends``: a cutting plane found for
+    one end adds the rows of its heading for both ends (the search as tuned; False: only for
+    that end, half the rows).
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -456,7 +458,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             worst = np.argmin(F, axis=1)
             viol = F[np.arange(len(em)), worst] < 0
             new = viol & ~cut[em, worst, end]
-            cut[em[new], worst[new], end] = True
+            cut[em[new], worst[new], slice(None) if paired_ends else end] = True
             added += int(new.sum())
         return added
 
