@@ -102,6 +102,9 @@ PROXIMAL = 0.01
 #: round, and :func:`~tether.game.certificate.certify` has the last word.
 A_WIDEN = 0.02
 _TAU = math.tau
+#: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
+#: met for the solver
+_FEASIBILITY = 1e-7
 
 
 @dataclass(eq=False)
@@ -205,9 +208,11 @@ def _unmovable(x_lb: np.ndarray, x_ub: np.ndarray, y_lb: np.ndarray, y_ub: np.nd
     or ``y``, or, at a core vertex (``x = y``, the whole circle kept), boxes that do not
     meet (a triangle at it blocks orientations just after the gap place: its window bounds
     ``x`` from below above ``y``'s upper bound). The search holds them at their reference;
-    an LP with them would be infeasible, slacks or not."""
+    an LP with them would be infeasible, slacks or not. Boxes apart by at most
+    :data:`_FEASIBILITY` meet for HiGHS (its primal feasibility tolerance) and are kept."""
     bad = (x_lb > x_ub) | (y_lb > y_ub)
-    return bad | (core & (np.maximum(x_lb, y_lb) > np.minimum(x_ub, y_ub)))
+    apart = np.maximum(x_lb, y_lb) - np.minimum(x_ub, y_ub)
+    return bad | (core & (apart > _FEASIBILITY))
 
 
 class _RoundLP:
