@@ -22,7 +22,9 @@ is zero).
   cutting planes, ``lss·vt·G_lo·u(θ) <= S_lo(θ) − m`` and ``−lss·vt·G_hi·u(θ) <= S_hi(θ) − m``,
   where ``G`` is the (linear) gradient and ``S(θ)`` the smallest of ``sqrt(vo² − vt²cos²(θ − a))
   ∓ vt·sin(θ − a)`` over the orientations ``a`` the end can take on ``T`` within the trust
-  region (sampled, minus its Lipschitz bound).
+  region (sampled, minus its Lipschitz bound). The headings: :data:`BASE_HEADINGS` evenly
+  spaced ones from the start, and per round and end the one that violates most (a cutting
+  plane; by default its rows are added for both ends).
 
 **Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
 
@@ -68,14 +70,19 @@ from tether.game.certificate import (
     window_min_at,
 )
 
-__all__ = ["CORE_TRIES", "LPResult", "SEARCH_ROUNDS", "free_windows", "lp_field", "solve_field",
-           "triangle_spans", "vortex_radius", "windows_of_spans"]
+__all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "SEARCH_ROUNDS", "free_windows",
+           "lp_field", "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
 #: whole-circle vertex in the core, released where needed)
 CORE_TRIES = (0.0, 2 / 3, 1.0)
 #: LP rounds of one try of the search
 SEARCH_ROUNDS = 60
+#: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
+#: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
+#: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
+#: or with unpaired ends, the gallery at N = 100 needs a second core size or is not certified).
+BASE_HEADINGS = 8
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
 #: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
@@ -95,6 +102,9 @@ PROXIMAL = 0.01
 #: round, and :func:`~tether.game.certificate.certify` has the last word.
 A_WIDEN = 0.02
 _TAU = math.tau
+#: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
+#: met for the solver
+_FEASIBILITY = 1e-7
 
 
 @dataclass(eq=False)
@@ -192,6 +202,19 @@ def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.
     return out & core
 
 
+def _unmovable(x_lb: np.ndarray, x_ub: np.ndarray, y_lb: np.ndarray, y_ub: np.ndarray,
+               core: np.ndarray) -> np.ndarray:
+    """The vertices whose bounds leave no move (radians, per vertex): an empty box for ``x``
+    or ``y``, or, at a core vertex (``x = y``, the whole circle kept), boxes that do not
+    meet (a triangle at it blocks orientations just after the gap place: its window bounds
+    ``x`` from below above ``y``'s upper bound). The search holds them at their reference;
+    an LP with them would be infeasible, slacks or not. Boxes apart by at most
+    :data:`_FEASIBILITY` meet for HiGHS (its primal feasibility tolerance) and are kept."""
+    bad = (x_lb > x_ub) | (y_lb > y_ub)
+    apart = np.maximum(x_lb, y_lb) - np.minimum(x_ub, y_ub)
+    return bad | (core & (apart > _FEASIBILITY))
+
+
 class _RoundLP:
     """The LP of :func:`lp_field`'s rounds, kept in one HiGHS model from round to round: the
     columns and the width, proximal and core rows are the same every round, only bounds
@@ -259,7 +282,7 @@ class _RoundLP:
         lp.a_matrix_.value_ = a.data.astype(float)
         self.h = _highs()
         self.h.passModel(lp)
-        self.have = np.zeros((len(et), headings), bool)  # end rows in the model
+        self.have = np.zeros((len(et), headings, 2), bool)  # end rows in the model
         self.row_t = np.zeros(0, np.int64)  # per end row: triangle (index into et),
         self.row_h = np.zeros(0, np.int64)  # heading,
         self.row_s = np.zeros(0)  # and end (-1 lower, +1 upper)
@@ -267,17 +290,17 @@ class _RoundLP:
         self.ends = np.full((len(et), 6), np.nan)  # the lifted ends they were set for
 
     def add_cuts(self, cut: np.ndarray, u_all: np.ndarray) -> None:
-        """Add the end rows of the (triangle of ``et``, heading) pairs of ``cut`` not in the
-        model yet (``u_all``: the headings' unit vectors): per pair and end,
+        """Add the end rows of the (triangle of ``et``, heading, end) triples of ``cut``
+        (``(len(et), headings, 2)``, end 0 the lower, 1 the upper) not in the model yet
+        (``u_all``: the headings' unit vectors): per triple,
         ``−sgn·k·Σ_j (∇φ_j·u)·z_j − s <= rhs`` (the right-hand side set by :meth:`solve`)."""
-        ti, hs = np.nonzero(cut & ~self.have)
-        if not len(ti):
-            return
-        self.have[ti, hs] = True
-        coef = np.einsum("rvk,rk->rv", self.hat[self.et[ti]], u_all[hs])
-        vcols = self.tri[self.et[ti]]
         for sgn, off, end in ((-1.0, 0, 0), (1.0, self.nv, 1)):
-            cols = np.column_stack([off + vcols, 2 * self.nv + 2 * ti + end])
+            ti, hs = np.nonzero(cut[:, :, end] & ~self.have[:, :, end])
+            if not len(ti):
+                continue
+            self.have[ti, hs, end] = True
+            coef = np.einsum("rvk,rk->rv", self.hat[self.et[ti]], u_all[hs])
+            cols = np.column_stack([off + self.tri[self.et[ti]], 2 * self.nv + 2 * ti + end])
             vals = np.column_stack([-sgn * self.k * coef, np.full(len(ti), -1.0)])
             self.h.addRows(len(ti), np.full(len(ti), -np.inf), np.full(len(ti), np.inf),
                            cols.size, (4 * np.arange(len(ti))).astype(np.int32),
@@ -327,7 +350,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              core_radius: float = 0.0, core: np.ndarray | None = None,
              release: float | None = None,
              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
-             fixed: np.ndarray | None = None) -> LPResult:
+             fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
+             seed_cuts: bool = False, paired_ends: bool = True) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
@@ -344,6 +368,14 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     is one HiGHS model re-solved from its last basis (:class:`_RoundLP`); the cutting-plane
     search looks again only at the triangles whose ends moved (the others' worst heading is
     already a row or not violated).
+
+    ``base_headings``: the evenly spaced headings whose end rows every end-checked triangle
+    has from the start, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
+    one heading per triangle, end and round at most, the one that violates most).
+    ``seed_cuts``: add the reference field's own cutting planes before the first LP (else
+    the first LP sees the base headings only). ``paired_ends``: a cutting plane found for
+    one end adds the rows of its heading for both ends (the search as tuned; False: only for
+    that end, half the rows).
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -407,9 +439,33 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     core = core.copy()
     protected = _vortex_vertices(points, L, H - L, tri, core, lss, vt, vo)
     cen = xy.mean(axis=1)
-    cut = np.zeros((nt, headings), bool)  # the headings whose end rows each triangle has
-    cut[:, ::headings // 8] = True
+    # the (heading, end) pairs whose end rows each triangle has: base_headings evenly
+    # spaced ones from the start, and the cutting planes (end 0 the lower, 1 the upper)
+    cut = np.zeros((nt, headings, 2), bool)
+    if base_headings:
+        cut[:, ::max(headings // base_headings, 1)] = True
     seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
+
+    def search_cuts(L: np.ndarray, H: np.ndarray, et: np.ndarray) -> int:
+        """Cutting planes for the field ``(L, H)``: per triangle of ``et`` whose ends moved
+        since it was last searched, and per end, the heading that violates most (if it does
+        and has no row yet). Returns how many were added."""
+        added = 0
+        Lt, Ht, _ = lifted_ends(L, H - L, tri)
+        now = np.concatenate([Lt[et], Ht[et]], axis=1)
+        moved = ~(now == seen[et]).all(axis=1)
+        em = et[moved]
+        seen[em] = now[moved]
+        for end, (sgn, Z) in enumerate(((-1.0, Lt), (1.0, Ht))):
+            S = heading_window_min(Z[em].min(1), Z[em].max(1), headings, vt, vo, sgn)
+            G = np.einsum("nvk,nv->nk", hat[em], Z[em])
+            F = S + sgn * k * (G @ U_all.T) - margin / 2
+            worst = np.argmin(F, axis=1)
+            viol = F[np.arange(len(em)), worst] < 0
+            new = viol & ~cut[em, worst, end]
+            cut[em[new], worst[new], slice(None) if paired_ends else end] = True
+            added += int(new.sum())
+        return added
 
     # triangles with a vertex the LP may move (all without ``fixed``), and those vertices
     live_t = np.ones(nt, bool) if fixed is None else ~fixed[tri].all(axis=1)
@@ -434,6 +490,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         spans = (at[t_s], b0_s, b1_s)
     t_spans = time.perf_counter() - t_spans  # counted with the first round's windows
     log = []
+    if seed_cuts:  # the reference's own violated headings, before the first LP
+        search_cuts(L, H, et)
     slack_sum = np.inf
     r = 0
     for r in range(1, rounds + 1):
@@ -450,7 +508,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         x_ub = np.full(nv, rho)
         y_lb = np.full(nv, -rho)
         x_lb[idle], x_ub[idle], y_lb[idle], y_ub[idle] = 0.0, 0.0, 0.0, 0.0
-        bad = (x_lb > x_ub) | (y_lb > y_ub)
+        bad = _unmovable(x_lb, x_ub, y_lb, y_ub, core)
         if bad.any():  # a vertex whose reference is blocked: kept, and reported
             x_lb[bad], x_ub[bad], y_lb[bad], y_ub[bad] = 0.0, 0.0, 0.0, 0.0
             log.append({"round": r, "blocked_reference": int(bad.sum())})
@@ -486,22 +544,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         H = H + y
         slack_sum = float(s.sum())
         # cutting planes: for the new field, the headings that violate most per triangle
-        # (only where the ends moved since this triangle was last searched)
-        added = 0
-        Lt, Ht, _ = lifted_ends(L, H - L, tri)
-        now = np.concatenate([Lt[et], Ht[et]], axis=1)
-        moved = ~(now == seen[et]).all(axis=1)
-        em = et[moved]
-        seen[em] = now[moved]
-        for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
-            S = heading_window_min(Z[em].min(1), Z[em].max(1), headings, vt, vo, sgn)
-            G = np.einsum("nvk,nv->nk", hat[em], Z[em])
-            F = S + sgn * k * (G @ U_all.T) - margin / 2
-            worst = np.argmin(F, axis=1)
-            viol = F[np.arange(len(em)), worst] < 0
-            new = viol & ~cut[em, worst]
-            cut[em[new], worst[new]] = True
-            added += int(new.sum())
+        # and end (only where the ends moved since this triangle was last searched)
+        added = search_cuts(L, H, et)
         t4 = time.perf_counter()
         move = float(max(np.abs(x).max(), np.abs(y).max()))
         entry = {"round": r, "slack": slack_sum, "move": move, "cuts_added": added,
