@@ -109,6 +109,19 @@ def test_the_first_field_splits_the_star_the_corner_closes():
     assert math.isclose(det.sum() / 2, RING.polygon.area, rel_tol=1e-12)
 
 
+def test_the_first_field_is_unchanged_without_a_closed_star():
+    """A mesh where every star sees some free orientation is not split: the same field, bit
+    for bit, as without splitting."""
+    from tether.game.kernel import surveillance_kernel
+
+    room = Environment([(0, 0), (4, 0), (4, 4), (0, 4)])
+    kern = surveillance_kernel(room, LSS, 0.3, VO, h=0.5, orientations=36)
+    f, g = first_field(kern), first_field(kern, splits=0)
+    assert (g.w > 0).all()
+    for a, b in ((f.points, g.points), (f.tri, g.tri), (f.lo, g.lo), (f.w, g.w)):
+        assert np.array_equal(a, b)
+
+
 @pytest.mark.slow
 def test_one_of_the_three_moves_beats_the_grid_kernel_controller():
     """From a state the conservative grid kernel (``inner``) calls safe, the target walks to
