@@ -315,14 +315,14 @@ def first_field(kern, grow: float = 0.0, splits: int = STAR_SPLITS) -> ArcField:
     """
     grid = kern.grid
     pts, tri, src = free_mesh(grid.env, grid.h, grid.points)
-    for k in range(splits + 1):
+    for k in range(max(splits, 0) + 1):
         f = _first_arcs(kern, pts, tri, src, grow)
         closed = f.w <= 0
-        if not closed.any() or k == splits:
-            return f
+        if not closed.any() or k >= splits:
+            break
         if k == 0:
             tri = longest_edge_first(pts, tri)
-        pts, tri, _ = bisect(pts, tri, closed[tri].any(axis=1))
+        pts, tri, _ = bisect(pts, tri, closed[tri].any(axis=1))  # every closed vertex's star
         src = np.concatenate([src, np.full(len(pts) - len(src), -1)])
     return f
 
@@ -361,8 +361,6 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     away = ends[:, 0] - ends[:, 1]
     pref = np.mod(np.round(np.arctan2(away[:, 1], away[:, 0]) / grid.delta),
                   grid.n_a).astype(int)
-    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
-                              axis=1), axis=0)
     start, length, full = _runs_toward(bins, pref)
     thin = length <= 1  # the grid kernel leaves no arc free from the whole star here: start
     if thin.any():  # from the free bins alone (the search and the checks decide)
@@ -370,6 +368,8 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
         start[thin], length[thin], full[thin] = s2, l2, f2
     lo = start * grid.delta
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
+    edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
+                              axis=1), axis=0)
     return ArcField(pts, tri, _smooth_gaps(lo, w, edges), w)
 
 
