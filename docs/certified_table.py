@@ -9,6 +9,7 @@ Usage::
     python docs/certified_table.py            # rewrites the examples and the table
     python docs/certified_table.py --quick    # one ratio, fewer runs, prints only
     python docs/certified_table.py --starts 48 --workers 2 --skip gallery:0.6 --skip gallery:0.9
+    python docs/certified_table.py --only convex_corner:0.3   # one row again, the rest kept
 
 The last is how the table in the docs was made: 48 random certified starts per target kind
 and row (336 runs a row), on two processes, about half an hour on the shared 2-core machine.
@@ -89,9 +90,11 @@ def runs(ck, starts: int, seconds: float, rng, workers: int = 1) -> tuple[int, i
 
 
 def table(maps, ratios, starts: int, seconds: float, skip: frozenset = frozenset(),
-          workers: int = 1) -> str:
+          workers: int = 1, only: frozenset = frozenset(), old: str = "") -> str:
     """The markdown rows (``skip``: ``(map, ratio)`` pairs left out, each given a row that
-    says so)."""
+    says so; ``only``: when not empty, the pairs computed, every other row copied from the
+    table ``old``)."""
+    kept = _rows_of(old)
     rows = ["| map | vt/vo | mesh h | certified | certified % | inner kernel % | "
             "outer kernel % | seconds | runs from certified starts | lost | states outside |",
             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -99,6 +102,9 @@ def table(maps, ratios, starts: int, seconds: float, skip: frozenset = frozenset
     for name, h in maps.items():
         env = load_map(example_path(name))
         for ratio in ratios:
+            if only and (name, ratio) not in only and (name, ratio) in kept:
+                rows.append(kept[(name, ratio)])
+                continue
             if (name, ratio) in skip:
                 rows.append(f"| {name} | {ratio:g} | {h:g} | not run (`--skip`) | | | | | | | |")
                 continue
@@ -124,6 +130,17 @@ def table(maps, ratios, starts: int, seconds: float, skip: frozenset = frozenset
                         f"{cells[3]} |")
             print(rows[-1], flush=True)
     return "\n".join(rows)
+
+
+def _rows_of(text: str) -> dict:
+    """The rows of the table in ``text`` (between its markers), by ``(map, ratio)``."""
+    m = re.search(re.escape(BEGIN) + "(.*?)" + re.escape(END), text, flags=re.S)
+    rows = {}
+    for line in (m.group(1).splitlines() if m else []):
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) > 2 and cells[0] in MAPS:
+            rows[(cells[0], float(cells[1]))] = line.strip()
+    return rows
 
 
 def examples(text: str) -> str:
@@ -156,15 +173,23 @@ def main() -> None:
                     help="random certified starts per target kind and row (default 6)")
     ap.add_argument("--workers", type=int, default=1,
                     help="processes for the runs (forked; default 1)")
+    ap.add_argument("--only", action="append", default=[], metavar="MAP:RATIO",
+                    help="recompute only this row, copy the others from the docs' table (and "
+                         "leave the examples and the figure); repeatable")
     args = ap.parse_args()
     skip = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.skip))
+    only = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.only))
     if args.quick:
         table(MAPS, (0.3,), 2, 5.0)
         return
-    figure()
-    body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers)
     doc = DOCS / "certified.md"
-    text = examples(doc.read_text())
+    if only:
+        text = doc.read_text()
+        body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers, only, text)
+    else:
+        figure()
+        body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers)
+        text = examples(doc.read_text())
     new = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END), lambda m: f"{BEGIN}\n{body}\n{END}",
                  text, flags=re.S)
     doc.write_text(new)

@@ -57,15 +57,18 @@ from tether.game.cells import (
     triangle_meets,
 )
 
-__all__ = ["MARGIN", "W_MIN", "ArcField", "Checks", "certify", "end_slack", "first_field",
-           "free_mesh", "hat_gradients", "heading_window_min", "lifted_ends", "sight_widening",
-           "window_min", "window_min_at"]
+__all__ = ["MARGIN", "STAR_SPLITS", "W_MIN", "ArcField", "Checks", "bisect", "certify",
+           "end_slack", "first_field", "free_mesh", "hat_gradients", "heading_window_min",
+           "lifted_ends", "longest_edge_first", "sight_widening", "window_min", "window_min_at"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
 MARGIN = 1e-3
 #: Smallest arc width (radians) a certified field may have.
 W_MIN = 1e-3
+#: Times at most :func:`first_field` splits the stars of vertices that see no common free
+#: orientation (each split halves such a star's edges every second time).
+STAR_SPLITS = 6
 #: Target headings sampled by the end check (the Lipschitz term covers the rest).
 THETA_SAMPLES = 512
 #: Triangles per block in :func:`end_slack` (its temporaries are blocks × THETA_SAMPLES).
@@ -193,6 +196,92 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     return pts, tri, source
 
 
+def longest_edge_first(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``tri`` with each row rotated (the cyclic order kept, so counter-clockwise stays so) to
+    put its longest edge opposite local vertex 0: the refinement edge of :func:`bisect` for a
+    mesh that has not been bisected yet (ties go to the first in the row's order)."""
+    xy = points[tri]
+    opp = np.stack([np.hypot(*(xy[:, (k + 2) % 3] - xy[:, (k + 1) % 3]).T) for k in range(3)],
+                   axis=1)  # the length of the edge opposite each local vertex
+    k = np.argmax(opp, axis=1)
+    rows = np.arange(len(tri))[:, None]
+    return tri[rows, (k[:, None] + np.arange(3)[None, :]) % 3]
+
+
+def _edge_keys(i: np.ndarray, j: np.ndarray, n: int) -> np.ndarray:
+    """One integer per undirected edge ``{i, j}`` of a mesh of ``n`` vertices."""
+    return np.minimum(i, j).astype(np.int64) * n + np.maximum(i, j)
+
+
+def bisect(points: np.ndarray, tri: np.ndarray, marked: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Newest-vertex bisection of the triangles ``marked`` (a mask or indices) with closure
+    (:mod:`tether.game.refine`'s docstring, and ``docs/certified.md``, "Adaptive refinement").
+
+    Parameters
+    ----------
+    points : ndarray (n, 2)
+        Vertices, map units.
+    tri : ndarray (m, 3) of int
+        Counter-clockwise triangles, each with its refinement edge opposite local vertex 0.
+    marked : ndarray
+        The triangles to split (bool mask over ``tri``, or indices).
+
+    Returns
+    -------
+    new_points : ndarray (n + k, 2)
+        ``points`` followed by the ``k`` midpoints.
+    new_tri : ndarray of int
+        The refined triangles, in the same convention.
+    edges : ndarray (k, 2) of int
+        The ends of the edge each new vertex halves (vertex ``n + i`` halves ``edges[i]``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    >>> tri = np.array([[0, 1, 2], [3, 2, 1]])  # the shared diagonal is both refinement edges
+    >>> p, t, e = bisect(pts, tri, [0])  # the closure cuts the neighbour too
+    >>> p[4].tolist(), len(t), e.tolist()
+    ([0.5, 0.5], 4, [[1, 2]])
+    """
+    n = len(points)
+    tri = np.asarray(tri, dtype=np.int64)
+    mask = np.zeros(len(tri), dtype=bool)
+    mask[np.asarray(marked)] = True
+    # the three edges of each triangle, opposite local vertices 0, 1, 2
+    opp = np.stack([_edge_keys(tri[:, (k + 1) % 3], tri[:, (k + 2) % 3], n) for k in range(3)],
+                   axis=1)
+    keys, te = np.unique(opp, return_inverse=True)
+    te = te.reshape(-1, 3)
+    cut = np.zeros(len(keys), dtype=bool)
+    cut[te[mask, 0]] = True
+    while True:  # closure: a triangle with a cut edge cuts its refinement edge too
+        need = cut[te].any(axis=1) & ~cut[te[:, 0]]
+        if not need.any():
+            break
+        cut[te[need, 0]] = True
+    cut_keys = keys[cut]
+    edges = np.stack([cut_keys // n, cut_keys % n], axis=1)
+    new_points = np.concatenate([points, (points[edges[:, 0]] + points[edges[:, 1]]) / 2])
+    big = len(new_points)  # keys over every vertex, the new ones included
+    order = np.argsort(_edge_keys(edges[:, 0], edges[:, 1], big))
+    cut_big = _edge_keys(edges[order, 0], edges[order, 1], big)
+    mid_big = n + order
+    new_tri = tri
+    while len(cut_big):  # cut every triangle whose refinement edge is cut (twice at most)
+        ref = _edge_keys(new_tri[:, 1], new_tri[:, 2], big)
+        k = np.minimum(np.searchsorted(cut_big, ref), len(cut_big) - 1)
+        hit = cut_big[k] == ref
+        if not hit.any():
+            break
+        p1, p2, p3 = new_tri[hit].T
+        m = mid_big[k[hit]]
+        children = np.concatenate([np.stack([m, p1, p2], axis=1), np.stack([m, p3, p1], axis=1)])
+        new_tri = np.concatenate([new_tri[~hit], children])
+    return new_points, new_tri, edges
+
+
 def sight_widening(grow: float, lss: float) -> float:
     """The largest angle (radians) between the rod ``lss·u(a)`` and the line of sight
     ``lss·u(a) − e`` from a true target ``e`` away from the seen one, ``|e| <= grow < lss``:
@@ -200,7 +289,7 @@ def sight_widening(grow: float, lss: float) -> float:
     return math.asin(grow / lss) if grow > 0 else 0.0
 
 
-def first_field(kern, grow: float = 0.0) -> ArcField:
+def first_field(kern, grow: float = 0.0, splits: int = STAR_SPLITS) -> ArcField:
     """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
     (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
     vertex the run of orientations free from every point of the vertex's star and in
@@ -211,10 +300,40 @@ def first_field(kern, grow: float = 0.0) -> ArcField:
     (``grow = vt·d > 0``, map units) the stars' boxes hold their triangles grown by ``grow``
     (:func:`~tether.game.cells.grow_triangles`), the rods are
     ``lss + grow`` long and the free bins are eroded by :func:`sight_widening` (check 1 with
-    a delay)."""
+    a delay).
+
+    **Split stars.** A vertex whose star sees no common orientation (the run is empty, or a
+    single bin: no arc of positive width) cannot carry any arc that check 1 passes on every
+    triangle of its star. Its star is then split by :func:`bisect` (newest-vertex bisection
+    with closure, the refinement edges from :func:`longest_edge_first`) and the arcs are
+    computed again on the finer mesh, up to ``splits`` times: a smaller star sees more (a
+    vertex next to an obstacle's corner in a corridor exactly ``lss`` wide, whose star holds
+    points of both corridors). The mesh stays conforming and keeps every wall piece as an edge
+    or a chain of edges (``docs/certified.md``, (R1)); nothing else changes (without a closed
+    vertex, the mesh of :func:`free_mesh` and the same field, bit for bit). The field returned
+    may still hold closed arcs when ``splits`` did not open them.
+    """
+    grid = kern.grid
+    pts, tri, src = free_mesh(grid.env, grid.h, grid.points)
+    for k in range(max(splits, 0) + 1):
+        f = _first_arcs(kern, pts, tri, src, grow)
+        closed = f.w <= 0
+        if not closed.any() or k >= splits:
+            break
+        if k == 0:
+            tri = longest_edge_first(pts, tri)
+        pts, tri, _ = bisect(pts, tri, closed[tri].any(axis=1))  # every closed vertex's star
+        src = np.concatenate([src, np.full(len(pts) - len(src), -1)])
+    return f
+
+
+def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: float
+                ) -> ArcField:
+    """:func:`first_field`'s arcs on the mesh ``(pts, tri)`` (``src``: each vertex's lattice
+    index in ``kern``, -1 for a vertex off the lattice, which takes its nearest lattice
+    point's kernel bins)."""
     grid = kern.grid
     env = grid.env
-    pts, tri, src = free_mesh(env, grid.h, grid.points)
     nv = len(pts)
     lo_xy = np.full((nv, 2), np.inf)
     hi_xy = np.full((nv, 2), -np.inf)

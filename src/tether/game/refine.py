@@ -39,7 +39,7 @@ import numpy as np
 
 from tether.errors import InvalidParameterError
 from tether.game.band import Band, lattice_classes, undecided_band
-from tether.game.certificate import ArcField, certify
+from tether.game.certificate import ArcField, bisect, certify, longest_edge_first
 from tether.game.certified import CertifiedKernel
 from tether.game.field_lp import CORE_TRIES, SEARCH_ROUNDS, lp_field, vortex_radius
 
@@ -55,92 +55,6 @@ RING = 1
 def _wrap(x: np.ndarray) -> np.ndarray:
     """Angles into ``[-π, π)``."""
     return np.mod(x + math.pi, _TAU) - math.pi
-
-
-def longest_edge_first(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """``tri`` with each row rotated (the cyclic order kept, so counter-clockwise stays so) to
-    put its longest edge opposite local vertex 0: the refinement edge of :func:`bisect` for a
-    mesh that has not been bisected yet (ties go to the first in the row's order)."""
-    xy = points[tri]
-    opp = np.stack([np.hypot(*(xy[:, (k + 2) % 3] - xy[:, (k + 1) % 3]).T) for k in range(3)],
-                   axis=1)  # the length of the edge opposite each local vertex
-    k = np.argmax(opp, axis=1)
-    rows = np.arange(len(tri))[:, None]
-    return tri[rows, (k[:, None] + np.arange(3)[None, :]) % 3]
-
-
-def _edge_keys(i: np.ndarray, j: np.ndarray, n: int) -> np.ndarray:
-    """One integer per undirected edge ``{i, j}`` of a mesh of ``n`` vertices."""
-    return np.minimum(i, j).astype(np.int64) * n + np.maximum(i, j)
-
-
-def bisect(points: np.ndarray, tri: np.ndarray, marked: np.ndarray
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Newest-vertex bisection of the triangles ``marked`` (a mask or indices) with closure
-    (module docstring).
-
-    Parameters
-    ----------
-    points : ndarray (n, 2)
-        Vertices, map units.
-    tri : ndarray (m, 3) of int
-        Counter-clockwise triangles, each with its refinement edge opposite local vertex 0.
-    marked : ndarray
-        The triangles to split (bool mask over ``tri``, or indices).
-
-    Returns
-    -------
-    new_points : ndarray (n + k, 2)
-        ``points`` followed by the ``k`` midpoints.
-    new_tri : ndarray of int
-        The refined triangles, in the same convention.
-    edges : ndarray (k, 2) of int
-        The ends of the edge each new vertex halves (vertex ``n + i`` halves ``edges[i]``).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
-    >>> tri = np.array([[0, 1, 2], [3, 2, 1]])  # the shared diagonal is both refinement edges
-    >>> p, t, e = bisect(pts, tri, [0])  # the closure cuts the neighbour too
-    >>> p[4].tolist(), len(t), e.tolist()
-    ([0.5, 0.5], 4, [[1, 2]])
-    """
-    n = len(points)
-    tri = np.asarray(tri, dtype=np.int64)
-    mask = np.zeros(len(tri), dtype=bool)
-    mask[np.asarray(marked)] = True
-    # the three edges of each triangle, opposite local vertices 0, 1, 2
-    opp = np.stack([_edge_keys(tri[:, (k + 1) % 3], tri[:, (k + 2) % 3], n) for k in range(3)],
-                   axis=1)
-    keys, te = np.unique(opp, return_inverse=True)
-    te = te.reshape(-1, 3)
-    cut = np.zeros(len(keys), dtype=bool)
-    cut[te[mask, 0]] = True
-    while True:  # closure: a triangle with a cut edge cuts its refinement edge too
-        need = cut[te].any(axis=1) & ~cut[te[:, 0]]
-        if not need.any():
-            break
-        cut[te[need, 0]] = True
-    cut_keys = keys[cut]
-    edges = np.stack([cut_keys // n, cut_keys % n], axis=1)
-    new_points = np.concatenate([points, (points[edges[:, 0]] + points[edges[:, 1]]) / 2])
-    big = len(new_points)  # keys over every vertex, the new ones included
-    order = np.argsort(_edge_keys(edges[:, 0], edges[:, 1], big))
-    cut_big = _edge_keys(edges[order, 0], edges[order, 1], big)
-    mid_big = n + order
-    new_tri = tri
-    while len(cut_big):  # cut every triangle whose refinement edge is cut (twice at most)
-        ref = _edge_keys(new_tri[:, 1], new_tri[:, 2], big)
-        k = np.minimum(np.searchsorted(cut_big, ref), len(cut_big) - 1)
-        hit = cut_big[k] == ref
-        if not hit.any():
-            break
-        p1, p2, p3 = new_tri[hit].T
-        m = mid_big[k[hit]]
-        children = np.concatenate([np.stack([m, p1, p2], axis=1), np.stack([m, p3, p1], axis=1)])
-        new_tri = np.concatenate([new_tri[~hit], children])
-    return new_points, new_tri, edges
 
 
 def _midpoint_arcs(lo: np.ndarray, w: np.ndarray, edges: np.ndarray
