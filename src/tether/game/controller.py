@@ -17,11 +17,13 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import rod_is_free_many
-from tether.game.certificate import FULL
+from tether.game.certificate import FULL, lifted_ends
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
-__all__ = ["CertifiedController", "KernelController", "certified_of", "kernel_of"]
+__all__ = ["CertifiedController", "FieldArcs", "KernelController", "certified_of", "kernel_of"]
+
+_TAU = math.tau
 
 
 def kernel_of(world: World) -> Any:
@@ -139,6 +141,44 @@ class CertifiedController:
         self.world = world
         if self.certified is None:
             self.certified = certified_of(world)
+        self._field = None
+
+    @property
+    def field(self) -> FieldArcs:
+        """The field's arcs with their per-triangle data cached (built at first use)."""
+        f = getattr(self, "_field", None)
+        if f is None or f.certified is not self.certified:
+            f = self._field = FieldArcs(self.certified)
+        return f
+
+    def step_many(self, p: Any, v: Any, a: Any, dt: float) -> np.ndarray:
+        """The rod rates (rad/s) of :meth:`step` for many states at once: target positions
+        ``p`` (n, 2) and velocities ``v`` (n, 2) (map units, map units/s), rod orientations
+        ``a`` (n,) (radians), one step of ``dt`` s. Row ``i`` is the rate ``step(p[i], v[i],
+        a[i], dt)`` gives, to the last bit (the same operations, elementwise); the controller
+        keeps no state between steps, so the rows are independent. This controller always
+        has a rate (it never gives up), so no entry is NaN.
+        """
+        world = self.world
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
+        v = np.asarray(v, dtype=float).reshape(-1, 2)
+        a = np.asarray(a, dtype=float).reshape(-1)
+        n = len(p)
+        r_lo, r_hi = step_rate_interval(v, a, world.lss, world.vo, dt)
+        r_lo, r_hi = np.maximum(r_lo, -np.pi / dt), np.minimum(r_hi, np.pi / dt)
+        lo, hi, ok = self.field.arcs(np.concatenate([p, p + v * dt]))
+        lo0, lo1, ok0, ok1 = lo[:n], lo[n:], ok[:n], ok[n:]
+        width, w0 = hi[n:] - lo1, hi[:n] - lo0
+        rel = ok0 & (w0 < FULL)  # the state's relative place in its arc (an end if outside)
+        with np.errstate(invalid="ignore"):
+            x = np.mod(a - lo0, _TAU)
+            s = np.where(x <= w0, x / np.where(rel, w0, 1.0),
+                         np.where(_TAU - x < x - w0, 0.0, 1.0))
+        aim = np.where(rel & ok1, lo1 + s * width, a)
+        end = landing_many(a, a + r_lo * dt, a + r_hi * dt, np.where(ok1, lo1, 0.0),
+                           np.where(ok1, width, 0.0), aim)
+        off = np.minimum(np.maximum(0.0, r_lo), r_hi)  # the target leaves the free space
+        return np.where(ok1, (end - a) / dt, off)
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
         """The rod rate that lands the next state in the field, for target velocity ``v``."""
@@ -190,3 +230,80 @@ def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float
                 if 0 <= d < gap_d:
                     gap_best, gap_d = c, d
     return best if best is not None else gap_best
+
+
+def landing_many(a: np.ndarray, lo_reach: np.ndarray, hi_reach: np.ndarray, lo: np.ndarray,
+                 width: np.ndarray, aim: np.ndarray) -> np.ndarray:
+    """:func:`_landing` for arrays (radians, all of one shape): the same candidates in the
+    same order, the same strict comparisons, so each entry equals the scalar function's to
+    the last bit."""
+    base = lo + _TAU * np.floor((lo_reach - lo) / _TAU)  # the lift at or below
+    best, best_d = np.zeros_like(a), np.full_like(a, np.inf)
+    found = np.zeros(a.shape, dtype=bool)
+    gap_best, gap_d = lo_reach.copy(), np.full_like(a, np.inf)
+    for k in (-1, 0, 1, 2):
+        a0 = base + k * _TAU
+        a1 = a0 + width
+        t = aim + _TAU * np.round((a0 + width / 2 - aim) / _TAU)  # aim lifted to this arc
+        x0, x1 = np.maximum(a0, lo_reach), np.minimum(a1, hi_reach)
+        meet = x0 <= x1
+        c = np.minimum(np.maximum(t, x0), x1)
+        d = np.abs(c - t)
+        take = meet & (d < best_d)
+        best, best_d, found = np.where(take, c, best), np.where(take, d, best_d), found | take
+        for c, d in ((hi_reach, a0 - hi_reach), (lo_reach, lo_reach - a1)):
+            take = ~meet & (d >= 0) & (d < gap_d)
+            gap_best, gap_d = np.where(take, c, gap_best), np.where(take, d, gap_d)
+    out = np.where(found, best, gap_best)
+    return np.where(width >= FULL, np.minimum(np.maximum(a, lo_reach), hi_reach), out)
+
+
+class FieldArcs:
+    """The arcs of a certified field (:meth:`~tether.game.certified.CertifiedKernel.arcs`),
+    with the per-triangle data computed once: the lifted ends of every triangle and whether
+    its three arcs are whole circles. :meth:`arcs` gives the kernel's own values to the last
+    bit (the same triangle, the same operations); a simulation asks for them every step.
+
+    Parameters
+    ----------
+    certified : CertifiedKernel
+    """
+
+    def __init__(self, certified: Any) -> None:
+        f = certified.field
+        self.certified = certified
+        self.L, self.H, _ = lifted_ends(f.lo, f.w, f.tri)
+        self.whole = (f.w[f.tri] >= FULL).all(axis=1)
+        self.xy = f.points[f.tri]  # (m, 3, 2), the field's frame
+
+    def arcs(self, points: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arc ``[lo, hi]`` at each point (map units; radians, ``hi − lo = 2π`` for the
+        whole circle) and whether the point lies in the mesh (NaN ends where not)."""
+        ck = self.certified
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        t = ck.locate(pts)
+        pts = ck.frame.to_internal(pts)
+        ok = t >= 0
+        lo = np.full(len(pts), np.nan)
+        hi = np.full(len(pts), np.nan)
+        if ok.any():
+            tk = t[ok]
+            lam = _barycentric(self.xy[tk], pts[ok])
+            L, H = self.L[tk], self.H[tk]
+            lo[ok] = lam[:, 0] * L[:, 0] + lam[:, 1] * L[:, 1] + lam[:, 2] * L[:, 2]
+            hi[ok] = np.minimum(lam[:, 0] * H[:, 0] + lam[:, 1] * H[:, 1] + lam[:, 2] * H[:, 2],
+                                lo[ok] + _TAU)
+            whole = self.whole[tk]
+            hi[np.flatnonzero(ok)[whole]] = lo[ok][whole] + _TAU
+        return lo, hi, ok
+
+
+def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (m, 3) of points ``pts`` (m, 2) in triangles ``tri`` (m, 3, 2):
+    the formula of :mod:`tether.game.certified` (so the arcs agree to the last bit)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, pts - a
+    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
+    l1 = (v2[:, 0] * v1[:, 1] - v2[:, 1] * v1[:, 0]) / det
+    l2 = (v0[:, 0] * v2[:, 1] - v0[:, 1] * v2[:, 0]) / det
+    return np.stack([1 - l1 - l2, l1, l2], axis=1)
