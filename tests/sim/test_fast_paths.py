@@ -204,3 +204,27 @@ def test_search_run_is_the_same_with_and_without_the_batch():
                              duration=1.2, dt=0.02, seed=3, monitor=False))
     np.testing.assert_array_equal(runs[0].trace.p, runs[1].trace.p)
     np.testing.assert_array_equal(runs[0].trace.a, runs[1].trace.a)
+
+
+@pytest.mark.parametrize("name", ["gallery", "nonconvex_corner"])
+def test_monitor_shortcut_gives_the_exact_tests_answer(name):
+    """``Monitor.ok`` (a clearance shortcut before the exact rod test) against the exact test
+    alone, on rods near and across the walls and vertices."""
+    from tether.arcs import rod_is_free
+    from tether.examples import path as example_path
+    from tether.io import load_map
+    from tether.sim.simulate import Monitor
+
+    env = load_map(example_path(name))
+    mon = Monitor(World(env, 1.0, VT, VO))
+    rng = np.random.default_rng(9)
+    x0, y0, x1, y1 = env.bounds
+    verts = env.vertices
+    p = np.concatenate([rng.uniform([x0, y0], [x1, y1], (150, 2)),  # rods through vertices:
+                        verts[rng.integers(0, len(verts), 50)] + rng.normal(0, 1e-7, (50, 2))])
+    a = rng.uniform(0, 2 * math.pi, len(p))
+    lss = mon.lss
+    for q, b in zip(p, a, strict=True):
+        o = q + lss * np.array([math.cos(b), math.sin(b)])
+        want = bool(env.contains(o[0], o[1])) and rod_is_free(env, q, b, lss)
+        assert mon.ok(q, b) == want
