@@ -22,7 +22,8 @@ from tether.game.certificate import FULL, lifted_ends
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
-__all__ = ["CertifiedController", "FieldArcs", "KernelController", "certified_of", "kernel_of"]
+__all__ = ["CertifiedController", "FieldArcs", "KernelController",
+           "certified_of", "kernel_of", "landing_many", "rate_interval_one"]
 
 _TAU = math.tau
 
@@ -187,30 +188,33 @@ class CertifiedController:
         Plain floats throughout (one state: no arrays to build), with numpy's own functions
         for the transcendental ones, so the rate equals :meth:`step_many`'s to the last bit.
         """
-        world = self.world
-        lss, vo = world.lss, world.vo
         px, py, vx, vy, a = float(p[0]), float(p[1]), float(v[0]), float(v[1]), float(a)
-        r_lo, r_hi = rate_interval_one(vx, vy, a, lss, vo, dt)
+        rate = self._rate_one(px, py, vx, vy, a, dt)
+        r = self.world.lss * rate
+        velocity = np.array([vx - r * float(np.sin(a)), vy + r * float(np.cos(a))])
+        return Command(rate, velocity, Mode.CERTIFIED)
+
+    def _rate_one(self, px: float, py: float, vx: float, vy: float, a: float, dt: float
+                  ) -> float:
+        """The rate of :meth:`step` (rad/s) from plain floats."""
+        world = self.world
+        r_lo, r_hi = rate_interval_one(vx, vy, a, world.lss, world.vo, dt)
         r_lo, r_hi = max(r_lo, -np.pi / dt), min(r_hi, np.pi / dt)
         field = self.field
         ok1, lo1, hi1 = field.arc_one(px + vx * dt, py + vy * dt)
         if not ok1:  # the target leaves the free space: nothing to aim at
-            rate = min(max(0.0, r_lo), r_hi)
+            return min(max(0.0, r_lo), r_hi)
+        width = hi1 - lo1
+        ok0, lo0, hi0 = field.arc_one(px, py)
+        w0 = hi0 - lo0
+        if ok0 and w0 < FULL:  # the state's relative place in its arc (an end if outside)
+            x = (a - lo0) % _TAU
+            s = x / w0 if x <= w0 else (0.0 if _TAU - x < x - w0 else 1.0)
+            aim = lo1 + s * width
         else:
-            width = hi1 - lo1
-            ok0, lo0, hi0 = field.arc_one(px, py)
-            w0 = hi0 - lo0
-            if ok0 and w0 < FULL:  # the state's relative place in its arc (an end if outside)
-                x = (a - lo0) % _TAU
-                s = x / w0 if x <= w0 else (0.0 if _TAU - x < x - w0 else 1.0)
-                aim = lo1 + s * width
-            else:
-                aim = a
-            end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo1, width, aim)
-            rate = (end - a) / dt
-        r = lss * rate
-        velocity = np.array([vx - r * float(np.sin(a)), vy + r * float(np.cos(a))])
-        return Command(rate, velocity, Mode.CERTIFIED)
+            aim = a
+        end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo1, width, aim)
+        return (end - a) / dt
 
 
 def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float,
