@@ -1,5 +1,5 @@
 """The batched paths against the scalar ones they replace: the certified controller's
-``step_many`` against its ``step`` (and against the rule it had before the batched path, kept
+``step_many`` and ``rollout`` against its ``step`` (and against the rule it had before, kept
 here as written then), :class:`FieldArcs` against ``CertifiedKernel.arcs``, the search
 target's batched scores against its one-plan-at-a-time loop, and the planner's
 ``contains_many`` against ``contains``. The fields are random arcs on a mesh (no
@@ -139,6 +139,23 @@ def test_step_many_equals_step_and_the_old_step(dt):
     np.testing.assert_array_equal(many, old)
 
 
+def test_rollout_equals_steps_one_by_one():
+    ck = random_field(6)
+    world = World(ROOM, LSS, VT, VO)
+    ctrl = CertifiedController(ck)
+    ctrl.reset(world, np.array([1.0, 1.0]), 0.0)
+    rng = np.random.default_rng(11)
+    p, _, a = random_states(rng, 6, ck)
+    v = VT * rng.uniform(-0.7, 0.7, (6, 12, 2))
+    A = ctrl.rollout(p, v, a, 0.1)
+    for i in range(6):
+        q, b = p[i].copy(), float(a[i])
+        for k in range(12):
+            b = b + ctrl.step(q, v[i, k], b, 0.1).rate * 0.1
+            q = q + v[i, k] * 0.1
+            assert A[i, k + 1] == b
+
+
 def _search(ck: CertifiedKernel | None, seed: int):
     world = World(ROOM, LSS, VT, VO)
     if ck is not None:
@@ -170,7 +187,7 @@ def test_batched_scores_equal_the_scalar_loop():
     assert kinds == {"wall", "lost", "gap"}  # every way a plan can end was compared
 
 
-def test_search_without_step_many_keeps_the_loop():
+def test_search_without_rollout_keeps_the_loop():
     tgt = _search(None, 0)  # no controller to attack: the scalar loop, rate 0
     cands = [[np.array([VT, 0.0])] * 2, [np.array([0.0, VT])] * 2]
     assert tgt._scores(np.array([1.0, 1.0]), 0.3, cands) == [
@@ -192,14 +209,14 @@ def test_search_run_is_the_same_with_and_without_the_batch():
     """A whole run against ``search``: the batched target and the loop pick the same plans."""
     ck = random_field(8, h=1.0)
 
-    class Plain(CertifiedController):  # the same rule without step_many: the loop
-        step_many = property(lambda self: (_ for _ in ()).throw(AttributeError))
+    class Plain(CertifiedController):  # the same rule without rollout: the loop
+        rollout = property(lambda self: (_ for _ in ()).throw(AttributeError))
 
     runs = []
     for cls in (CertifiedController, Plain):
         world = World(ROOM, LSS, VT, VO)
         ctrl = cls(ck)
-        assert hasattr(ctrl, "step_many") == (cls is CertifiedController)
+        assert hasattr(ctrl, "rollout") == (cls is CertifiedController)
         runs.append(simulate(world, ctrl, make_target("search", world), (1.0, 1.0, 0.0),
                              duration=1.2, dt=0.02, seed=3, monitor=False))
     np.testing.assert_array_equal(runs[0].trace.p, runs[1].trace.p)

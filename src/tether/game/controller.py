@@ -161,16 +161,44 @@ class CertifiedController:
         keeps no state between steps, so the rows are independent. This controller always
         has a rate (it never gives up), so no entry is NaN.
         """
-        world = self.world
         p = np.asarray(p, dtype=float).reshape(-1, 2)
         v = np.asarray(v, dtype=float).reshape(-1, 2)
         a = np.asarray(a, dtype=float).reshape(-1)
         n = len(p)
+        lo, hi, ok = self.field.arcs(np.concatenate([p, p + v * dt]))
+        return self._rates(v, a, dt, (lo[:n], hi[:n], ok[:n]), (lo[n:], hi[n:], ok[n:]))
+
+    def rollout(self, p: Any, v: Any, a: Any, dt: float) -> np.ndarray:
+        """The rod orientations (radians, (m, n + 1)) along ``m`` known target paths: starts
+        ``p`` (m, 2) (map units) and ``a`` (m,), velocities ``v`` (m, n, 2) (map units/s),
+        one per step of ``dt`` s. Row ``i`` is what ``n`` calls of :meth:`step` give, to the
+        last bit: ``p ← p + v[i, k]·dt``, ``a ← a + rate·dt``. The target's positions do not
+        depend on the rates, so the arcs at all of them are found in one call."""
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
+        v = np.asarray(v, dtype=float)
+        m, n = v.shape[:2]
+        P = np.empty((m, n + 1, 2))
+        P[:, 0] = p
+        for k in range(n):
+            P[:, k + 1] = P[:, k] + v[:, k] * dt
+        lo, hi, ok = (x.reshape(m, n + 1) for x in self.field.arcs(P.reshape(-1, 2)))
+        A = np.empty((m, n + 1))
+        A[:, 0] = np.asarray(a, dtype=float).reshape(-1)
+        for k in range(n):
+            rate = self._rates(v[:, k], A[:, k], dt, (lo[:, k], hi[:, k], ok[:, k]),
+                               (lo[:, k + 1], hi[:, k + 1], ok[:, k + 1]))
+            A[:, k + 1] = A[:, k] + rate * dt
+        return A
+
+    def _rates(self, v: np.ndarray, a: np.ndarray, dt: float, now: tuple, nxt: tuple
+               ) -> np.ndarray:
+        """The rates of :meth:`step_many` from the arcs ``(lo, hi, ok)`` at the targets now
+        and after the step."""
+        world = self.world
         r_lo, r_hi = step_rate_interval(v, a, world.lss, world.vo, dt)
         r_lo, r_hi = np.maximum(r_lo, -np.pi / dt), np.minimum(r_hi, np.pi / dt)
-        lo, hi, ok = self.field.arcs(np.concatenate([p, p + v * dt]))
-        lo0, lo1, ok0, ok1 = lo[:n], lo[n:], ok[:n], ok[n:]
-        width, w0 = hi[n:] - lo1, hi[:n] - lo0
+        (lo0, hi0, ok0), (lo1, hi1, ok1) = now, nxt
+        width, w0 = hi1 - lo1, hi0 - lo0
         rel = ok0 & (w0 < FULL)  # the state's relative place in its arc (an end if outside)
         with np.errstate(invalid="ignore"):
             x = np.mod(a - lo0, _TAU)

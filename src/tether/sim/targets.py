@@ -386,47 +386,49 @@ class SearchTarget:
 
     def _scores(self, p: np.ndarray, a: float, cands: list[list[np.ndarray]]) -> list[float]:
         """The score of each candidate plan (see the class): all at once through the
-        controller's ``step_many`` when it has one (the same numbers as :meth:`_score`),
-        else one plan at a time."""
-        if self.controller is None or not hasattr(self.controller, "step_many"):
+        controller's ``rollout`` when it has one (the same numbers as :meth:`_score`), else
+        one plan at a time."""
+        if self.controller is None or not hasattr(self.controller, "rollout"):
             return [self._score(p.copy(), a, legs) for legs in cands]
         return self._score_many(p, a, cands).tolist()
 
     def _score_many(self, p: np.ndarray, a: float, cands: list[list[np.ndarray]]
                     ) -> np.ndarray:
-        """:meth:`_score` of every plan in one pass: the plans step together, each dropping
-        out where the scalar loop returns (the same tests in the same order)."""
+        """:meth:`_score` of every plan in one pass. A plan's target path does not depend on
+        the controller, so the paths, their tests against the walls and the controller's
+        orientations along them (``rollout``: a stateless controller's steps, to the last
+        bit) come first; then each plan is read step by step, stopping where the loop
+        returns (the same tests in the same order)."""
         m, dt = len(cands), self.dt
         n = max(1, int(round(self.horizon / dt)))
         legs = np.array([[np.asarray(v, dtype=float) for v in c] for c in cands])  # (m, 2, 2)
-        P = np.repeat(np.asarray(p, dtype=float).reshape(1, 2), m, axis=0)
-        A = np.full(m, float(a))
-        score = np.full(m, np.inf)  # the walls stop a plan: inf (not a threat)
-        worst = np.full(m, np.inf)
-        live = np.arange(m)
+        V = np.concatenate([np.repeat(legs[:, :1], n // 2, axis=1),
+                            np.repeat(legs[:, 1:], n - n // 2, axis=1)], axis=1)  # (m, n, 2)
+        P = np.empty((m, n + 1, 2))
+        P[:, 0] = np.asarray(p, dtype=float)
         for k in range(n):
-            if not len(live):
-                break
-            V = legs[live, 0 if k < n // 2 else 1]
-            Q = P[live] + V * dt
-            inside = self.planner.contains_many(Q)
-            live, V, Q = live[inside], V[inside], Q[inside]
-            rate = self.controller.step_many(P[live], V, A[live], dt)
-            gave_up = ~np.isfinite(rate)
-            score[live[gave_up]] = -1.0 + k / n
-            live, Q, rate = live[~gave_up], Q[~gave_up], rate[~gave_up]
-            A[live] = A[live] + rate * dt
-            P[live] = Q
-            keep = np.ones(len(live), dtype=bool)
-            for j, i in enumerate(live):
-                e = self.local.ends(float(P[i, 0]), float(P[i, 1]), float(A[i]))
-                if not e.free:
-                    score[i], keep[j] = -1.0 + k / n, False
-                else:
-                    worst[i] = min(worst[i], e.ccw_gap, e.cw_gap)
-            live = live[keep]
-        score[live] = worst[live]
+            P[:, k + 1] = P[:, k] + V[:, k] * dt
+        inside = self.planner.contains_many(P[:, 1:].reshape(-1, 2)).reshape(m, n)
+        A = self.controller.rollout(P[:, 0], V, np.full(m, float(a)), dt)
+        score = np.empty(m)
+        for i in range(m):
+            score[i] = self._read_plan(P[i, 1:], A[i], inside[i], n)
         return score
+
+    def _read_plan(self, P: np.ndarray, A: np.ndarray, inside: np.ndarray, n: int) -> float:
+        """The score of one plan from its positions after each step ``P`` (n, 2), its
+        orientations ``A`` (n + 1) and its wall tests: :meth:`_score`'s returns."""
+        worst = math.inf
+        for k in range(n):
+            if not inside[k]:
+                return math.inf  # the walls stop this plan: not a threat
+            if not math.isfinite(A[k + 1]):  # the controller gave up
+                return -1.0 + k / n
+            e = self.local.ends(float(P[k, 0]), float(P[k, 1]), float(A[k + 1]))
+            if not e.free:
+                return -1.0 + k / n
+            worst = min(worst, e.ccw_gap, e.cw_gap)
+        return worst
 
     def _score(self, p: np.ndarray, a: float, legs: list[np.ndarray]) -> float:
         import copy
