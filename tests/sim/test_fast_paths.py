@@ -223,7 +223,8 @@ def test_search_run_is_the_same_with_and_without_the_batch():
     np.testing.assert_array_equal(runs[0].trace.a, runs[1].trace.a)
 
 
-@pytest.mark.parametrize("name", ["gallery", "nonconvex_corner"])
+@pytest.mark.parametrize("name", ["gallery", pytest.param("nonconvex_corner",
+                                                         marks=pytest.mark.slow)])
 def test_monitor_shortcut_gives_the_exact_tests_answer(name):
     """``Monitor.ok`` (a clearance shortcut before the exact rod test) against the exact test
     alone, on rods near and across the walls and vertices."""

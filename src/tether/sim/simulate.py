@@ -195,8 +195,7 @@ class Monitor:
         self.max_ratio = 0.0
         self.min_clear = math.inf
         self.max_derr = 0.0
-        self._walls = world.env.polygon.boundary
-        shapely.prepare(self._walls)
+        self._walls = world.env.polygon.boundary  # what env.boundary_distance measures to
         self._clear = CLEAR_TOLS * world.env.length_tol
 
     def observer(self, p: np.ndarray, a: float) -> np.ndarray:
@@ -260,8 +259,8 @@ class Monitor:
         self.max_ratio = max(self.max_ratio, ratio)
         mid = 0.5 * (o0 + o1) - 0.5 * (p0 + p1)
         self.max_derr = max(self.max_derr, abs(float(np.linalg.norm(mid)) - self.lss))
-        self.min_clear = min(self.min_clear,
-                             float(self.env.boundary_distance(o1[0], o1[1])))
+        self.min_clear = min(self.min_clear, float(shapely.distance(
+            self._walls, shapely.Point(float(o1[0]), float(o1[1])))))
         return ratio
 
     def stats(self) -> MonitorStats:
