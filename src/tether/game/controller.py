@@ -341,7 +341,7 @@ class FieldArcs:
     """
 
     def __init__(self, certified: Any) -> None:
-        f = certified.field
+        f = self.field = certified.field
         self.certified = certified
         self.L, self.H, _ = lifted_ends(f.lo, f.w, f.tri)
         self.whole = (f.w[f.tri] >= FULL).all(axis=1)
@@ -361,9 +361,10 @@ class FieldArcs:
 
     @classmethod
     def of(cls, certified: Any) -> FieldArcs:
-        """The one :class:`FieldArcs` of a field (kept while the field lives)."""
+        """The one :class:`FieldArcs` of a field (kept while the field lives; built again
+        if its ``field`` was replaced)."""
         f = _FIELDS.get(certified)
-        if f is None:
+        if f is None or f.field is not certified.field:
             f = _FIELDS[certified] = cls(certified)
         return f
 
