@@ -362,7 +362,14 @@ class SearchTarget:
     """White-box adversary: every ``period`` s it tries ``headings`` constant headings (and as
     many two-leg turns) over ``horizon`` s against a copy of the controller, scoring each by
     the smallest slack the rod keeps to its arc ends (a controller failure scores −1), and
-    plays the worst for the observer. Non-shortest paths included (Becerra 2010)."""
+    plays the worst for the observer. Non-shortest paths included (Becerra 2010).
+
+    A controller that keeps no state between steps may offer ``rollout(p, v, a, dt)``: the
+    orientations (m, n + 1) along ``m`` target paths of known velocities ``v`` (m, n, 2),
+    each row what its ``step`` gives one by one (NaN from a step where it has no rate); the
+    plans are then scored all at once, with the same scores
+    (:meth:`~tether.game.controller.CertifiedController.rollout`). Otherwise each plan plays
+    against a copy of the controller."""
 
     name = "search"
 
