@@ -12,16 +12,20 @@ Candidates whose rod would not be free at the end of the simulator's step (exact
 from __future__ import annotations
 
 import math
+import weakref
 from typing import Any
 
 import numpy as np
 
 from tether.arcs import rod_is_free_many
-from tether.game.certificate import FULL
+from tether.game.certificate import FULL, lifted_ends
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
-__all__ = ["CertifiedController", "KernelController", "certified_of", "kernel_of"]
+__all__ = ["CertifiedController", "FieldArcs", "KernelController",
+           "certified_of", "kernel_of", "landing_many", "rate_interval_one"]
+
+_TAU = math.tau
 
 
 def kernel_of(world: World) -> Any:
@@ -139,30 +143,106 @@ class CertifiedController:
         self.world = world
         if self.certified is None:
             self.certified = certified_of(world)
+        self._field = None
+
+    @property
+    def field(self) -> FieldArcs:
+        """The field's arcs with their per-triangle data cached (built at first use)."""
+        f = getattr(self, "_field", None)
+        if f is None or f.certified is not self.certified:
+            f = self._field = FieldArcs.of(self.certified)
+        return f
+
+    def step_many(self, p: Any, v: Any, a: Any, dt: float) -> np.ndarray:
+        """The rod rates (rad/s) of :meth:`step` for many states at once: target positions
+        ``p`` (n, 2) and velocities ``v`` (n, 2) (map units, map units/s), rod orientations
+        ``a`` (n,) (radians), one step of ``dt`` s. Row ``i`` is the rate ``step(p[i], v[i],
+        a[i], dt)`` gives, to the last bit (the same operations, elementwise); the controller
+        keeps no state between steps, so the rows are independent. This controller always
+        has a rate (it never gives up), so no entry is NaN.
+        """
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
+        v = np.asarray(v, dtype=float).reshape(-1, 2)
+        a = np.asarray(a, dtype=float).reshape(-1)
+        n = len(p)
+        lo, hi, ok = self.field.arcs(np.concatenate([p, p + v * dt]))
+        return self._rates(v, a, dt, (lo[:n], hi[:n], ok[:n]), (lo[n:], hi[n:], ok[n:]))
+
+    def rollout(self, p: Any, v: Any, a: Any, dt: float) -> np.ndarray:
+        """The rod orientations (radians, (m, n + 1)) along ``m`` known target paths: starts
+        ``p`` (m, 2) (map units) and ``a`` (m,), velocities ``v`` (m, n, 2) (map units/s),
+        one per step of ``dt`` s. Row ``i`` is what ``n`` calls of :meth:`step` give, to the
+        last bit: ``p ← p + v[i, k]·dt``, ``a ← a + rate·dt``. The target's positions do not
+        depend on the rates, so the arcs at all of them are found in one call."""
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
+        v = np.asarray(v, dtype=float)
+        m, n = v.shape[:2]
+        P = np.empty((m, n + 1, 2))
+        P[:, 0] = p
+        for k in range(n):
+            P[:, k + 1] = P[:, k] + v[:, k] * dt
+        lo, hi, ok = (x.reshape(m, n + 1) for x in self.field.arcs(P.reshape(-1, 2)))
+        A = np.empty((m, n + 1))
+        A[:, 0] = np.asarray(a, dtype=float).reshape(-1)
+        for k in range(n):
+            rate = self._rates(v[:, k], A[:, k], dt, (lo[:, k], hi[:, k], ok[:, k]),
+                               (lo[:, k + 1], hi[:, k + 1], ok[:, k + 1]))
+            A[:, k + 1] = A[:, k] + rate * dt
+        return A
+
+    def _rates(self, v: np.ndarray, a: np.ndarray, dt: float, now: tuple, nxt: tuple
+               ) -> np.ndarray:
+        """The rates of :meth:`step_many` from the arcs ``(lo, hi, ok)`` at the targets now
+        and after the step."""
+        world = self.world
+        r_lo, r_hi = step_rate_interval(v, a, world.lss, world.vo, dt)
+        r_lo, r_hi = np.maximum(r_lo, -np.pi / dt), np.minimum(r_hi, np.pi / dt)
+        (lo0, hi0, ok0), (lo1, hi1, ok1) = now, nxt
+        width, w0 = hi1 - lo1, hi0 - lo0
+        rel = ok0 & (w0 < FULL)  # the state's relative place in its arc (an end if outside)
+        with np.errstate(invalid="ignore"):
+            x = np.mod(a - lo0, _TAU)
+            s = np.where(x <= w0, x / np.where(rel, w0, 1.0),
+                         np.where(_TAU - x < x - w0, 0.0, 1.0))
+        aim = np.where(rel & ok1, lo1 + s * width, a)
+        end = landing_many(a, a + r_lo * dt, a + r_hi * dt, np.where(ok1, lo1, 0.0),
+                           np.where(ok1, width, 0.0), aim)
+        off = np.minimum(np.maximum(0.0, r_lo), r_hi)  # the target leaves the free space
+        return np.where(ok1, (end - a) / dt, off)
 
     def step(self, p: np.ndarray, v: np.ndarray, a: float, dt: float) -> Command:
-        """The rod rate that lands the next state in the field, for target velocity ``v``."""
+        """The rod rate that lands the next state in the field, for target velocity ``v``.
+
+        Plain floats throughout (one state: no arrays to build), with numpy's own functions
+        for the transcendental ones, so the rate equals :meth:`step_many`'s to the last bit.
+        """
+        px, py, vx, vy, a = float(p[0]), float(p[1]), float(v[0]), float(v[1]), float(a)
+        rate = self._rate_one(px, py, vx, vy, a, dt)
+        r = self.world.lss * rate
+        velocity = np.array([vx - r * float(np.sin(a)), vy + r * float(np.cos(a))])
+        return Command(rate, velocity, Mode.CERTIFIED)
+
+    def _rate_one(self, px: float, py: float, vx: float, vy: float, a: float, dt: float
+                  ) -> float:
+        """The rate of :meth:`step` (rad/s) from plain floats."""
         world = self.world
-        lss, vo = world.lss, world.vo
-        p = np.asarray(p, dtype=float)
-        v = np.asarray(v, dtype=float)
-        r_lo, r_hi = (float(x) for x in step_rate_interval(v, a, lss, vo, dt))
+        r_lo, r_hi = rate_interval_one(vx, vy, a, world.lss, world.vo, dt)
         r_lo, r_hi = max(r_lo, -np.pi / dt), min(r_hi, np.pi / dt)
-        lo, hi, ok = self.certified.arcs(np.vstack([p, p + v * dt]))
-        if not ok[1]:  # the target leaves the free space: nothing to aim at
-            rate = min(max(0.0, r_lo), r_hi)
-            return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
-        width = hi[1] - lo[1]
-        w0 = hi[0] - lo[0]
-        if ok[0] and w0 < FULL:  # the state's relative place in its arc (an end if outside)
-            x = float(np.mod(a - lo[0], math.tau))
-            s = x / w0 if x <= w0 else (0.0 if math.tau - x < x - w0 else 1.0)
-            aim = lo[1] + s * width
+        field = self.field
+        ok1, lo1, hi1 = field.arc_one(px + vx * dt, py + vy * dt)
+        if not ok1:  # the target leaves the free space: nothing to aim at
+            return min(max(0.0, r_lo), r_hi)
+        width = hi1 - lo1
+        ok0, lo0, hi0 = field.arc_one(px, py)
+        w0 = hi0 - lo0
+        if ok0 and w0 < FULL:  # the state's relative place in its arc (an end if outside)
+            x = (a - lo0) % _TAU
+            s = x / w0 if x <= w0 else (0.0 if _TAU - x < x - w0 else 1.0)
+            aim = lo1 + s * width
         else:
             aim = a
-        end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo[1], width, aim)
-        rate = (end - a) / dt
-        return Command(rate, observer_velocity(v, a, rate, lss), Mode.CERTIFIED)
+        end = _landing(a, a + r_lo * dt, a + r_hi * dt, lo1, width, aim)
+        return (end - a) / dt
 
 
 def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float,
@@ -190,3 +270,205 @@ def _landing(a: float, lo_reach: float, hi_reach: float, lo: float, width: float
                 if 0 <= d < gap_d:
                     gap_best, gap_d = c, d
     return best if best is not None else gap_best
+
+
+def landing_many(a: np.ndarray, lo_reach: np.ndarray, hi_reach: np.ndarray, lo: np.ndarray,
+                 width: np.ndarray, aim: np.ndarray) -> np.ndarray:
+    """:func:`_landing` for arrays (radians, shape (n,)): the same candidates, and the first
+    of the nearest in the scalar function's order (its strict comparisons keep the first),
+    so each entry equals the scalar function's to the last bit."""
+    a, lo_reach, hi_reach, lo, width, aim = (np.asarray(x, dtype=float).reshape(-1) for x in
+                                             (a, lo_reach, hi_reach, lo, width, aim))
+    base = lo + _TAU * np.floor((lo_reach - lo) / _TAU)  # the lift at or below
+    a0 = base[:, None] + _LIFTS * _TAU  # (n, 4): the lifts k = -1, 0, 1, 2
+    a1 = a0 + width[:, None]
+    t = aim[:, None] + _TAU * np.round((a0 + (width / 2)[:, None] - aim[:, None]) / _TAU)
+    x0, x1 = np.maximum(a0, lo_reach[:, None]), np.minimum(a1, hi_reach[:, None])
+    meet = x0 <= x1
+    c = np.minimum(np.maximum(t, x0), x1)
+    d = np.where(meet, np.abs(c - t), np.inf)
+    rows = np.arange(len(a))
+    k = np.argmin(d, axis=1)  # the first of the nearest
+    found = d[rows, k] < np.inf
+    # apart: the reachable end nearest to each lift, in the order (hi end, lo end) per lift
+    gd = np.stack([a0 - hi_reach[:, None], lo_reach[:, None] - a1], axis=2).reshape(-1, 8)
+    gd = np.where(np.repeat(~meet, 2, axis=1) & (gd >= 0), gd, np.inf)
+    g = np.argmin(gd, axis=1)
+    gap = np.where(gd[rows, g] < np.inf, np.where(g % 2 == 0, hi_reach, lo_reach), lo_reach)
+    out = np.where(found, c[rows, k], gap)
+    return np.where(width >= FULL, np.minimum(np.maximum(a, lo_reach), hi_reach), out)
+
+
+_LIFTS = np.array([-1.0, 0.0, 1.0, 2.0])
+
+
+def rate_interval_one(vx: float, vy: float, a: float, lss: float, vo: float, dt: float
+                      ) -> tuple[float, float]:
+    """:func:`tether.rates.step_rate_interval` for one state, in plain floats (rad/s): the
+    same operations, numpy's functions for ``cos``, ``sin``, ``hypot``, ``arcsin``,
+    ``arctan2`` (so the bounds are the vectorized ones to the last bit)."""
+    c, s = float(np.cos(a)), float(np.sin(a))
+    vr = (vx * c + vy * s) * dt  # radial and tangential travel over the step
+    vs = (-vx * s + vy * c) * dt
+    wn = float(np.hypot(lss - vr, vs))
+    w_minus_l = (vr * vr + vs * vs - 2.0 * lss * vr) / (wn + lss)
+    num, den = (vo * dt) ** 2 - w_minus_l * w_minus_l, 4.0 * lss * wn
+    with np.errstate(divide="ignore", invalid="ignore"):
+        half = num / den if den != 0.0 else float(np.float64(num) / np.float64(den))
+    beta = 2.0 * float(np.arcsin(np.sqrt(min(max(half, 0.0), 1.0))))
+    delta = float(np.arctan2(vs, lss - vr))
+    if half >= 1.0:
+        return -np.pi / dt, np.pi / dt
+    return min(-beta - delta, 0.0) / dt, max(beta - delta, 0.0) / dt
+
+
+#: Relative error bound of a float orientation determinant (Shewchuk's ``ccwerrboundA`` is
+#: about 3.3e-16 of the sum of the two products' magnitudes): signs beyond 30 times it are sure.
+_ORIENT_TOL = 1e-14
+
+_FIELDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class FieldArcs:
+    """The arcs of a certified field (:meth:`~tether.game.certified.CertifiedKernel.arcs`),
+    with the per-triangle data computed once: the lifted ends of every triangle and whether
+    its three arcs are whole circles. :meth:`arcs` gives the kernel's own values to the last
+    bit (the same triangle, the same operations); a simulation asks for them every step.
+
+    Parameters
+    ----------
+    certified : CertifiedKernel
+    """
+
+    def __init__(self, certified: Any) -> None:
+        f = self.field = certified.field
+        self.certified = certified
+        self.L, self.H, _ = lifted_ends(f.lo, f.w, f.tri)
+        self.whole = (f.w[f.tri] >= FULL).all(axis=1)
+        self.xy = f.points[f.tri]  # (m, 3, 2), the field's frame
+        self._origin = tuple(float(x) for x in certified.frame.origin)
+        self._scale = float(certified.frame.scale)
+        self._rows = [(*map(float, xy.ravel()), *map(float, lo), *map(float, hi), bool(w))
+                      for xy, lo, hi, w in zip(self.xy, self.L, self.H, self.whole,
+                                               strict=True)]
+        e1, e2 = self.xy[:, 1] - self.xy[:, 0], self.xy[:, 2] - self.xy[:, 0]
+        p1, p2 = e1[:, 0] * e2[:, 1], e1[:, 1] * e2[:, 0]
+        turn = p1 - p2
+        sure = np.abs(turn) > _ORIENT_TOL * (np.abs(p1) + np.abs(p2))
+        # the sign that makes each triangle counter-clockwise; 0 (never sure) where flat
+        self._sign = np.where(sure, np.sign(turn), 0.0).tolist()
+        self._grid()
+
+    @classmethod
+    def of(cls, certified: Any) -> FieldArcs:
+        """The one :class:`FieldArcs` of a field (kept while the field lives; built again
+        if its ``field`` was replaced)."""
+        f = _FIELDS.get(certified)
+        if f is None or f.field is not certified.field:
+            f = _FIELDS[certified] = cls(certified)
+        return f
+
+    def _grid(self) -> None:
+        """A bucket grid over the mesh: each cell lists (in ascending order) the triangles
+        whose bounding box meets it, so a point's cell holds every triangle that may hold
+        the point."""
+        lo, hi = self.xy.min(axis=1), self.xy.max(axis=1)
+        x0 = lo.min(axis=0)
+        span = np.maximum(hi.max(axis=0) - x0, 1e-12)
+        cell = max(float(np.sqrt(span[0] * span[1] / max(len(lo), 1))), 1e-12)
+        shape = np.maximum(np.ceil(span / cell).astype(int), 1)
+        pad = 1e-9 * float(span.max())  # a box on a cell line goes into both cells
+        i0 = np.clip(np.floor((lo - pad - x0) / cell).astype(int), 0, shape - 1)
+        i1 = np.clip(np.floor((hi + pad - x0) / cell).astype(int), 0, shape - 1)
+        cells: list[list[int]] = [[] for _ in range(int(shape[0] * shape[1]))]
+        for t, (a0, b0, a1, b1) in enumerate(zip(i0[:, 0], i0[:, 1], i1[:, 0], i1[:, 1],
+                                                 strict=True)):
+            for ix in range(a0, a1 + 1):
+                for iy in range(b0, b1 + 1):
+                    cells[ix * shape[1] + iy].append(t)
+        self._cells = [tuple(c) for c in cells]
+        self._g0 = (float(x0[0]) - pad, float(x0[1]) - pad)
+        self._g1 = (float(x0[0] + shape[0] * cell) + pad, float(x0[1] + shape[1] * cell) + pad)
+        self._cell, self._shape = cell, (int(shape[0]), int(shape[1]))
+        self._x0 = (float(x0[0]), float(x0[1]))
+
+    def _locate_one(self, x: float, y: float) -> int | None:
+        """The triangle holding the internal point ``(x, y)``, -1 where none does, or None
+        where a determinant's sign is too near 0 to be sure (the caller asks the kernel's
+        exact :meth:`~tether.game.certified.CertifiedKernel.locate` instead)."""
+        if not (self._g0[0] <= x <= self._g1[0] and self._g0[1] <= y <= self._g1[1]):
+            return -1
+        ix = min(max(int((x - self._x0[0]) / self._cell), 0), self._shape[0] - 1)
+        iy = min(max(int((y - self._x0[1]) / self._cell), 0), self._shape[1] - 1)
+        found = -1
+        rows, sign = self._rows, self._sign
+        for t in self._cells[ix * self._shape[1] + iy]:
+            ax, ay, bx, by, cx, cy = rows[t][:6]
+            sg = sign[t]
+            inside = True
+            for ux, uy, wx, wy in ((bx - ax, by - ay, x - ax, y - ay),
+                                   (cx - bx, cy - by, x - bx, y - by),
+                                   (ax - cx, ay - cy, x - cx, y - cy)):
+                p1, p2 = ux * wy, uy * wx
+                d, err = sg * (p1 - p2), _ORIENT_TOL * (abs(p1) + abs(p2))
+                if d < -err:  # surely outside (counter-clockwise triangles)
+                    break
+                if d <= err:  # on or near this edge's line: not sure
+                    inside = False
+            else:
+                if not inside or found >= 0:  # near an edge, or two triangles hold it
+                    return None
+                found = t
+        return found
+
+    def arc_one(self, px: float, py: float) -> tuple[bool, float, float]:
+        """:meth:`arcs` at one point ``(px, py)`` (map units) in plain floats: whether it lies
+        in the mesh, and the arc's ends (radians, NaN off the mesh)."""
+        x, y = (px - self._origin[0]) * self._scale, (py - self._origin[1]) * self._scale
+        t = self._locate_one(x, y)
+        if t is None:
+            t = int(self.certified.locate(np.array([[px, py]]))[0])
+        if t < 0:
+            return False, math.nan, math.nan
+        ax, ay, bx, by, cx, cy, L0, L1, L2, H0, H1, H2, whole = self._rows[t]
+        v0x, v0y, v1x, v1y, v2x, v2y = bx - ax, by - ay, cx - ax, cy - ay, x - ax, y - ay
+        det = v0x * v1y - v0y * v1x
+        l1 = (v2x * v1y - v2y * v1x) / det
+        l2 = (v0x * v2y - v0y * v2x) / det
+        l0 = 1 - l1 - l2
+        lo = l0 * L0 + l1 * L1 + l2 * L2
+        if whole:
+            return True, lo, lo + _TAU
+        return True, lo, min(l0 * H0 + l1 * H1 + l2 * H2, lo + _TAU)
+
+    def arcs(self, points: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arc ``[lo, hi]`` at each point (map units; radians, ``hi − lo = 2π`` for the
+        whole circle) and whether the point lies in the mesh (NaN ends where not)."""
+        ck = self.certified
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        t = ck.locate(pts)
+        pts = ck.frame.to_internal(pts)
+        ok = t >= 0
+        lo = np.full(len(pts), np.nan)
+        hi = np.full(len(pts), np.nan)
+        if ok.any():
+            tk = t[ok]
+            lam = _barycentric(self.xy[tk], pts[ok])
+            L, H = self.L[tk], self.H[tk]
+            lo[ok] = lam[:, 0] * L[:, 0] + lam[:, 1] * L[:, 1] + lam[:, 2] * L[:, 2]
+            hi[ok] = np.minimum(lam[:, 0] * H[:, 0] + lam[:, 1] * H[:, 1] + lam[:, 2] * H[:, 2],
+                                lo[ok] + _TAU)
+            whole = self.whole[tk]
+            hi[np.flatnonzero(ok)[whole]] = lo[ok][whole] + _TAU
+        return lo, hi, ok
+
+
+def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (m, 3) of points ``pts`` (m, 2) in triangles ``tri`` (m, 3, 2):
+    the formula of :mod:`tether.game.certified` (so the arcs agree to the last bit)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, pts - a
+    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
+    l1 = (v2[:, 0] * v1[:, 1] - v2[:, 1] * v1[:, 0]) / det
+    l2 = (v0[:, 0] * v2[:, 1] - v0[:, 1] * v2[:, 0]) / det
+    return np.stack([1 - l1 - l2, l1, l2], axis=1)

@@ -58,6 +58,12 @@ class PathPlanner:
         """Whether point ``p`` lies in the shrunk free space."""
         return bool(self._check.covers(Point(float(p[0]), float(p[1]))))
 
+    def contains_many(self, pts: Any) -> np.ndarray:
+        """:meth:`contains` for many points (n, 2) at once (a point covered by a polygon is a
+        point that intersects it, so the answers are the same)."""
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        return shapely.intersects_xy(self._check, pts[:, 0], pts[:, 1])
+
     def path(self, p: Any, q: Any) -> np.ndarray:
         """Shortest path from ``p`` to ``q`` as waypoints (k, 2), ``p`` first and ``q`` last;
         just ``[p]`` when ``q`` cannot be reached."""

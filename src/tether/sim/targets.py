@@ -362,7 +362,14 @@ class SearchTarget:
     """White-box adversary: every ``period`` s it tries ``headings`` constant headings (and as
     many two-leg turns) over ``horizon`` s against a copy of the controller, scoring each by
     the smallest slack the rod keeps to its arc ends (a controller failure scores −1), and
-    plays the worst for the observer. Non-shortest paths included (Becerra 2010)."""
+    plays the worst for the observer. Non-shortest paths included (Becerra 2010).
+
+    A controller that keeps no state between steps may offer ``rollout(p, v, a, dt)``: the
+    orientations (m, n + 1) along ``m`` target paths of known velocities ``v`` (m, n, 2),
+    each row what its ``step`` gives one by one (NaN from a step where it has no rate); the
+    plans are then scored all at once, with the same scores
+    (:meth:`~tether.game.controller.CertifiedController.rollout`). Otherwise each plan plays
+    against a copy of the controller."""
 
     name = "search"
 
@@ -383,6 +390,52 @@ class SearchTarget:
         self.plan: list[np.ndarray] = []
         self.leg = 0.0
         self.dt = 0.02
+
+    def _scores(self, p: np.ndarray, a: float, cands: list[list[np.ndarray]]) -> list[float]:
+        """The score of each candidate plan (see the class): all at once through the
+        controller's ``rollout`` when it has one (the same numbers as :meth:`_score`), else
+        one plan at a time."""
+        if self.controller is None or not hasattr(self.controller, "rollout"):
+            return [self._score(p.copy(), a, legs) for legs in cands]
+        return self._score_many(p, a, cands).tolist()
+
+    def _score_many(self, p: np.ndarray, a: float, cands: list[list[np.ndarray]]
+                    ) -> np.ndarray:
+        """:meth:`_score` of every plan in one pass. A plan's target path does not depend on
+        the controller, so the paths, their tests against the walls and the controller's
+        orientations along them (``rollout``: a stateless controller's steps, to the last
+        bit) come first; then each plan is read step by step, stopping where the loop
+        returns (the same tests in the same order)."""
+        m, dt = len(cands), self.dt
+        n = max(1, int(round(self.horizon / dt)))
+        legs = np.array([[np.asarray(v, dtype=float) for v in c] for c in cands])  # (m, 2, 2)
+        V = np.concatenate([np.repeat(legs[:, :1], n // 2, axis=1),
+                            np.repeat(legs[:, 1:], n - n // 2, axis=1)], axis=1)  # (m, n, 2)
+        P = np.empty((m, n + 1, 2))
+        P[:, 0] = np.asarray(p, dtype=float)
+        for k in range(n):
+            P[:, k + 1] = P[:, k] + V[:, k] * dt
+        inside = self.planner.contains_many(P[:, 1:].reshape(-1, 2)).reshape(m, n)
+        A = self.controller.rollout(P[:, 0], V, np.full(m, float(a)), dt)
+        score = np.empty(m)
+        for i in range(m):
+            score[i] = self._read_plan(P[i, 1:], A[i], inside[i], n)
+        return score
+
+    def _read_plan(self, P: np.ndarray, A: np.ndarray, inside: np.ndarray, n: int) -> float:
+        """The score of one plan from its positions after each step ``P`` (n, 2), its
+        orientations ``A`` (n + 1) and its wall tests: :meth:`_score`'s returns."""
+        worst = math.inf
+        for k in range(n):
+            if not inside[k]:
+                return math.inf  # the walls stop this plan: not a threat
+            if not math.isfinite(A[k + 1]):  # the controller gave up
+                return -1.0 + k / n
+            e = self.local.ends(float(P[k, 0]), float(P[k, 1]), float(A[k + 1]))
+            if not e.free:
+                return -1.0 + k / n
+            worst = min(worst, e.ccw_gap, e.cw_gap)
+        return worst
 
     def _score(self, p: np.ndarray, a: float, legs: list[np.ndarray]) -> float:
         import copy
@@ -421,7 +474,7 @@ class SearchTarget:
             cands += [[vt * np.array([math.cos(h), math.sin(h)]),
                        vt * np.array([math.cos(g), math.sin(g)])]
                       for h, g in zip(angs, turns, strict=True)]
-            scores = [self._score(p.copy(), a, legs) for legs in cands]
+            scores = self._scores(p, a, cands)
             best = int(np.argmin(scores))
             self.plan = cands[best] if math.isfinite(scores[best]) else \
                 [self.planner.path(p, self.planner.random_point(self.rng))[-1] - p] * 2

@@ -1,0 +1,56 @@
+"""``docs/evidence_runs.py``'s bookkeeping: shards read back (duplicates and a line cut short
+by a kill), the runs left to do on resuming, and the summary's counts and replay commands."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+
+
+@pytest.fixture(scope="module")
+def ev():
+    spec = importlib.util.spec_from_file_location("evidence_runs", DOCS / "evidence_runs.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _rec(field: str, i: int, kind: str, outcome: str = "held", outside: int = 0) -> dict:
+    return {"field": field, "i": i, "kind": kind, "start": [1.5, 2.25, 0.125], "seed": i,
+            "outcome": outcome, "lost_at": None if outcome == "held" else 3.2,
+            "reason": None if outcome == "held" else "rod occluded by V3",
+            "outside": outside, "min_margin": 0.01, "steps": 750, "max_speed_ratio": 0.3,
+            "cpu_s": 0.5, "wall_s": 0.6}
+
+
+def test_shards_resume_and_summary(ev, tmp_path):
+    f = "nonconvex_corner:0.3:0.25"
+    (tmp_path / "runs-a.jsonl").write_text(
+        "".join(json.dumps(_rec(f, i, ev.KINDS[i % 7])) + "\n" for i in range(3)))
+    lost = _rec(f, 3, ev.KINDS[3], "lost")
+    (tmp_path / "runs-b.jsonl").write_text(
+        json.dumps(_rec(f, 1, ev.KINDS[1])) + "\n"  # a duplicate: the first one is kept
+        + json.dumps(lost) + "\n" + json.dumps(_rec(f, 4, ev.KINDS[4]))[:40])  # cut short
+    records, bad = ev.read_shards(tmp_path)
+    assert bad == 1
+    assert sorted(r["i"] for r in records) == [0, 1, 2, 3]
+    done = {(r["field"], r["i"]) for r in records}
+    other = "gallery:0.3:0.25"
+    assert ev.tasks([f, other], 5, done) == [(other, 0), (other, 1), (other, 2), (other, 3),
+                                             (f, 4), (other, 4)]
+    text = ev.summary(records, bad, tmp_path)
+    assert "4 runs, 1 lost or outside (1 unreadable lines skipped)" in text
+    assert "| **all** |  |  | **all** | 4 | 1 | 0 |" in text
+    assert f"--replay {f}:3" in text
+    assert "--target random --start 1.5 2.25 0.125 --seed 3" in text
+    assert f"--kernel {ev.field_file(tmp_path, f)}" in text
+
+
+def test_bad_field_name_is_one_line(ev):
+    with pytest.raises(SystemExit, match="a field is MAP:RATIO:H"):
+        ev.parse_field("gallery:0.3")
