@@ -270,37 +270,68 @@ def index_dtype(n: int) -> type:
     return np.int32 if n < 2**31 else np.int64
 
 
-def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _edges(dec: Decomposition, progress: Any = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
     arrays (:func:`index_dtype` of the cells' and the pieces' counts): arc pairs of the two
-    sides of each piece whose arcs overlap, found for runs of consecutive pieces of about
-    :data:`EDGE_CHUNK_ROWS` arc rows at a time (all at once within a run; the same edges in
-    the same order as in one run: the rows of a run are those of its pieces, in order)."""
+    sides of each piece whose arcs overlap, found part by part of the crossings' arcs
+    (:meth:`Decomposition.crossing_arc_parts`: one part in memory, or a store's parts read
+    one at a time), for runs of consecutive pieces of about :data:`EDGE_CHUNK_ROWS` arc rows
+    at a time (all at once within a run; the same edges in the same order as in one run:
+    the rows of a run are those of its pieces, in order). ``progress(stage, fraction)`` is
+    told of the cells' index and of the pieces done."""
     m = len(dec.pieces)
     empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
-    table = dec.crossing_arcs()
-    if _sorted_by_point(table.point):  # each run's rows read from the table as it is
-        first = np.searchsorted(table.point, np.arange(2 * m + 1))  # each point's first row
-        full = np.asarray(table.full, bool)
-        count = np.diff(first) + full  # rows of each point, a FULL point's full arc counted
-
-        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
-            return _table_run_rows(table, first, m, p0, p1)
-    else:  # a sorted copy of every row (a table not made by decompose nor the store)
-        rows = _table_arc_rows(table)
-        first = np.searchsorted(rows["point"], np.arange(2 * m + 1))
-        count = np.diff(first)
-
-        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
-            return _run_rows(rows, first, m, p0, p1)
-    per_piece = count[:m] + count[m:]  # rows of both sides
-    del count
-    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
+    report = progress or (lambda stage, frac: None)
+    report("cells index", 0.0)
     regs = piece_regions(dec)
     keys = _cell_keys(dec)
     cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
+    got = []
+    report("G edges", 0.0)
+    for first, table in dec.crossing_arc_parts():
+        k = len(table.full) // 2
+        got += _part_edges(dec, table, regs[first:first + k], first, keys, cell_t, piece_t)
+        del table
+        report("G edges", (first + k) / m)
+    if len(got) == 1:
+        return got[0]
+    cols = [list(c) for c in zip(*got, strict=True)]
+    del got
+    out = []
+    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
+        out.append(np.concatenate(c) if c else np.zeros(0, np.int32))
+        c.clear()
+    return out[0], out[1], out[2]
+
+
+def _part_edges(dec: Decomposition, table: ArcTable, regs: np.ndarray, first: int,
+                keys: tuple[np.ndarray, np.ndarray], cell_t: type, piece_t: type
+                ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The edges of the ``m = len(regs)`` pieces ``first .. first + m - 1`` from the arcs at
+    their crossings (``table``, numbered as a decomposition of those pieces alone), run by
+    run of about :data:`EDGE_CHUNK_ROWS` rows: per run, the cells of both sides (indices
+    into ``dec.cells``, found by ``keys``, :func:`_cell_keys`) and the pieces (global)."""
+    m = len(regs)
+    if _sorted_by_point(table.point):  # each run's rows read from the table as it is
+        at = np.searchsorted(table.point, np.arange(2 * m + 1))  # each point's first row
+        full = np.asarray(table.full, bool)
+        count = np.diff(at) + full  # rows of each point, a FULL point's full arc counted
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _table_run_rows(table, at, m, p0, p1)
+    else:  # a sorted copy of every row (a table not made by decompose nor the store)
+        rows = _table_arc_rows(table)
+        at = np.searchsorted(rows["point"], np.arange(2 * m + 1))
+        count = np.diff(at)
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _run_rows(rows, at, m, p0, p1)
+    per_piece = count[:m] + count[m:]  # rows of both sides
+    del count
+    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
     got = []
     for p0, p1 in zip([0, *ends[:-1]], ends, strict=True):
         sub = run_rows(p0, p1)
@@ -310,16 +341,9 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cb = _cell_index(dec, regs[k, 1], sub["start_code"][ib], sub["end_code"][ib], keys)
         del sub, ia, ib
         ok = (ca >= 0) & (cb >= 0)
-        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
-    if len(got) == 1:
-        return got[0]
-    cols = [list(c) for c in zip(*got, strict=True)]
-    del got
-    out = []
-    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
-        out.append(np.concatenate(c))
-        c.clear()
-    return out[0], out[1], out[2]
+        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t),
+                    (k[ok] + first).astype(piece_t)))
+    return got
 
 
 #: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
@@ -502,10 +526,19 @@ def piece_regions(dec: Decomposition) -> np.ndarray:
     return got
 
 
-def build_graph(dec: Decomposition) -> ConnectivityGraph:
+def build_graph(dec: Decomposition, progress: Any = None) -> ConnectivityGraph:
     """Build G from a decomposition: one edge per (cell, cell, piece) whose arcs continue into
     each other across the piece (all arc pairs of all pieces compared at once), stored as
-    integer arrays (see :class:`ConnectivityGraph`).
+    integer arrays (see :class:`ConnectivityGraph`). The crossings' arcs are read part by
+    part (:meth:`Decomposition.crossing_arc_parts`: from a store, one part in memory at a
+    time, ``docs/store.md``).
+
+    Parameters
+    ----------
+    dec : Decomposition
+    progress : callable, optional
+        Called as ``progress(stage, fraction_done)``, stages ``"cells index"``, ``"G
+        edges"`` (by pieces done) and ``"G slots"``.
 
     Returns
     -------
@@ -520,7 +553,9 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     >>> build_graph(decompose(room, 1.0))
     ConnectivityGraph(cells=32, edges=54)
     """
-    ea, eb, ep = _edges(dec)
+    ea, eb, ep = _edges(dec, progress)
+    if progress is not None:
+        progress("G slots", 0.0)
     nreg, ncell = len(dec.regions), len(dec.cells)
     regs = piece_regions(dec)
     m = len(regs)

@@ -560,7 +560,7 @@ def _cell_key(cid: str) -> tuple:
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             self_check: bool = True, near_critical: bool = True, tiles: Any = None,
-            executor: Any = None) -> Verdict:
+            executor: Any = None, progress: Any = None) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
@@ -571,6 +571,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`;
     ``tiles`` and ``executor`` are given to those decompositions (as :func:`decompose` takes
     them: a map decomposed in tiles for its size is so beside the critical length too).
+    ``progress(stage, fraction_done)``, if given, is told of the stages: ``"self-check"``,
+    those of :func:`build_graph`, ``"elimination"``, ``"verdict"`` (the witness) and
+    ``"near critical"``.
 
     Examples
     --------
@@ -587,14 +590,18 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     >>> analyze(decompose(ell, 0.5))
     Verdict(strategy_exists=True, surviving=20/25, witness=None)
     """
+    tell = progress or (lambda stage, frac: None)
     report = None
     if self_check:
         from tether.decomposition import self_check as run_self_check
 
+        tell("self-check", 0.0)
         report = run_self_check(dec)
     with gc_paused():
-        graph = build_graph(dec) if graph is None else graph
+        graph = build_graph(dec, progress) if graph is None else graph
+        tell("elimination", 0.0)
         surviving, elim = eliminate(graph)
+    tell("verdict", 0.0)
     witness = None
     if not surviving:
         empty = np.flatnonzero(np.diff(cell_first(dec)) == 0)
@@ -602,7 +609,10 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
+    if near_critical:
+        tell("near critical", 0.0)
     critical = _beside_critical(dec, self_check, tiles, executor) if near_critical else None
+    tell("done", 1.0)
     return Verdict(dec, graph, surviving, elim, witness, report, critical)
 
 

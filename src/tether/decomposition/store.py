@@ -49,8 +49,8 @@ from tether.decomposition.views import (
 )
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "PartWriter", "StoredCurves", "check_store_dir",
-           "part_arcs", "read_decomposition", "write_decomposition"]
+__all__ = ["FORMAT", "TABLES", "VERSION", "PartWriter", "StoredArcs", "StoredCurves",
+           "check_store_dir", "part_arcs", "read_decomposition", "write_decomposition"]
 
 #: The store's format name and version (``index.json``'s ``format`` and ``version``).
 #: Version 2: each part's ``arcs`` are those of its own pieces' crossings (version 1, also
@@ -691,8 +691,8 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
                                     pc["geometry_ptr"])))
     a = t["arcs"]  # read on each use, never held (G's build reads them once)
     arcs = (partial(_arc_table, a._paths, a._shown) if index["version"] == 1 else
-            partial(_part_arc_table, a._paths, a._shown,
-                    [int(np.diff(part["rows"]["pieces"])[0]) for part in index["parts"]]))
+            StoredArcs(a._paths, a._shown,
+                       [int(np.diff(part["rows"]["pieces"])[0]) for part in index["parts"]]))
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
     got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
            "pieces": len(pieces)}
@@ -742,6 +742,36 @@ def _part_arc_table(paths: list[Path], shown: str, counts: list[int]) -> ArcTabl
             raise ValueError(f"a part's arcs have {len(f)} points for its {k} pieces")
     return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full"])
+
+
+class StoredArcs:
+    """The crossings' arcs of a version 2 store, read on each use and never held
+    (:meth:`Decomposition.crossing_arcs` calls it: the whole table, :func:`_part_arc_table`;
+    :meth:`Decomposition.crossing_arc_parts` reads :meth:`parts`: one part at a time)."""
+
+    def __init__(self, paths: list[Path], shown: str, counts: list[int]) -> None:
+        self._paths, self._shown, self._counts = paths, shown, counts
+
+    def __call__(self) -> ArcTable:
+        """The whole table (every part's arcs joined, :func:`_part_arc_table`)."""
+        return _part_arc_table(self._paths, self._shown, self._counts)
+
+    def parts(self) -> Iterator[tuple[int, ArcTable]]:
+        """``(first piece, arcs)`` of each part holding pieces, in order, each part read
+        when reached: its arcs as written (:func:`part_arcs`: points ``0..k-1`` the ``+n``
+        sides of its ``k`` pieces, ``k..2k-1`` the others)."""
+        first = 0
+        for path, k in zip(self._paths, self._counts, strict=True):
+            if k:
+                a = _load(path, self._shown, TABLES["arcs"])
+                if len(a["full_points"]) != 2 * k:
+                    raise InvalidParameterError(
+                        f"{self._shown}: {path.parent.name}/{path.name} has arcs at "
+                        f"{len(a['full_points'])} points for its {k} pieces")
+                yield first, ArcTable(a["point"], a["start"], a["end"], a["start_code"],
+                                      a["end_code"], a["full_points"])
+                del a
+            first += k
 
 
 def _internal(cols: dict[str, np.ndarray]) -> bool:

@@ -1,0 +1,129 @@
+"""Benchmark: ``tether analyze --from DIR`` step by step, its time and memory.
+
+Run: ``python benchmarks/bench_analyze_store.py DIR [DIR ...] [--src SRC]``. For each store
+(``docs/store.md``; written by ``tether decompose ... --out DIR``) a fresh process reads it
+(``read_decomposition``) and analyzes it as ``tether analyze --from DIR`` does, without the
+self-check and the near-critical verdicts (``self_check=False, near_critical=False``: the
+steps that depend on the store's size alone). It prints one row per step: the wall time in
+seconds and the process's peak resident memory in MB over the step (Linux's ``VmHWM``,
+reset as each step begins; also sampled every 20 ms from a thread, the ``sampled`` column),
+then the counts and the verdict.
+
+The steps are those ``analyze`` reports through its ``progress`` argument: ``load`` (the
+store's index and columns read: regions, cells, pieces, no geometry), ``cells index`` (the
+cells' sorted keys, to find a cell from its region and arc ends), ``G edges`` (the arc pairs
+of both sides of every piece's crossing, the store's parts read one at a time), ``G slots``
+(G's slots and partner lists), ``elimination`` (the fixed point) and ``verdict`` (the
+witness). ``--src`` runs another checkout's ``src``; where its ``analyze`` takes no
+``progress`` the row is ``G + elimination`` as one step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+CHILD = r"""
+import inspect, json, sys, threading, time
+store = sys.argv[1]
+
+def _vm(key):  # this process's VmRSS or VmHWM, MB (Linux), else None
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        return None
+
+def _reset_peak():  # VmHWM counted from now on (Linux: clear_refs 5)
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+rows, current = [], {}
+def step(name):  # the step that ends now recorded; ``name`` begins (None: the last ends)
+    now = time.perf_counter()
+    if current:
+        current["s"] = now - current.pop("t0")
+        current["MB"] = _vm("VmHWM")
+        rows.append(dict(current))
+        current.clear()
+    if name is not None:
+        _reset_peak()
+        current.update(step=name, t0=now, sampled=_vm("VmRSS") or 0.0)
+
+def sampler():
+    while True:
+        if current:
+            current["sampled"] = max(current.get("sampled", 0.0), _vm("VmRSS") or 0.0)
+        time.sleep(0.02)
+
+threading.Thread(target=sampler, daemon=True).start()
+step("imports")
+from tether.analysis import analyze
+from tether.decomposition.store import read_decomposition
+step("load")
+dec = read_decomposition(store)
+kw = dict(self_check=False, near_critical=False)
+if "progress" in inspect.signature(analyze).parameters:
+    def progress(stage, frac):
+        if stage == "done":
+            step(None)
+        elif not current or current["step"] != stage:
+            step(stage)
+    v = analyze(dec, progress=progress, **kw)
+else:
+    step("G + elimination")
+    v = analyze(dec, **kw)
+    step(None)
+if current:
+    step(None)
+c = v.counts()
+print(json.dumps({"rows": rows, "regions": c["regions"], "cells": c["cells"],
+                  "pieces": len(dec.pieces), "edges": c["edges"],
+                  "surviving": c["surviving_cells"], "eliminated": len(v.eliminated),
+                  "verdict": "strategy" if v.strategy_exists else "none"}))
+"""
+
+
+def run(store: str, src: str) -> dict:
+    """One store analyzed in a fresh process: its steps' rows and counts."""
+    env = dict(os.environ, PYTHONPATH=src)
+    out = subprocess.run([sys.executable, "-c", CHILD, store], capture_output=True, text=True,
+                         env=env, check=False)
+    if out.returncode != 0:
+        raise SystemExit(f"{store}: " + (out.stderr.strip().splitlines() or ["failed"])[-1])
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    """Print the table of each store."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("stores", nargs="+", metavar="DIR")
+    ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
+    args = ap.parse_args()
+    print(f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f} at start", flush=True)
+    for store in args.stores:
+        got = run(store, args.src)
+        print(f"\n{store}: {got['regions']:,} regions, {got['cells']:,} cells, "
+              f"{got['pieces']:,} pieces, {got['edges']:,} edges in G; {got['surviving']:,} "
+              f"cells survive ({got['eliminated']:,} eliminated): {got['verdict']}")
+        print(f"{'step':<16} {'s':>8} {'peak MB':>9} {'sampled':>9}")
+        for r in got["rows"]:
+            peak = "-" if r["MB"] is None else f"{r['MB']:.0f}"
+            print(f"{r['step']:<16} {r['s']:8.2f} {peak:>9} {r['sampled']:9.0f}")
+        total = sum(r["s"] for r in got["rows"] if r["step"] != "imports")
+        top = max((r["MB"] or 0) for r in got["rows"])
+        print(f"{'total':<16} {total:8.2f} {top:9.0f}")
+        print(f"load average {os.getloadavg()[0]:.1f} after", flush=True)
+
+
+if __name__ == "__main__":
+    main()
