@@ -3,11 +3,11 @@
 Run: ``python benchmarks/bench_analyze_store.py DIR [DIR ...] [--src SRC]``. For each store
 (``docs/store.md``; written by ``tether decompose ... --out DIR``) a fresh process reads it
 (``read_decomposition``) and analyzes it as ``tether analyze --from DIR`` does, without the
-self-check and the near-critical verdicts (``self_check=False, near_critical=False``: the
-steps that depend on the store's size alone). It prints one row per step: the wall time in
-seconds and the process's peak resident memory in MB over the step (Linux's ``VmHWM``,
-reset as each step begins; also sampled every 20 ms from a thread, the ``sampled`` column),
-then the counts and the verdict.
+near-critical verdicts and, unless ``--self-check``, without the self-check
+(``self_check=False, near_critical=False``: G and the elimination). It prints one row per
+step: the wall time in seconds and the process's peak resident memory in MB over the step
+(Linux's ``VmHWM``, reset as each step begins; also sampled every 20 ms from a thread, the
+``sampled`` column), then the counts and the verdict.
 
 The steps are those ``analyze`` reports through its ``progress`` argument: ``load`` (the
 store's index and columns read: regions, cells, pieces, no geometry), ``cells index`` (the
@@ -29,7 +29,7 @@ from pathlib import Path
 
 CHILD = r"""
 import inspect, json, sys, threading, time
-store = sys.argv[1]
+store, self_check = sys.argv[1], sys.argv[2] == "1"
 
 def _vm(key):  # this process's VmRSS or VmHWM, MB (Linux), else None
     try:
@@ -71,7 +71,7 @@ from tether.analysis import analyze
 from tether.decomposition.store import read_decomposition
 step("load")
 dec = read_decomposition(store)
-kw = dict(self_check=False, near_critical=False)
+kw = dict(self_check=self_check, near_critical=False)
 if "progress" in inspect.signature(analyze).parameters:
     def progress(stage, frac):
         if stage == "done":
@@ -93,11 +93,11 @@ print(json.dumps({"rows": rows, "regions": c["regions"], "cells": c["cells"],
 """
 
 
-def run(store: str, src: str) -> dict:
+def run(store: str, src: str, self_check: bool = False) -> dict:
     """One store analyzed in a fresh process: its steps' rows and counts."""
     env = dict(os.environ, PYTHONPATH=src)
-    out = subprocess.run([sys.executable, "-c", CHILD, store], capture_output=True, text=True,
-                         env=env, check=False)
+    out = subprocess.run([sys.executable, "-c", CHILD, store, "1" if self_check else "0"],
+                         capture_output=True, text=True, env=env, check=False)
     if out.returncode != 0:
         raise SystemExit(f"{store}: " + (out.stderr.strip().splitlines() or ["failed"])[-1])
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -108,10 +108,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("stores", nargs="+", metavar="DIR")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
+    ap.add_argument("--self-check", action="store_true",
+                    help="also run analyze's self-check (the step 'self-check': it reads "
+                    "and samples the regions' polygons), as 'tether analyze --from' does")
     args = ap.parse_args()
     print(f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f} at start", flush=True)
     for store in args.stores:
-        got = run(store, args.src)
+        got = run(store, args.src, args.self_check)
         print(f"\n{store}: {got['regions']:,} regions, {got['cells']:,} cells, "
               f"{got['pieces']:,} pieces, {got['edges']:,} edges in G; {got['surviving']:,} "
               f"cells survive ({got['eliminated']:,} eliminated): {got['verdict']}")

@@ -67,6 +67,14 @@ def test_parts_read_one_at_a_time_give_the_same_graph(tmp_path, parts_only):
                  "partner_slot"):
         assert np.array_equal(getattr(ga, name), getattr(gb, name)), name
     assert analyze(back, **QUICK).surviving == analyze(dec, **QUICK).surviving
+    # each cell's slots: the pieces bounding its region, increasing (counted from the pieces)
+    bounding = {}
+    for k, piece in enumerate(dec.pieces):
+        for r in piece.regions:
+            bounding.setdefault(r, []).append(k)
+    for c, cell in enumerate(dec.cells):
+        got = gb.slot_piece[gb.slot_ptr[c]:gb.slot_ptr[c + 1]].tolist()
+        assert got == sorted(bounding.get(cell.region, []))
 
 
 def test_progress_names_the_steps():

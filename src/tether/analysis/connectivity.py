@@ -30,8 +30,8 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["EDGE_CHUNK_ROWS", "PARTNER_CHUNK", "ConnectivityGraph", "build_graph", "index_dtype",
-           "partner_entries", "size_runs"]
+__all__ = ["EDGE_CHUNK_ROWS", "PARTNER_CHUNK", "SLOT_CHUNK", "ConnectivityGraph", "build_graph",
+           "index_dtype", "partner_entries", "size_runs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -580,18 +580,51 @@ def build_graph(dec: Decomposition, progress: Any = None) -> ConnectivityGraph:
     slot_t = index_dtype(total + 1)
     slot_ptr = np.zeros(ncell + 1, dtype=slot_t)
     np.cumsum(nslot, out=slot_ptr[1:])
-    slot_piece = (region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell
-                  else np.zeros(0, piece_t))
-    del nslot, creg
+    del nslot
+    slot_piece = _slot_pieces(slot_ptr, creg, region_ptr, region_pieces)
+    del creg
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
     # (made one after the other, each temporary freed when used: a lower peak)
-    slot_a = slot_ptr[ea] + side_pos[0, ep]
-    slot_b = slot_ptr[eb] + side_pos[1, ep]
+    slot_a = _edge_slots(slot_ptr, ea, side_pos[0], ep)
+    slot_b = _edge_slots(slot_ptr, eb, side_pos[1], ep)
     partner_ptr, partner_slot = partner_entries(slot_a, slot_b, len(slot_piece))
     del slot_a, slot_b
     release_memory()  # the temporaries' heap, before the elimination allocates its own
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
                              slot_ptr, slot_piece, partner_ptr, partner_slot)
+
+
+#: Slots (of a run of consecutive cells, :func:`_slot_pieces`) or edges
+#: (:func:`_edge_slots`) made at once: bounds their temporaries (~30 bytes an item of the
+#: run, ~30 MB) where one pass over every slot would take ~30 bytes a slot of G (~2 GB at
+#: 4,000 floor-plan vertices)
+SLOT_CHUNK = 1 << 20
+
+
+def _slot_pieces(slot_ptr: np.ndarray, creg: np.ndarray, region_ptr: np.ndarray,
+                 region_pieces: np.ndarray) -> np.ndarray:
+    """The piece of every slot: cell ``c`` (of region ``creg[c]``) has slots
+    ``slot_ptr[c]:slot_ptr[c + 1]``, one per piece of its region in order
+    (``region_pieces[region_ptr[r]:region_ptr[r + 1]]``); made for runs of consecutive
+    cells of about :data:`SLOT_CHUNK` slots at a time."""
+    out = np.empty(int(slot_ptr[-1]), dtype=region_pieces.dtype)
+    ends = size_runs(slot_ptr[1:], SLOT_CHUNK)
+    for c0, c1 in zip([0, *ends][:len(ends)], ends, strict=True):
+        reg = creg[c0:c1]
+        out[slot_ptr[c0]:slot_ptr[c1]] = region_pieces[ragged_arange(
+            region_ptr[reg], region_ptr[reg + 1] - region_ptr[reg])]
+    return out
+
+
+def _edge_slots(slot_ptr: np.ndarray, cell: np.ndarray, side_pos: np.ndarray,
+                piece: np.ndarray) -> np.ndarray:
+    """``slot_ptr[cell] + side_pos[piece]`` (each edge's slot of its cell on one side), in
+    ``slot_ptr``'s type, :data:`SLOT_CHUNK` edges at a time."""
+    out = np.empty(len(cell), dtype=np.result_type(slot_ptr.dtype, side_pos.dtype))
+    for lo in range(0, len(cell), SLOT_CHUNK):
+        hi = lo + SLOT_CHUNK
+        np.add(slot_ptr[cell[lo:hi]], side_pos[piece[lo:hi]], out=out[lo:hi])
+    return out
 
 
 #: Edges whose partner entries :func:`partner_entries` places at once (bounds its
