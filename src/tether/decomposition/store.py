@@ -45,7 +45,6 @@ from tether.decomposition.views import (
     RegionShapes,
     Shapes,
     wkb_column,
-    wkb_geometries,
 )
 from tether.errors import InvalidParameterError, OutputPathError
 
@@ -664,18 +663,24 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     nreg = len(reg["area"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    # the polygons and lines read and decoded on their first read (analysis reads none)
-    faces = wkb_geometries(reg["face_wkb"], reg["face_ptr"])
-    uptr = reg["union_ptr"]
-    multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
-    unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
+    # the polygons and lines read and decoded on their first read (analysis reads none):
+    # the multi-face regions' faces held packed (WKB, :class:`PackedFaces`), and only the
+    # columns read later kept reachable from the result (not every column read now)
+    uptr = np.asarray(reg["union_ptr"], np.int64)
+    nfaces = np.diff(uptr)
+    multi = np.flatnonzero(nfaces > 0)
+    unions = PackedFaces(multi, np.r_[0, np.cumsum(nfaces[multi])] + uptr[0],
+                         reg["face_wkb"], reg["face_ptr"])
+    del nfaces
+    later = _Columns(reg._paths, reg._shown, {}, ("polygon_wkb",))
     shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
-                          wkb=(partial(operator.getitem, reg, "polygon_wkb"),
+                          wkb=(partial(operator.getitem, later, "polygon_wkb"),
                                reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
-    sp = reg["structures_pairs"].astype(np.int64)
-    structs = Structures(base, reg["structures_ptr"].astype(np.int64),
-                         sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
+    sp = np.asarray(reg["structures_pairs"], np.int64)
+    structs = Structures(base, np.asarray(reg["structures_ptr"], np.int64),
+                         sp[:, 0] * base + sp[:, 1], np.asarray(reg["structure"], np.int64))
+    del sp
     regions = Regions(RegionTable(reg["area"], reg["point"], shapes, structs, table))
     pc = t["pieces"]
     descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
@@ -684,10 +689,11 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
               tuple(str(f) for f in pc["desc_features"][pc["desc_feature_ptr"][j]:
                                                         pc["desc_feature_ptr"][j + 1]]))
              for j in range(len(pc["desc_kind"]))]
-    pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
-                        pc["desc"], descs,
+    lines = _Columns(pc._paths, pc._shown, {}, ("geometry_wkb",))
+    pieces = PieceTable(np.asarray(pc["pair"], np.int64), pc["q"], pc["n"], pc["eps"],
+                        pc["ok"], pc["desc"], descs,
                         Shapes(None, frame if _internal(pc) else None,
-                               wkb=(partial(operator.getitem, pc, "geometry_wkb"),
+                               wkb=(partial(operator.getitem, lines, "geometry_wkb"),
                                     pc["geometry_ptr"])))
     a = t["arcs"]  # read on each use, never held (G's build reads them once)
     arcs = (partial(_arc_table, a._paths, a._shown) if index["version"] == 1 else
