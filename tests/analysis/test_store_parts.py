@@ -56,8 +56,7 @@ def assert_same_verdict(mem, stored):
 def test_parts_read_one_at_a_time_give_the_same_graph(tmp_path, parts_only):
     """A decomposition written in 3 parts: G built from the parts' arcs (the whole table
     never read) has the in-memory G's arrays, in the same order."""
-    room = Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)])
-    dec = decompose(room, 1.0)
+    dec = decompose(Environment([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)]), 1.5)
     back = read_decomposition(write_decomposition(dec, tmp_path / "s", parts=3))
     m = len(dec.pieces)
     assert [(f, len(t.full) // 2) for f, t in back.crossing_arc_parts()] == \
@@ -125,3 +124,33 @@ _WHOLE = S.StoredArcs.__call__
 
 def _forbidden(self):
     raise AssertionError("the store's arcs were read as one table")
+
+
+class _Terminal:
+    """A stderr that says it is a terminal (the progress bar draws only on one)."""
+
+    def __init__(self):
+        self.text = []
+
+    def isatty(self):
+        return True
+
+    def write(self, s):
+        self.text.append(s)
+
+    def flush(self):
+        pass
+
+
+def test_cli_analyze_from_shows_its_steps_on_a_terminal(tmp_path, monkeypatch, capsys):
+    from tether.cli import main
+
+    room = Environment([(0, 0), (1.5, 0), (1.5, 3), (0, 3)])
+    store = write_decomposition(decompose(room, 1.0), tmp_path / "s", parts=2)
+    term = _Terminal()
+    monkeypatch.setattr("sys.stderr", term)
+    assert main(["analyze", "--from", str(store)]) == 0
+    bar = "".join(term.text)
+    assert "G edges" in bar and "elimination" in bar and bar.rstrip().endswith("s")
+    assert "100%" in bar
+    assert "NO surveillance strategy exists" in capsys.readouterr().out
