@@ -295,6 +295,7 @@ def _edges(dec: Decomposition, progress: Any = None
         k = len(table.full) // 2
         got += _part_edges(dec, table, regs[first:first + k], first, keys, cell_t, piece_t)
         del table
+        release_memory()  # the part's arcs and its runs' temporaries, before the next part
         report("G edges", (first + k) / m)
     if len(got) == 1:
         return got[0]

@@ -32,6 +32,7 @@ import shapely
 
 from tether._util.files import check_output_dir
 from tether._util.lazy import LazyTuple
+from tether._util.memory import release_memory
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
 from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
@@ -543,7 +544,10 @@ def read_decomposition(path: str | os.PathLike) -> Decomposition:
         tables = {name: _read_table([root / part["name"] / f"{name}.npz"
                                      for part in index["parts"]], name, shown)
                   for name in TABLES}
-        return _assemble(env, index, tables)
+        dec = _assemble(env, index, tables)
+        del tables
+        release_memory()  # the columns read and dropped (int64 cells, pairs): to the system
+        return dec
     except InvalidParameterError:
         raise
     except (KeyError, ValueError, IndexError, TypeError, shapely.errors.GEOSException) as exc:
