@@ -15,7 +15,9 @@ cells' sorted keys, to find a cell from its region and arc ends), ``G edges`` (t
 of both sides of every piece's crossing, the store's parts read one at a time), ``G slots``
 (G's slots and partner lists), ``elimination`` (the fixed point) and ``verdict`` (the
 witness). ``--src`` runs another checkout's ``src``; where its ``analyze`` takes no
-``progress`` the row is ``G + elimination`` as one step.
+``progress`` the row is ``G + elimination`` as one step. ``--doc FILE`` writes the
+last store's table into ``FILE`` (``docs/store.md``) between the lines
+``<!-- bench_analyze_store: begin -->`` and ``<!-- bench_analyze_store: end -->``.
 """
 
 from __future__ import annotations
@@ -108,13 +110,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("stores", nargs="+", metavar="DIR")
     ap.add_argument("--src", default=str(Path(__file__).resolve().parents[1] / "src"))
+    ap.add_argument("--doc", help="also write the last store's table into this Markdown "
+                    "file (docs/store.md) between the lines " + BEGIN + " and " + END)
     ap.add_argument("--self-check", action="store_true",
                     help="also run analyze's self-check (the step 'self-check': it reads "
                     "and samples the regions' polygons), as 'tether analyze --from' does")
     args = ap.parse_args()
-    print(f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.1f} at start", flush=True)
+    load = os.getloadavg()[0]
+    print(f"cpus {os.cpu_count()}, load average {load:.1f} at start", flush=True)
     for store in args.stores:
         got = run(store, args.src, args.self_check)
+        if args.doc:
+            write_doc(Path(args.doc), got, " ".join("DIR" if a == store else a
+                                                    for a in sys.argv[1:]), load)
         print(f"\n{store}: {got['regions']:,} regions, {got['cells']:,} cells, "
               f"{got['pieces']:,} pieces, {got['edges']:,} edges in G; {got['surviving']:,} "
               f"cells survive ({got['eliminated']:,} eliminated): {got['verdict']}")
@@ -126,6 +134,29 @@ def main() -> None:
         top = max((r["MB"] or 0) for r in got["rows"])
         print(f"{'total':<16} {total:8.2f} {top:9.0f}")
         print(f"load average {os.getloadavg()[0]:.1f} after", flush=True)
+
+
+BEGIN, END = "<!-- bench_analyze_store: begin -->", "<!-- bench_analyze_store: end -->"
+
+
+def write_doc(path: Path, got: dict, argv: str, load: float) -> None:
+    """The store's steps as a Markdown table between :data:`BEGIN` and :data:`END` in
+    ``path`` (the lines between replaced), with the counts and the command line."""
+    text = path.read_text()
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f"{path} has no {BEGIN} ... {END} lines")
+    rows = ["", f"{got['regions']:,} regions, {got['cells']:,} cells, {got['pieces']:,} "
+            f"pieces, {got['edges']:,} edges in G, verdict {got['verdict']} "
+            f"(`bench_analyze_store.py {argv}`, load average {load:.1f}):", "",
+            "| step | s | peak MB |", "| --- | --- | --- |"]
+    for r in got["rows"]:
+        if r["step"] != "imports":
+            peak = "-" if r["MB"] is None else f"{r['MB']:,.0f}"
+            rows.append(f"| {r['step']} | {r['s']:.1f} | {peak} |")
+    rows.append("")
+    head, rest = text.split(BEGIN, 1)
+    tail = rest.split(END, 1)[1]
+    path.write_text(head + BEGIN + "\n".join(rows) + "\n" + END + tail)
 
 
 if __name__ == "__main__":
