@@ -67,8 +67,10 @@ def test_graph_from_small_runs_gives_the_same_verdict(room, monkeypatch):
     whole = build_graph(room)
     monkeypatch.setattr(C, "PARTNER_CHUNK", 7)
     monkeypatch.setattr(C, "EDGE_CHUNK_ROWS", 11)
+    monkeypatch.setattr(C, "SLOT_CHUNK", 5)
     runs = build_graph(room)
-    for name in ("edge_a", "edge_b", "edge_piece", "partner_ptr", "partner_slot"):
+    for name in ("edge_a", "edge_b", "edge_piece", "partner_ptr", "partner_slot", "slot_ptr",
+                 "slot_piece"):
         assert np.array_equal(getattr(whole, name), getattr(runs, name)), name
     assert analyze(room, runs, **QUICK).to_dict() == analyze(room, whole, **QUICK).to_dict()
 

@@ -30,8 +30,8 @@ from tether.tolerances import ANGLE_TOL
 if TYPE_CHECKING:  # networkx costs ~0.2 s to import: only when G is asked for as a graph
     import networkx as nx
 
-__all__ = ["EDGE_CHUNK_ROWS", "PARTNER_CHUNK", "ConnectivityGraph", "build_graph", "index_dtype",
-           "partner_entries", "size_runs"]
+__all__ = ["EDGE_CHUNK_ROWS", "PARTNER_CHUNK", "SLOT_CHUNK", "ConnectivityGraph", "build_graph",
+           "index_dtype", "partner_entries", "size_runs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -270,37 +270,69 @@ def index_dtype(n: int) -> type:
     return np.int32 if n < 2**31 else np.int64
 
 
-def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _edges(dec: Decomposition, progress: Any = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every edge ``(cell a over regions[0], cell b over regions[1], piece)`` as three int
     arrays (:func:`index_dtype` of the cells' and the pieces' counts): arc pairs of the two
-    sides of each piece whose arcs overlap, found for runs of consecutive pieces of about
-    :data:`EDGE_CHUNK_ROWS` arc rows at a time (all at once within a run; the same edges in
-    the same order as in one run: the rows of a run are those of its pieces, in order)."""
+    sides of each piece whose arcs overlap, found part by part of the crossings' arcs
+    (:meth:`Decomposition.crossing_arc_parts`: one part in memory, or a store's parts read
+    one at a time), for runs of consecutive pieces of about :data:`EDGE_CHUNK_ROWS` arc rows
+    at a time (all at once within a run; the same edges in the same order as in one run:
+    the rows of a run are those of its pieces, in order). ``progress(stage, fraction)`` is
+    told of the cells' index and of the pieces done."""
     m = len(dec.pieces)
     empty = np.zeros(0, dtype=np.int32)
     if m == 0:
         return empty, empty, empty
-    table = dec.crossing_arcs()
-    if _sorted_by_point(table.point):  # each run's rows read from the table as it is
-        first = np.searchsorted(table.point, np.arange(2 * m + 1))  # each point's first row
-        full = np.asarray(table.full, bool)
-        count = np.diff(first) + full  # rows of each point, a FULL point's full arc counted
-
-        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
-            return _table_run_rows(table, first, m, p0, p1)
-    else:  # a sorted copy of every row (a table not made by decompose nor the store)
-        rows = _table_arc_rows(table)
-        first = np.searchsorted(rows["point"], np.arange(2 * m + 1))
-        count = np.diff(first)
-
-        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
-            return _run_rows(rows, first, m, p0, p1)
-    per_piece = count[:m] + count[m:]  # rows of both sides
-    del count
-    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
+    report = progress or (lambda stage, frac: None)
+    report("cells index", 0.0)
     regs = piece_regions(dec)
     keys = _cell_keys(dec)
     cell_t, piece_t = index_dtype(len(dec.cells)), index_dtype(m)
+    got = []
+    report("G edges", 0.0)
+    for first, table in dec.crossing_arc_parts():
+        k = len(table.full) // 2
+        got += _part_edges(dec, table, regs[first:first + k], first, keys, cell_t, piece_t)
+        del table
+        release_memory()  # the part's arcs and its runs' temporaries, before the next part
+        report("G edges", (first + k) / m)
+    if len(got) == 1:
+        return got[0]
+    cols = [list(c) for c in zip(*got, strict=True)]
+    del got
+    out = []
+    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
+        out.append(np.concatenate(c) if c else np.zeros(0, np.int32))
+        c.clear()
+    return out[0], out[1], out[2]
+
+
+def _part_edges(dec: Decomposition, table: ArcTable, regs: np.ndarray, first: int,
+                keys: tuple[np.ndarray, np.ndarray], cell_t: type, piece_t: type
+                ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The edges of the ``m = len(regs)`` pieces ``first .. first + m - 1`` from the arcs at
+    their crossings (``table``, numbered as a decomposition of those pieces alone), run by
+    run of about :data:`EDGE_CHUNK_ROWS` rows: per run, the cells of both sides (indices
+    into ``dec.cells``, found by ``keys``, :func:`_cell_keys`) and the pieces (global)."""
+    m = len(regs)
+    if _sorted_by_point(table.point):  # each run's rows read from the table as it is
+        at = np.searchsorted(table.point, np.arange(2 * m + 1))  # each point's first row
+        full = np.asarray(table.full, bool)
+        count = np.diff(at) + full  # rows of each point, a FULL point's full arc counted
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _table_run_rows(table, at, m, p0, p1)
+    else:  # a sorted copy of every row (a table not made by decompose nor the store)
+        rows = _table_arc_rows(table)
+        at = np.searchsorted(rows["point"], np.arange(2 * m + 1))
+        count = np.diff(at)
+
+        def run_rows(p0: int, p1: int) -> dict[str, np.ndarray]:
+            return _run_rows(rows, at, m, p0, p1)
+    per_piece = count[:m] + count[m:]  # rows of both sides
+    del count
+    ends = size_runs(np.cumsum(per_piece), EDGE_CHUNK_ROWS)
     got = []
     for p0, p1 in zip([0, *ends[:-1]], ends, strict=True):
         sub = run_rows(p0, p1)
@@ -310,16 +342,9 @@ def _edges(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cb = _cell_index(dec, regs[k, 1], sub["start_code"][ib], sub["end_code"][ib], keys)
         del sub, ia, ib
         ok = (ca >= 0) & (cb >= 0)
-        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t), k[ok].astype(piece_t)))
-    if len(got) == 1:
-        return got[0]
-    cols = [list(c) for c in zip(*got, strict=True)]
-    del got
-    out = []
-    for c in cols:  # a column joined, its runs' arrays freed before the next is joined
-        out.append(np.concatenate(c))
-        c.clear()
-    return out[0], out[1], out[2]
+        got.append((ca[ok].astype(cell_t), cb[ok].astype(cell_t),
+                    (k[ok] + first).astype(piece_t)))
+    return got
 
 
 #: Arc rows (of both sides of a run of consecutive pieces) whose overlapping pairs
@@ -502,10 +527,19 @@ def piece_regions(dec: Decomposition) -> np.ndarray:
     return got
 
 
-def build_graph(dec: Decomposition) -> ConnectivityGraph:
+def build_graph(dec: Decomposition, progress: Any = None) -> ConnectivityGraph:
     """Build G from a decomposition: one edge per (cell, cell, piece) whose arcs continue into
     each other across the piece (all arc pairs of all pieces compared at once), stored as
-    integer arrays (see :class:`ConnectivityGraph`).
+    integer arrays (see :class:`ConnectivityGraph`). The crossings' arcs are read part by
+    part (:meth:`Decomposition.crossing_arc_parts`: from a store, one part in memory at a
+    time, ``docs/store.md``).
+
+    Parameters
+    ----------
+    dec : Decomposition
+    progress : callable, optional
+        Called as ``progress(stage, fraction_done)``, stages ``"cells index"``, ``"G
+        edges"`` (by pieces done) and ``"G slots"``.
 
     Returns
     -------
@@ -520,7 +554,9 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     >>> build_graph(decompose(room, 1.0))
     ConnectivityGraph(cells=32, edges=54)
     """
-    ea, eb, ep = _edges(dec)
+    ea, eb, ep = _edges(dec, progress)
+    if progress is not None:
+        progress("G slots", 0.0)
     nreg, ncell = len(dec.regions), len(dec.cells)
     regs = piece_regions(dec)
     m = len(regs)
@@ -545,18 +581,51 @@ def build_graph(dec: Decomposition) -> ConnectivityGraph:
     slot_t = index_dtype(total + 1)
     slot_ptr = np.zeros(ncell + 1, dtype=slot_t)
     np.cumsum(nslot, out=slot_ptr[1:])
-    slot_piece = (region_pieces[ragged_arange(region_ptr[creg], nslot)] if ncell
-                  else np.zeros(0, piece_t))
-    del nslot, creg
+    del nslot
+    slot_piece = _slot_pieces(slot_ptr, creg, region_ptr, region_pieces)
+    del creg
     # partner entries: (slot of a, b) and (slot of b, a) per edge, in edge order
     # (made one after the other, each temporary freed when used: a lower peak)
-    slot_a = slot_ptr[ea] + side_pos[0, ep]
-    slot_b = slot_ptr[eb] + side_pos[1, ep]
+    slot_a = _edge_slots(slot_ptr, ea, side_pos[0], ep)
+    slot_b = _edge_slots(slot_ptr, eb, side_pos[1], ep)
     partner_ptr, partner_slot = partner_entries(slot_a, slot_b, len(slot_piece))
     del slot_a, slot_b
     release_memory()  # the temporaries' heap, before the elimination allocates its own
     return ConnectivityGraph(dec, ea, eb, ep, region_ptr, region_pieces,
                              slot_ptr, slot_piece, partner_ptr, partner_slot)
+
+
+#: Slots (of a run of consecutive cells, :func:`_slot_pieces`) or edges
+#: (:func:`_edge_slots`) made at once: bounds their temporaries (~30 bytes an item of the
+#: run, ~30 MB) where one pass over every slot would take ~30 bytes a slot of G (~2 GB at
+#: 4,000 floor-plan vertices)
+SLOT_CHUNK = 1 << 20
+
+
+def _slot_pieces(slot_ptr: np.ndarray, creg: np.ndarray, region_ptr: np.ndarray,
+                 region_pieces: np.ndarray) -> np.ndarray:
+    """The piece of every slot: cell ``c`` (of region ``creg[c]``) has slots
+    ``slot_ptr[c]:slot_ptr[c + 1]``, one per piece of its region in order
+    (``region_pieces[region_ptr[r]:region_ptr[r + 1]]``); made for runs of consecutive
+    cells of about :data:`SLOT_CHUNK` slots at a time."""
+    out = np.empty(int(slot_ptr[-1]), dtype=region_pieces.dtype)
+    ends = size_runs(slot_ptr[1:], SLOT_CHUNK)
+    for c0, c1 in zip([0, *ends][:len(ends)], ends, strict=True):
+        reg = creg[c0:c1]
+        out[slot_ptr[c0]:slot_ptr[c1]] = region_pieces[ragged_arange(
+            region_ptr[reg], region_ptr[reg + 1] - region_ptr[reg])]
+    return out
+
+
+def _edge_slots(slot_ptr: np.ndarray, cell: np.ndarray, side_pos: np.ndarray,
+                piece: np.ndarray) -> np.ndarray:
+    """``slot_ptr[cell] + side_pos[piece]`` (each edge's slot of its cell on one side), in
+    ``slot_ptr``'s type, :data:`SLOT_CHUNK` edges at a time."""
+    out = np.empty(len(cell), dtype=np.result_type(slot_ptr.dtype, side_pos.dtype))
+    for lo in range(0, len(cell), SLOT_CHUNK):
+        hi = lo + SLOT_CHUNK
+        np.add(slot_ptr[cell[lo:hi]], side_pos[piece[lo:hi]], out=out[lo:hi])
+    return out
 
 
 #: Edges whose partner entries :func:`partner_entries` places at once (bounds its

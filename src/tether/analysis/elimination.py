@@ -351,11 +351,12 @@ def eliminate(graph: ConnectivityGraph) -> tuple[CellSet, Eliminations]:
     """
     dec = graph.dec
     alive, cell, slot, rnd, because = fixed_point_arrays(
-        cell_rank(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
+        _rank_unless_listed(dec), graph.slot_ptr, graph.partner_ptr, graph.partner_slot)
     t = index_dtype(len(alive))  # held in 16 bytes an elimination instead of 32
+    piece = graph.slot_piece[slot]  # the pieces: in G's type
+    del slot
     return CellSet(dec, alive), Eliminations(
-        graph, small_ints(cell, t), graph.slot_piece[slot],  # the pieces: in G's type
-        small_ints(rnd, t), small_ints(because, t))
+        graph, small_ints(cell, t), piece, small_ints(rnd, t), small_ints(because, t))
 
 
 def _records_as_columns(records: Iterable[Elimination]) -> Any:
@@ -369,12 +370,19 @@ def _records_as_columns(records: Iterable[Elimination]) -> Any:
 def cell_rank(dec: Decomposition) -> np.ndarray:
     """The rank of every cell in the elimination's processing order: by region, then start
     feature name, then end feature name (as strings; the order of :func:`_cell_key`)."""
+    rank = _rank_unless_listed(dec)
+    return np.arange(len(dec.cells), dtype=np.int64) if rank is None else rank
+
+
+def _rank_unless_listed(dec: Decomposition) -> np.ndarray | None:
+    """:func:`cell_rank`, or None where the cells are listed in that order already (as
+    :func:`decompose` and the store list them, mostly): no column of every cell's rank."""
     region, start, end = dec.cell_codes()
     name_rank = feature_name_rank(dec.env)
     rs, re = name_rank[start + 1], name_rank[end + 1]
     n = len(region)
     if _increasing(region, rs, re):  # listed in that order already (decompose's, mostly)
-        return np.arange(n, dtype=np.int64)
+        return None
     order = np.lexsort((re, rs, region))
     rank = np.empty(n, dtype=np.int64)
     rank[order] = np.arange(n)
@@ -389,18 +397,19 @@ def _increasing(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> bool:
     return bool(np.all((da > 0) | ((da == 0) & ((db > 0) | ((db == 0) & (dc > 0))))))
 
 
-def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.ndarray,
-                       partner_slot: np.ndarray
+def fixed_point_arrays(rank: np.ndarray | None, slot_ptr: np.ndarray,
+                       partner_ptr: np.ndarray, partner_slot: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The elimination on integer arrays, round by round (each round vectorized).
 
     Cell ``c`` has slots ``slot_ptr[c]:slot_ptr[c + 1]`` (one per piece bounding its region,
     in order); slot ``s`` has partner entries ``partner_ptr[s]:partner_ptr[s + 1]`` whose
     ``partner_slot`` is the partner's slot for the same piece. ``rank`` orders the cells (all
-    distinct). A cell falls when one of its slots has no surviving partner left; the order of
-    the removals, the slot through which each falls and the partner whose removal made it fall
-    (``because``) are those of a worklist processing each round's cells by rank, their slots in
-    order and each slot's partners in order (the cell falls through its first slot to empty).
+    distinct; None: the cells' own order). A cell falls when one of its slots has no
+    surviving partner left; the order of the removals, the slot through which each falls and
+    the partner whose removal made it fall (``because``) are those of a worklist processing
+    each round's cells by rank, their slots in order and each slot's partners in order (the
+    cell falls through its first slot to empty).
 
     Returns ``alive`` (bool per cell) and, per removal in order, the cell, its slot, its round
     (from 1) and the ``because`` cell (-1 in round 1), in :func:`index_dtype` of the cells'
@@ -416,10 +425,7 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         return (np.searchsorted(slot_ptr, slots, side="right") - 1).astype(own_t)
 
     entry_ptr = partner_ptr[slot_ptr]  # a cell's slots' partner entries, one run per cell
-    zs = np.flatnonzero(count == 0)
-    zc = slot_cell(zs).astype(np.int64)
-    head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
-    lvl_cell, lvl_slot = zc[head], zs[head]
+    lvl_cell, lvl_slot = _first_empty_slots(count, slot_ptr, slot_cell)
     lvl_because = np.full(len(lvl_cell), -1, dtype=np.int64)
     queued = np.zeros(ncell, dtype=bool)
     queued[lvl_cell] = True
@@ -430,7 +436,7 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
     rnd = 0
     while len(lvl_cell):
         rnd += 1
-        order = np.argsort(rank[lvl_cell], kind="stable")
+        order = np.argsort(lvl_cell if rank is None else rank[lvl_cell], kind="stable")
         lvl_cell, lvl_slot, lvl_because = lvl_cell[order], lvl_slot[order], lvl_because[order]
         out_cell.append(lvl_cell.astype(cell_t))  # kept in the smallest int types
         out_slot.append(lvl_slot.astype(slot_t))
@@ -455,11 +461,36 @@ def fixed_point_arrays(rank: np.ndarray, slot_ptr: np.ndarray, partner_ptr: np.n
         src = lvl_cell[np.searchsorted(done, pos, side="right")]
         lvl_cell, lvl_slot, lvl_because = cell, slot[keep], src
     alive = ~queued
-    if out_cell:
-        return (alive, np.concatenate(out_cell), np.concatenate(out_slot),
-                np.concatenate(out_round), np.concatenate(out_because))
+    del queued, count, entry_ptr, cell_end
+    if out_cell:  # a column joined, its rounds' arrays freed before the next is joined
+        cols = []
+        for parts in (out_cell, out_slot, out_round, out_because):
+            cols.append(np.concatenate(parts))
+            parts.clear()
+        return alive, cols[0], cols[1], cols[2], cols[3]
     empty = np.zeros(0, dtype=np.int64)
     return alive, empty, empty, empty, empty
+
+
+def _first_empty_slots(count: np.ndarray, slot_ptr: np.ndarray, slot_cell: Any
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """The cells with a slot without partners (``count`` 0), increasing, and the first such
+    slot of each (int64), found for runs of consecutive cells of about :data:`ELIM_CHUNK`
+    slots at a time (no index of every empty slot at once: at 4,000 floor-plan vertices
+    tens of millions)."""
+    cells, slots = [], []
+    ends = size_runs(slot_ptr[1:], ELIM_CHUNK)
+    for c0, c1 in zip([0, *ends][:len(ends)], ends, strict=True):
+        s0, s1 = int(slot_ptr[c0]), int(slot_ptr[c1])
+        zs = np.flatnonzero(count[s0:s1] == 0) + s0
+        zc = slot_cell(zs)
+        head = np.r_[True, zc[1:] != zc[:-1]] if len(zc) else np.zeros(0, bool)
+        cells.append(zc[head])
+        slots.append(zs[head])
+    if not cells:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return (np.concatenate(cells).astype(np.int64, copy=False),
+            np.concatenate(slots).astype(np.int64, copy=False))
 
 
 #: Partner entries a round of the elimination reads at once (bounds its temporaries, ~30
@@ -560,7 +591,7 @@ def _cell_key(cid: str) -> tuple:
 
 def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             self_check: bool = True, near_critical: bool = True, tiles: Any = None,
-            executor: Any = None) -> Verdict:
+            executor: Any = None, progress: Any = None) -> Verdict:
     """Build G (unless given), eliminate escapable cells, and decide.
 
     The witness is a region without any cell (lowest id), else the first region emptied.
@@ -571,6 +602,9 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     decomposed and analyzed at ``lss - delta`` and ``lss + delta``: :attr:`Verdict.critical`;
     ``tiles`` and ``executor`` are given to those decompositions (as :func:`decompose` takes
     them: a map decomposed in tiles for its size is so beside the critical length too).
+    ``progress(stage, fraction_done)``, if given, is told of the stages: ``"self-check"``,
+    those of :func:`build_graph`, ``"elimination"``, ``"verdict"`` (the witness) and
+    ``"near critical"``.
 
     Examples
     --------
@@ -587,14 +621,18 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
     >>> analyze(decompose(ell, 0.5))
     Verdict(strategy_exists=True, surviving=20/25, witness=None)
     """
+    tell = progress or (lambda stage, frac: None)
     report = None
     if self_check:
         from tether.decomposition import self_check as run_self_check
 
+        tell("self-check", 0.0)
         report = run_self_check(dec)
     with gc_paused():
-        graph = build_graph(dec) if graph is None else graph
+        graph = build_graph(dec, progress) if graph is None else graph
+        tell("elimination", 0.0)
         surviving, elim = eliminate(graph)
+    tell("verdict", 0.0)
     witness = None
     if not surviving:
         empty = np.flatnonzero(np.diff(cell_first(dec)) == 0)
@@ -602,7 +640,10 @@ def analyze(dec: Decomposition, graph: ConnectivityGraph | None = None,
             witness = int(empty[0])
         else:
             witness = _first_emptied(dec, elim)
+    if near_critical:
+        tell("near critical", 0.0)
     critical = _beside_critical(dec, self_check, tiles, executor) if near_critical else None
+    tell("done", 1.0)
     return Verdict(dec, graph, surviving, elim, witness, report, critical)
 
 

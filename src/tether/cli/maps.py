@@ -246,7 +246,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     else:
         dec = _decompose(args)
     tiles = args.tiles or ("auto" if args.workers or args.dask else None)
-    verdict = analyze(dec, tiles=tiles)  # beside a critical length: in tiles too
+    progress = _store_progress() if args.from_dir is not None else None
+    verdict = analyze(dec, tiles=tiles, progress=progress)  # near critical: in tiles too
     if args.plot:
         from tether.plot import plot_verdict, save
 
@@ -258,6 +259,27 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return 0 if verdict.verified is not False else 1
     print(format_verdict(verdict))
     return 0 if verdict.verified is not False else 1
+
+
+#: The share of ``analyze --from``'s bar at which each of its steps begins and ends
+_ANALYZE_STEPS = {"self-check": (0.0, 0.1), "cells index": (0.1, 0.15),
+                  "G edges": (0.15, 0.55), "G slots": (0.55, 0.65),
+                  "elimination": (0.65, 0.95), "verdict": (0.95, 0.95),
+                  "near critical": (0.95, 0.95), "done": (1.0, 1.0)}
+
+
+def _store_progress():
+    """``analyze``'s progress on a store (its steps: G part by part, the elimination) as a
+    bar on stderr (a terminal only, :class:`Progress`)."""
+    from tether._util.progress import Progress
+
+    bar = Progress("analyze")
+
+    def progress(stage: str, frac: float) -> None:
+        lo, hi = _ANALYZE_STEPS.get(stage, (frac, frac))
+        bar(stage, lo + (hi - lo) * frac)
+
+    return progress
 
 
 def _stored(args: argparse.Namespace):

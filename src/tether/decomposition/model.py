@@ -333,6 +333,23 @@ class Decomposition:
             return self._found_arcs
         return got if type(got) is ArcTable else compact_arcs(got(), 2 * self.env.n)
 
+    def crossing_arc_parts(self) -> Iterator[tuple[int, ArcTable]]:
+        """The arcs of :meth:`crossing_arcs` part by part: ``(first, table)`` per run of
+        consecutive pieces ``first .. first + k - 1``, ``table`` the arcs at their
+        crossings numbered as a decomposition of those ``k`` pieces alone (point ``j < k``
+        the ``+n`` side of piece ``first + j``, ``k + j`` its other side; ``table.full``
+        has ``2 k`` entries). One part, the whole table, unless the decomposition was read
+        from a store written in parts (version 2, ``docs/store.md``): then the store's
+        parts, each read when reached and not kept, so that G's build holds one part's arcs
+        at a time."""
+        got = self._crossing_arcs
+        parts = getattr(got, "parts", None)
+        if parts is not None:
+            for first, table in parts():
+                yield first, compact_arcs(table, 2 * self.env.n)
+            return
+        yield 0, self.crossing_arcs()
+
     @cached_property
     def _found_arcs(self) -> ArcTable:
         """:meth:`crossing_arcs` when :func:`decompose` did not record them."""

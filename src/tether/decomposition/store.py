@@ -32,6 +32,7 @@ import shapely
 
 from tether._util.files import check_output_dir
 from tether._util.lazy import LazyTuple
+from tether._util.memory import release_memory
 from tether.arcs import ArcTable
 from tether.curves import Curve, Family
 from tether.decomposition.model import Decomposition, Regions, RegionTable, shared_holder
@@ -45,12 +46,11 @@ from tether.decomposition.views import (
     RegionShapes,
     Shapes,
     wkb_column,
-    wkb_geometries,
 )
 from tether.errors import InvalidParameterError, OutputPathError
 
-__all__ = ["FORMAT", "TABLES", "VERSION", "PartWriter", "StoredCurves", "check_store_dir",
-           "part_arcs", "read_decomposition", "write_decomposition"]
+__all__ = ["FORMAT", "TABLES", "VERSION", "PartWriter", "StoredArcs", "StoredCurves",
+           "check_store_dir", "part_arcs", "read_decomposition", "write_decomposition"]
 
 #: The store's format name and version (``index.json``'s ``format`` and ``version``).
 #: Version 2: each part's ``arcs`` are those of its own pieces' crossings (version 1, also
@@ -544,7 +544,10 @@ def read_decomposition(path: str | os.PathLike) -> Decomposition:
         tables = {name: _read_table([root / part["name"] / f"{name}.npz"
                                      for part in index["parts"]], name, shown)
                   for name in TABLES}
-        return _assemble(env, index, tables)
+        dec = _assemble(env, index, tables)
+        del tables
+        release_memory()  # the columns read and dropped (int64 cells, pairs): to the system
+        return dec
     except InvalidParameterError:
         raise
     except (KeyError, ValueError, IndexError, TypeError, shapely.errors.GEOSException) as exc:
@@ -664,18 +667,24 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
     nreg = len(reg["area"])
     cells_t = t["cells"]
     table = CellTable(cells_t["region"], cells_t["start"], cells_t["end"], names, nreg)
-    # the polygons and lines read and decoded on their first read (analysis reads none)
-    faces = wkb_geometries(reg["face_wkb"], reg["face_ptr"])
-    uptr = reg["union_ptr"]
-    multi = np.flatnonzero(np.diff(uptr) > 0).tolist()
-    unions = {i: faces[uptr[i]:uptr[i + 1]] for i in multi}
+    # the polygons and lines read and decoded on their first read (analysis reads none):
+    # the multi-face regions' faces held packed (WKB, :class:`PackedFaces`), and only the
+    # columns read later kept reachable from the result (not every column read now)
+    uptr = np.asarray(reg["union_ptr"], np.int64)
+    nfaces = np.diff(uptr)
+    multi = np.flatnonzero(nfaces > 0)
+    unions = PackedFaces(multi, np.r_[0, np.cumsum(nfaces[multi])] + uptr[0],
+                         reg["face_wkb"], reg["face_ptr"])
+    del nfaces
+    later = _Columns(reg._paths, reg._shown, {}, ("polygon_wkb",))
     shapes = RegionShapes(None, unions, frame if _internal(reg) else None, prepare=True,
-                          wkb=(partial(operator.getitem, reg, "polygon_wkb"),
+                          wkb=(partial(operator.getitem, later, "polygon_wkb"),
                                reg["polygon_ptr"]))
     base = len(names) + 1  # codes -1 .. 2n - 1 encoded start * base + end (>= 0 in sets)
-    sp = reg["structures_pairs"].astype(np.int64)
-    structs = Structures(base, reg["structures_ptr"].astype(np.int64),
-                         sp[:, 0] * base + sp[:, 1], reg["structure"].astype(np.int64))
+    sp = np.asarray(reg["structures_pairs"], np.int64)
+    structs = Structures(base, np.asarray(reg["structures_ptr"], np.int64),
+                         sp[:, 0] * base + sp[:, 1], np.asarray(reg["structure"], np.int64))
+    del sp
     regions = Regions(RegionTable(reg["area"], reg["point"], shapes, structs, table))
     pc = t["pieces"]
     descs = [(tuple(int(c) for c in pc["desc_curves"][pc["desc_curve_ptr"][j]:
@@ -684,15 +693,16 @@ def _assemble(env: Any, index: dict, t: dict[str, dict[str, np.ndarray]]) -> Dec
               tuple(str(f) for f in pc["desc_features"][pc["desc_feature_ptr"][j]:
                                                         pc["desc_feature_ptr"][j + 1]]))
              for j in range(len(pc["desc_kind"]))]
-    pieces = PieceTable(pc["pair"].astype(np.int64), pc["q"], pc["n"], pc["eps"], pc["ok"],
-                        pc["desc"], descs,
+    lines = _Columns(pc._paths, pc._shown, {}, ("geometry_wkb",))
+    pieces = PieceTable(np.asarray(pc["pair"], np.int64), pc["q"], pc["n"], pc["eps"],
+                        pc["ok"], pc["desc"], descs,
                         Shapes(None, frame if _internal(pc) else None,
-                               wkb=(partial(operator.getitem, pc, "geometry_wkb"),
+                               wkb=(partial(operator.getitem, lines, "geometry_wkb"),
                                     pc["geometry_ptr"])))
     a = t["arcs"]  # read on each use, never held (G's build reads them once)
     arcs = (partial(_arc_table, a._paths, a._shown) if index["version"] == 1 else
-            partial(_part_arc_table, a._paths, a._shown,
-                    [int(np.diff(part["rows"]["pieces"])[0]) for part in index["parts"]]))
+            StoredArcs(a._paths, a._shown,
+                       [int(np.diff(part["rows"]["pieces"])[0]) for part in index["parts"]]))
     codes = (cells_t["region"], cells_t["start"], cells_t["end"])
     got = {"curves": len(t["curves"]["id"]), "regions": nreg, "cells": len(table),
            "pieces": len(pieces)}
@@ -742,6 +752,36 @@ def _part_arc_table(paths: list[Path], shown: str, counts: list[int]) -> ArcTabl
             raise ValueError(f"a part's arcs have {len(f)} points for its {k} pieces")
     return ArcTable(a["point"], a["start"], a["end"], a["start_code"], a["end_code"],
                     a["full"])
+
+
+class StoredArcs:
+    """The crossings' arcs of a version 2 store, read on each use and never held
+    (:meth:`Decomposition.crossing_arcs` calls it: the whole table, :func:`_part_arc_table`;
+    :meth:`Decomposition.crossing_arc_parts` reads :meth:`parts`: one part at a time)."""
+
+    def __init__(self, paths: list[Path], shown: str, counts: list[int]) -> None:
+        self._paths, self._shown, self._counts = paths, shown, counts
+
+    def __call__(self) -> ArcTable:
+        """The whole table (every part's arcs joined, :func:`_part_arc_table`)."""
+        return _part_arc_table(self._paths, self._shown, self._counts)
+
+    def parts(self) -> Iterator[tuple[int, ArcTable]]:
+        """``(first piece, arcs)`` of each part holding pieces, in order, each part read
+        when reached: its arcs as written (:func:`part_arcs`: points ``0..k-1`` the ``+n``
+        sides of its ``k`` pieces, ``k..2k-1`` the others)."""
+        first = 0
+        for path, k in zip(self._paths, self._counts, strict=True):
+            if k:
+                a = _load(path, self._shown, TABLES["arcs"])
+                if len(a["full_points"]) != 2 * k:
+                    raise InvalidParameterError(
+                        f"{self._shown}: {path.parent.name}/{path.name} has arcs at "
+                        f"{len(a['full_points'])} points for its {k} pieces")
+                yield first, ArcTable(a["point"], a["start"], a["end"], a["start_code"],
+                                      a["end_code"], a["full_points"])
+                del a
+            first += k
 
 
 def _internal(cols: dict[str, np.ndarray]) -> bool:
