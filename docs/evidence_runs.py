@@ -30,6 +30,7 @@ lost run with its replay command.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -38,6 +39,7 @@ import sys
 import time
 import zlib
 from collections import defaultdict
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -280,6 +282,25 @@ def main() -> None:
     print(summary([r for r in records if r["field"] in fields], bad, folder))
 
 
+@contextlib.contextmanager
+def _results(todo: list[tuple[str, int]], workers: int) -> Iterator[Iterator[dict]]:
+    """The records of ``todo``'s runs as they finish: in this process, or on ``workers``
+    forked processes that ignore Ctrl-C (the parent stops them and keeps what was written;
+    the runs under way are lost, and done again on resuming)."""
+    if workers <= 1:
+        yield map(_work, todo)
+        return
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(workers, initializer=signal.signal,
+                  initargs=(signal.SIGINT, signal.SIG_IGN)) as pool:
+        try:
+            yield pool.imap_unordered(_work, todo)
+        finally:
+            pool.terminate()
+
+
 def collect(folder: Path, fields: list[str], todo: list[tuple[str, int]], workers: int,
             hours: float) -> None:
     """Run ``todo`` on ``workers`` processes, appending each record to a new shard."""
@@ -290,36 +311,17 @@ def collect(folder: Path, fields: list[str], todo: list[tuple[str, int]], worker
     print(f"{len(todo)} runs to do, {workers} workers, into {shard}", file=sys.stderr,
           flush=True)
     t0, n = time.perf_counter(), 0
-    with shard.open("a") as fh:
-        if workers > 1:
-            import multiprocessing
-
-            ctx = multiprocessing.get_context("fork")
-            # workers ignore Ctrl-C: the parent stops them and keeps what was written
-            with ctx.Pool(workers, initializer=signal.signal,
-                          initargs=(signal.SIGINT, signal.SIG_IGN)) as pool:
-                try:
-                    for rec in pool.imap_unordered(_work, todo):
-                        fh.write(json.dumps(rec) + "\n")
-                        fh.flush()
-                        n += 1
-                        _progress(n, len(todo), t0)
-                        if time.monotonic() > deadline:
-                            break
-                except KeyboardInterrupt:
-                    pass
-                pool.terminate()  # the runs under way are lost (done again on resuming)
-        else:
-            try:
-                for task in todo:
-                    fh.write(json.dumps(_work(task)) + "\n")
-                    fh.flush()
-                    n += 1
-                    _progress(n, len(todo), t0)
-                    if time.monotonic() > deadline:
-                        break
-            except KeyboardInterrupt:
-                pass
+    with shard.open("a") as fh, _results(todo, workers) as results:
+        try:
+            for rec in results:
+                fh.write(json.dumps(rec) + "\n")
+                fh.flush()
+                n += 1
+                _progress(n, len(todo), t0)
+                if time.monotonic() > deadline:
+                    break
+        except KeyboardInterrupt:
+            pass
     print(f"\n{n} runs written to {shard}", file=sys.stderr, flush=True)
 
 
