@@ -358,8 +358,11 @@ def write(rows, conv, sims, lstar, seconds) -> None:
            "cell of `analyze` (sampled, "
            f"{SAMPLES} states per map, leaving out the few lying exactly on a critical curve, "
            "which have no cell); (b) the paper's Props. 2–3 with the safe trigger `L_g` "
-           "(`tether.assess.is_safe`, same samples); (c) in the kernel, conservative `inner` "
-           "scheme, and the optimistic `outer` scheme beside it (exact counts over the grid). "
+           "(`tether.assess.is_safe`, same samples); (c) in the kernel, `inner` scheme "
+           "(conservative about the observer's rotation only, not a proof: on `convex_corner` "
+           "it holds states from which the target wins, see `certified.md`, \"Where no field "
+           "is certified\"), and the optimistic `outer` scheme beside it (exact counts over "
+           "the grid). "
            "`vo = 1`, `lss = 1` everywhere. *Kernel states outside Prop. 1*: sampled kernel "
            "states (with a cell) whose cell did not survive the elimination; Prop. 1 is "
            "necessary, so this should be 0.",
