@@ -63,6 +63,8 @@ KINDS = tuple(sorted(set(TARGETS) - {"path", "track", "pedestrian"}))
 LSS, VO, SECONDS, DT = 1.0, 1.0, 15.0, 0.02
 #: A sampled state counts as outside the field below this margin (radians).
 OUTSIDE = -1e-9
+#: The markers of the table in the docs (``--doc``)
+BEGIN, END = "<!-- evidence_runs: begin -->", "<!-- evidence_runs: end -->"
 
 
 def parse_field(key: str) -> tuple[str, float, float]:
@@ -263,6 +265,8 @@ def main() -> None:
     ap.add_argument("--hours", type=float, default=math.inf,
                     help="stop starting runs after this many hours")
     ap.add_argument("--summary", action="store_true", help="print the table only")
+    ap.add_argument("--doc", metavar="FILE",
+                    help="also write the table into FILE between its evidence_runs markers")
     ap.add_argument("--replay", metavar="MAP:RATIO:H:I",
                     help="run run I of a field again and print its record")
     args = ap.parse_args()
@@ -279,7 +283,22 @@ def main() -> None:
         if todo:
             collect(folder, fields, todo, args.workers, args.hours)
     records, bad = read_shards(folder)
-    print(summary([r for r in records if r["field"] in fields], bad, folder))
+    table = summary([r for r in records if r["field"] in fields], bad, folder)
+    print(table)
+    if args.doc:
+        write_doc(Path(args.doc), table)
+
+
+def write_doc(doc: Path, table: str) -> None:
+    """Replace the text between ``doc``'s evidence_runs markers by ``table`` (atomically)."""
+    text = doc.read_text()
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f"{doc}: no {BEGIN} ... {END} markers")
+    head, rest = text.split(BEGIN, 1)
+    tail = rest.split(END, 1)[1]
+    tmp = doc.with_suffix(doc.suffix + ".tmp")
+    tmp.write_text(f"{head}{BEGIN}\n{table.rstrip()}\n{END}{tail}")
+    tmp.replace(doc)
 
 
 @contextlib.contextmanager

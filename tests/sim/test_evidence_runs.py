@@ -54,3 +54,24 @@ def test_shards_resume_and_summary(ev, tmp_path):
 def test_bad_field_name_is_one_line(ev):
     with pytest.raises(SystemExit, match="a field is MAP:RATIO:H"):
         ev.parse_field("gallery:0.3")
+
+
+def test_the_table_goes_between_the_markers_and_nowhere_else(ev, tmp_path):
+    doc = tmp_path / "doc.md"
+    doc.write_text(f"intro\n{ev.BEGIN}\nold table\n{ev.END}\nafter\n")
+    ev.write_doc(doc, "| new |\n")
+    assert doc.read_text() == f"intro\n{ev.BEGIN}\n| new |\n{ev.END}\nafter\n"
+    plain = tmp_path / "plain.md"
+    plain.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        ev.write_doc(plain, "| new |\n")
+    assert plain.read_text() == "no markers\n"
+
+
+def test_the_docs_table_counts_the_shards(ev):
+    """The table in docs/certified.md is what the committed shards say (regenerate with
+    ``python docs/evidence_runs.py --summary --doc docs/certified.md``)."""
+    records, bad = ev.read_shards(DOCS / "evidence")
+    table = ev.summary([r for r in records if r["field"] in ev.FIELDS], bad, DOCS / "evidence")
+    text = (DOCS / "certified.md").read_text()
+    assert table.rstrip() in text
