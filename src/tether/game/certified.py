@@ -131,14 +131,24 @@ class CertifiedKernel:
         lo = np.full(len(pts), np.nan)
         hi = np.full(len(pts), np.nan)
         if ok.any():
-            tri = self.field.tri[t[ok]]
-            L, H, _ = lifted_ends(self.field.lo, self.field.w, tri)
-            lam = _barycentric(self.field.points[tri], pts[ok])
+            tk = t[ok]
+            L, H, whole = (x[tk] for x in self.triangle_ends())
+            lam = _barycentric(self.field.points[self.field.tri[tk]], pts[ok])
             lo[ok] = (lam * L).sum(axis=1)
             hi[ok] = np.minimum((lam * H).sum(axis=1), lo[ok] + _TAU)
-            whole = (self.field.w[tri] >= FULL).all(axis=1)
             hi[np.flatnonzero(ok)[whole]] = lo[ok][whole] + _TAU
         return lo, hi, ok
+
+    def triangle_ends(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every mesh triangle's arc ends lifted to one branch, ``lo`` and ``hi`` (radians,
+        (m, 3) each, :func:`~tether.game.certificate.lifted_ends`), and whether its three arcs
+        are whole circles (m,): computed once per field (again if ``field`` is replaced)."""
+        cached = self.__dict__.get("_ends")
+        if cached is None or cached[0] is not self.field:
+            f = self.field
+            L, H, _ = lifted_ends(f.lo, f.w, f.tri)
+            cached = self.__dict__["_ends"] = (f, L, H, (f.w[f.tri] >= FULL).all(axis=1))
+        return cached[1], cached[2], cached[3]
 
     def margin(self, points: Any, angles: Any) -> np.ndarray:
         """Signed distance (radians) from each orientation to the nearest end of the arc:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from tether.arcs import rod_is_free_many
-from tether.game.certificate import FULL, lifted_ends
+from tether.game.certificate import FULL
 from tether.rates import observer_velocity, step_rate_interval
 from tether.sim.protocols import Command, Mode, World
 
@@ -165,7 +165,7 @@ class CertifiedController:
         v = np.asarray(v, dtype=float).reshape(-1, 2)
         a = np.asarray(a, dtype=float).reshape(-1)
         n = len(p)
-        lo, hi, ok = self.field.arcs(np.concatenate([p, p + v * dt]))
+        lo, hi, ok = self.certified.arcs(np.concatenate([p, p + v * dt]))
         return self._rates(v, a, dt, (lo[:n], hi[:n], ok[:n]), (lo[n:], hi[n:], ok[n:]))
 
     def rollout(self, p: Any, v: Any, a: Any, dt: float) -> np.ndarray:
@@ -181,7 +181,7 @@ class CertifiedController:
         P[:, 0] = p
         for k in range(n):
             P[:, k + 1] = P[:, k] + v[:, k] * dt
-        lo, hi, ok = (x.reshape(m, n + 1) for x in self.field.arcs(P.reshape(-1, 2)))
+        lo, hi, ok = (x.reshape(m, n + 1) for x in self.certified.arcs(P.reshape(-1, 2)))
         A = np.empty((m, n + 1))
         A[:, 0] = np.asarray(a, dtype=float).reshape(-1)
         for k in range(n):
@@ -330,10 +330,12 @@ _FIELDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 class FieldArcs:
-    """The arcs of a certified field (:meth:`~tether.game.certified.CertifiedKernel.arcs`),
-    with the per-triangle data computed once: the lifted ends of every triangle and whether
-    its three arcs are whole circles. :meth:`arcs` gives the kernel's own values to the last
-    bit (the same triangle, the same operations); a simulation asks for them every step.
+    """The arcs of a certified field at one point at a time, in plain floats
+    (:meth:`arc_one`): the kernel's own values
+    (:meth:`~tether.game.certified.CertifiedKernel.arcs`) to the last bit (the same triangle,
+    the same operations), with each triangle's corners and lifted ends
+    (:meth:`~tether.game.certified.CertifiedKernel.triangle_ends`) kept as Python floats and
+    a bucket grid to find the triangle; a simulation asks for them every step.
 
     Parameters
     ----------
@@ -343,8 +345,7 @@ class FieldArcs:
     def __init__(self, certified: Any) -> None:
         f = self.field = certified.field
         self.certified = certified
-        self.L, self.H, _ = lifted_ends(f.lo, f.w, f.tri)
-        self.whole = (f.w[f.tri] >= FULL).all(axis=1)
+        self.L, self.H, self.whole = certified.triangle_ends()
         self.xy = f.points[f.tri]  # (m, 3, 2), the field's frame
         self._origin = tuple(float(x) for x in certified.frame.origin)
         self._scale = float(certified.frame.scale)
@@ -440,35 +441,3 @@ class FieldArcs:
         if whole:
             return True, lo, lo + _TAU
         return True, lo, min(l0 * H0 + l1 * H1 + l2 * H2, lo + _TAU)
-
-    def arcs(self, points: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The arc ``[lo, hi]`` at each point (map units; radians, ``hi − lo = 2π`` for the
-        whole circle) and whether the point lies in the mesh (NaN ends where not)."""
-        ck = self.certified
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        t = ck.locate(pts)
-        pts = ck.frame.to_internal(pts)
-        ok = t >= 0
-        lo = np.full(len(pts), np.nan)
-        hi = np.full(len(pts), np.nan)
-        if ok.any():
-            tk = t[ok]
-            lam = _barycentric(self.xy[tk], pts[ok])
-            L, H = self.L[tk], self.H[tk]
-            lo[ok] = lam[:, 0] * L[:, 0] + lam[:, 1] * L[:, 1] + lam[:, 2] * L[:, 2]
-            hi[ok] = np.minimum(lam[:, 0] * H[:, 0] + lam[:, 1] * H[:, 1] + lam[:, 2] * H[:, 2],
-                                lo[ok] + _TAU)
-            whole = self.whole[tk]
-            hi[np.flatnonzero(ok)[whole]] = lo[ok][whole] + _TAU
-        return lo, hi, ok
-
-
-def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (m, 3) of points ``pts`` (m, 2) in triangles ``tri`` (m, 3, 2):
-    the formula of :mod:`tether.game.certified` (so the arcs agree to the last bit)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, pts - a
-    det = v0[:, 0] * v1[:, 1] - v0[:, 1] * v1[:, 0]
-    l1 = (v2[:, 0] * v1[:, 1] - v2[:, 1] * v1[:, 0]) / det
-    l2 = (v0[:, 0] * v2[:, 1] - v0[:, 1] * v2[:, 0]) / det
-    return np.stack([1 - l1 - l2, l1, l2], axis=1)
