@@ -220,9 +220,11 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     # the regions made after that: their polygons and cells do not add to the grid's peak
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
-    if store is not None:
-        return _stored(env, lss, tol, arr, curves, regions, cells, codes, chains, cands, out,
-                       tiling, store, report)
+    if store is not None:  # the arrangement, chains and candidates held by _stored alone
+        held = [arr, chains, cands]  # (freed there before the regions are written)
+        del arr, chains, cands, numbering, face_sid, pts, clear, keep, resolved, ok, sid
+        return _stored(env, lss, tol, held, curves, regions, cells, codes, out, tiling,
+                       store, report)
     tiled = {} if tiling is None else {"crossings": tiled_crossings(tiling[0], tiling[1],
                                                                     report)}
     pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
@@ -248,15 +250,18 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     return dec
 
 
-def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, regions: Any,
-            cells: Any, codes: Any, chains: Any, cands: Any, out: UserFrame | None,
+def _stored(env: Environment, lss: float, tol: float, held: list, curves: list,
+            regions: Any, cells: Any, codes: Any, out: UserFrame | None,
             tiling: tuple, store: Path, report: Any) -> None:
     """The pieces made in tiles and written to ``store`` as each tile's task returns (a
     part per tile: its pieces, in the user's frame of ``out`` if given, and the arcs at
     their crossings, :class:`tether.decomposition.store.PartWriter`), none kept; then the
     regions, cells, curves and the pieces' descriptions, and the index. Returns None: the
     store read back by :func:`decompose` is the decomposition, its pieces in the tile by
-    tile order."""
+    tile order. ``held``: ``[arrangement, chains, candidates]``, emptied here (this
+    frame the only one holding them: freed once the pieces are made)."""
+    arr, chains, cands = held
+    held.clear()
     sptr, ssrc = arr.chain_sources(chains)
     desc_of, descs = chain_descriptions(sptr, ssrc, cands, curves)
     pair = chains.pair
@@ -275,6 +280,8 @@ def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, re
         crossings = tiled_crossings(tiling[0], tiling[1], report, sink=sink)
         crossings(env, lss, curves, chains, cands, (sptr, ssrc),
                   region_rows(regions, 2 * env.n + 1), arr)
+        del crossings, sink, sptr, ssrc  # the chains' columns, freed
+        pair = desc_of = None  # (the sink's too)
         if tiling[2] is not None:
             tiling[2]()  # no task left: the workers' memory freed now
         unresolved = int(np.count_nonzero(cands.count == 0))
