@@ -17,6 +17,7 @@ from tether._util.threads import map_batches
 from tether.arcs import ArcTable, free_arcs_many, join_tables
 from tether.curves import Curve, project_many
 from tether.decomposition.arrangement import Arrangement, Chains
+from tether.decomposition.faces import part_ends, part_segments
 from tether.decomposition.model import Region, region_rows
 from tether.decomposition.structure import (
     StructureRows,
@@ -230,6 +231,60 @@ def _other_distances(pts: np.ndarray, owner: np.ndarray, cols: tuple[np.ndarray,
                                          bx[si], by[si])
 
 
+#: Segments per block of :func:`_blocked_clearance` (about): bounds the segment grid held
+#: at once (~130 bytes a segment) while the candidates' clearances are measured.
+CLEARANCE_BLOCK_SEGMENTS = 1_000_000
+
+
+def _blocked_clearance(pts: np.ndarray, owner: np.ndarray, sa: np.ndarray, sb: np.ndarray,
+                       sowner: np.ndarray, reach: float) -> np.ndarray:
+    """:func:`_clearance` of the points (m, 2) over the segments ``sa[k]-sb[k]``, the
+    points taken in blocks of a ``k x k`` grid over their bounds (about
+    :data:`CLEARANCE_BLOCK_SEGMENTS` segments a block), each block's against a
+    :class:`SegmentGrid` of only the segments whose bounding box meets the block's points'
+    box widened by ``reach``: the same distances (every segment a point's search can meet,
+    within ``reach`` of it, is among them: floating-point addition is monotone; the nearest
+    is the same minimum), with one block's grid held at a time instead of the whole map's
+    (at 2,000 floor-plan vertices 3 million segments, ~0.5 GB)."""
+    m = len(pts)
+    if m == 0:
+        return np.zeros(0)
+    k = max(1, int(np.ceil(np.sqrt(len(sa) / CLEARANCE_BLOCK_SEGMENTS))))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    cell = np.minimum((k * (pts - lo) / span).astype(np.int64), k - 1)
+    block = cell[:, 0] * k + cell[:, 1]
+    order = np.argsort(block, kind="stable")
+    bounds = np.searchsorted(block[order], np.arange(k * k + 1)).tolist()
+    out = np.empty(m)
+    for b0, b1 in zip(bounds[:-1], bounds[1:], strict=True):
+        if b1 == b0:
+            continue
+        rows = order[b0:b1]
+        p = pts[rows]
+        plo, phi = p.min(axis=0) - reach, p.max(axis=0) + reach
+        near = np.minimum(sa[:, 0], sb[:, 0]) <= phi[0]
+        near &= np.maximum(sa[:, 0], sb[:, 0]) >= plo[0]
+        near &= np.minimum(sa[:, 1], sb[:, 1]) <= phi[1]
+        near &= np.maximum(sa[:, 1], sb[:, 1]) >= plo[1]
+        seg = np.flatnonzero(near)
+        del near
+        a, bb = sa[seg], sb[seg]
+        out[rows] = _clearance(p, owner[rows], a, bb, sowner[seg], SegmentGrid(a, bb), reach)
+        del a, bb, seg
+    return out
+
+
+def _part_segment_ends(arr: Arrangement) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts' segments ``(a, b, part)`` (:func:`part_segments`), as the arrangement
+    made them (``arr.memo["part_segments"]``) or made now, kept there: no grid of them
+    (:func:`_blocked_clearance` makes one a block at a time)."""
+    got = arr.memo.get("part_segments")
+    if got is None:
+        got = arr.memo["part_segments"] = part_segments(part_ends(arr.parts))
+    return got
+
+
 def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Candidate crossing points of the parts flagged in ``need``: the midpoints of each
@@ -237,7 +292,7 @@ def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
     (distance to the nearest segment of another part, at most ``max(1e3 tol, 1e-3 lss)``).
     A part's candidates depend on the arrangement only: they are computed once per part and
     cached on ``arr`` (region merges recompute the chains, not the parts)."""
-    sa, sb, sowner, tree = arr.segments()
+    sa, sb, sowner = _part_segment_ends(arr)
     cache = arr.memo.get("part_candidates")
     if cache is None:
         cache = arr.memo["part_candidates"] = {
@@ -259,7 +314,7 @@ def part_candidates(arr: Arrangement, need: np.ndarray, tol: float, lss: float
         take = order[keep]
         Q = 0.5 * (np.take(a, take, axis=0) + np.take(b, take, axis=0))
         mine = part[take]
-        clear = _clearance(Q, mine, sa, sb, sowner, tree, max(1e3 * tol, 1e-3 * lss))
+        clear = _blocked_clearance(Q, mine, sa, sb, sowner, max(1e3 * tol, 1e-3 * lss))
         cache["Q"] = np.vstack((cache["Q"], Q))
         cache["part"] = np.concatenate((cache["part"], mine))
         cache["rank"] = np.concatenate((cache["rank"], rank[keep]))

@@ -162,6 +162,9 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
             own.shutdown()
     if out is not None:
         release_memory()  # the arrangement and the internal frame's geometries, freed
+    if dec is None:  # written tile by tile (:func:`_stored`): read back once all is freed
+        release_memory()
+        dec = read_decomposition(target)
     if target is not None and tiling is None:
         write_decomposition(dec, target)
     return dec
@@ -174,15 +177,16 @@ def _polygons(faces: np.ndarray | FaceRings) -> np.ndarray:
 
 def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
                out: UserFrame | None = None, tiling: tuple | None = None,
-               noding: str = "auto", store: Path | None = None) -> Decomposition:
+               noding: str = "auto", store: Path | None = None) -> Decomposition | None:
     """The decomposition of the internal map ``env`` for rod length ``lss`` (internal units),
     reported as is, or in the user's frame of ``out`` (the result objects made once);
     ``tiling``: ``(tiles, executor, done)`` to node the arrangement, trace its faces and
     make the pieces' crossings in tiles, ``done`` (or None) called once the tiles' last task
     (a pieces task) has returned; ``noding``: how the arrangement is
     noded (:data:`tether.decomposition.noding.NODINGS`); ``store`` (with ``tiling``): the
-    folder the pieces are written to tile by tile (:func:`_stored`), the decomposition
-    returned read back from it."""
+    folder the pieces are written to tile by tile (:func:`_stored`): then None is
+    returned, and :func:`decompose` reads the store back once everything made here is
+    freed (the arrangement, the regions and cells made, not held beside those read)."""
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
@@ -210,14 +214,17 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     # the segments' grid and the candidates cache are no longer needed: freed before the
     # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
     arr.memo.pop("segments", None)
+    arr.memo.pop("part_segments", None)  # the parts' segments the candidates' clearance read
     arr.memo.pop("part_candidates", None)
     release_memory()
     # the regions made after that: their polygons and cells do not add to the grid's peak
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
-    if store is not None:
-        return _stored(env, lss, tol, arr, curves, regions, cells, codes, chains, cands, out,
-                       tiling, store, report)
+    if store is not None:  # the arrangement, chains and candidates held by _stored alone
+        held = [arr, chains, cands]  # (freed there before the regions are written)
+        del arr, chains, cands, numbering, face_sid, pts, clear, keep, resolved, ok, sid
+        return _stored(env, lss, tol, held, curves, regions, cells, codes, out, tiling,
+                       store, report)
     tiled = {} if tiling is None else {"crossings": tiled_crossings(tiling[0], tiling[1],
                                                                     report)}
     pieces, unresolved_pieces, arcs = make_pieces(env, arr, regions, chains, cands, curves,
@@ -243,15 +250,18 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     return dec
 
 
-def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, regions: Any,
-            cells: Any, codes: Any, chains: Any, cands: Any, out: UserFrame | None,
-            tiling: tuple, store: Path, report: Any) -> Decomposition:
+def _stored(env: Environment, lss: float, tol: float, held: list, curves: list,
+            regions: Any, cells: Any, codes: Any, out: UserFrame | None,
+            tiling: tuple, store: Path, report: Any) -> None:
     """The pieces made in tiles and written to ``store`` as each tile's task returns (a
     part per tile: its pieces, in the user's frame of ``out`` if given, and the arcs at
     their crossings, :class:`tether.decomposition.store.PartWriter`), none kept; then the
-    regions, cells, curves and the pieces' descriptions, and the index. Returns the store
-    read back: the decomposition :func:`_decompose` would return, its pieces in the same
-    (tile by tile) order."""
+    regions, cells, curves and the pieces' descriptions, and the index. Returns None: the
+    store read back by :func:`decompose` is the decomposition, its pieces in the tile by
+    tile order. ``held``: ``[arrangement, chains, candidates]``, emptied here (this
+    frame the only one holding them: freed once the pieces are made)."""
+    arr, chains, cands = held
+    held.clear()
     sptr, ssrc = arr.chain_sources(chains)
     desc_of, descs = chain_descriptions(sptr, ssrc, cands, curves)
     pair = chains.pair
@@ -270,6 +280,8 @@ def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, re
         crossings = tiled_crossings(tiling[0], tiling[1], report, sink=sink)
         crossings(env, lss, curves, chains, cands, (sptr, ssrc),
                   region_rows(regions, 2 * env.n + 1), arr)
+        del crossings, sink, sptr, ssrc  # the chains' columns, freed
+        pair = desc_of = None  # (the sink's too)
         if tiling[2] is not None:
             tiling[2]()  # no task left: the workers' memory freed now
         unresolved = int(np.count_nonzero(cands.count == 0))
@@ -296,4 +308,4 @@ def _stored(env: Environment, lss: float, tol: float, arr: Any, curves: list, re
         writer.finish(dec)
     del dec, regions, cells
     report("done", 1.0)
-    return read_decomposition(store)
+    return None  # read back by :func:`decompose`, once this frame and its caller's are gone

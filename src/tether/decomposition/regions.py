@@ -335,7 +335,28 @@ def _structure_cells(env: Environment, structs: Structures, sid: np.ndarray,
     else:
         order = np.lexsort((rb, ra, row))
     a, b = a[order].astype(code_t), b[order].astype(code_t)
-    count = size[inv.ravel()]
-    rows = ragged_arange(starts[inv.ravel()], count)
-    region = np.repeat(np.arange(n, dtype=region_t), count)
-    return region, a[rows], b[rows]
+    del order, row, ra, rb
+    inv = inv.ravel()
+    count, first = size[inv], starts[inv]
+    del inv
+    # the cells filled a run of regions at a time (about CELL_CHUNK cells): the rows'
+    # int64 index and its temporaries bounded (~32 bytes a cell at once, 0.6 GB at
+    # 4,000 map vertices), the columns made in their own types
+    ends = np.cumsum(count)
+    total = int(ends[-1])
+    region = np.empty(total, region_t)
+    start, end = np.empty(total, code_t), np.empty(total, code_t)
+    cuts = np.searchsorted(ends, np.arange(CELL_CHUNK, total, CELL_CHUNK), side="right")
+    bounds = np.unique(np.r_[0, cuts, n]).tolist()
+    for r0, r1 in zip(bounds[:-1], bounds[1:], strict=True):
+        c0, c1 = int(ends[r0] - count[r0]), int(ends[r1 - 1])
+        rows = ragged_arange(first[r0:r1], count[r0:r1])
+        start[c0:c1], end[c0:c1] = a[rows], b[rows]
+        region[c0:c1] = np.repeat(np.arange(r0, r1, dtype=region_t), count[r0:r1])
+        del rows
+    return region, start, end
+
+
+#: Cells made per run by :func:`_structure_cells` (about; whole regions): bounds the
+#: temporaries of the cells' rows.
+CELL_CHUNK = 1 << 20

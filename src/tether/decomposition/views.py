@@ -634,15 +634,51 @@ class PieceTable:
     units once :meth:`tether.decomposition.frame.UserFrame.pieces` converted them); ``ok`` (m,)
     bool, verified; ``desc`` (m,) int ids into ``descs``, the distinct ``(curves, kind, features)``
     (many pieces share their curves); ``shapes`` the lines (a :class:`Shapes`, item ``i``
-    piece ``i``). :class:`Piece` objects are made from it when read."""
+    piece ``i``). :class:`Piece` objects are made from it when read. ``q``, ``n`` and
+    ``eps`` may each be given as a function of no argument returning the column (a store's,
+    :func:`tether.decomposition.store.read_decomposition`), called on its first read: G and
+    the elimination read none of them."""
 
-    __slots__ = ("pair", "q", "n", "eps", "ok", "desc", "descs", "shapes")
+    __slots__ = ("pair", "_q", "_n", "_eps", "ok", "desc", "descs", "shapes")
 
-    def __init__(self, pair: np.ndarray, q: np.ndarray, n: np.ndarray, eps: np.ndarray,
+    def __init__(self, pair: np.ndarray, q: np.ndarray | Callable[[], np.ndarray],
+                 n: np.ndarray | Callable[[], np.ndarray],
+                 eps: np.ndarray | Callable[[], np.ndarray],
                  ok: np.ndarray, desc: np.ndarray, descs: list[tuple], shapes: Shapes) -> None:
-        self.pair, self.q, self.n, self.eps, self.ok = pair, q, n, eps, ok
+        self.pair, self._q, self._n, self._eps, self.ok = pair, q, n, eps, ok
         self.desc, self.descs, self.shapes = desc, descs, shapes
         pair.flags.writeable = False  # G reads it as is (graph._piece_regions)
+
+    def _column(self, slot: str) -> np.ndarray:
+        """The column held in ``slot``, read now (and kept) if it was given as a function."""
+        got = getattr(self, slot)
+        if callable(got):
+            got = got()
+            setattr(self, slot, got)
+        return got
+
+    @property
+    def q(self) -> np.ndarray:
+        """The crossing samples (m, 2)."""
+        return self._column("_q")
+
+    @q.setter
+    def q(self, value: np.ndarray) -> None:
+        self._q = value
+
+    @property
+    def n(self) -> np.ndarray:
+        """The unit normals (m, 2)."""
+        return self._column("_n")
+
+    @property
+    def eps(self) -> np.ndarray:
+        """The offsets (m,)."""
+        return self._column("_eps")
+
+    @eps.setter
+    def eps(self, value: np.ndarray) -> None:
+        self._eps = value
 
     def __len__(self) -> int:
         return len(self.pair)
