@@ -47,17 +47,22 @@ from tether.game.certificate import (
     free_mesh,
     interpolate_field,
 )
-from tether.game.field_lp import lp_field, solve_field
+from tether.game.field_lp import lp_field, solve_field, triangle_spans, windows_of_spans
 from tether.game.grid import lattice
 
-__all__ = ["PATCH_RING", "PATCH_TILE", "coarse_to_fine", "lattice_points", "patch_vertices",
-           "repair_patches", "solve_patch"]
+__all__ = ["PATCH_RING", "PATCH_TILE", "clip_to_free", "coarse_to_fine", "lattice_points",
+           "patch_vertices", "repair_patches", "solve_patch"]
 
 _TAU = math.tau
 #: Side of a patch's tile, in mean edge lengths of the mesh.
 PATCH_TILE = 12
 #: Rings of triangles around a tile's failing triangles whose vertices the patch's LP may move.
 PATCH_RING = 2
+#: Candidate orientations per arc (and around the circle) where :func:`clip_to_free` looks
+#: for its star's common free window.
+_CLIP_REFS = 16
+#: Distance (radians) a clipped arc keeps from the ends of its star's free window.
+_CLIP_GAP = 1e-3
 
 
 def lattice_points(env: Environment, h: float) -> np.ndarray:
@@ -103,8 +108,66 @@ def patch_vertices(tri: np.ndarray, seeds: np.ndarray, ring: int = PATCH_RING) -
     return free
 
 
+def clip_to_free(env: Environment, field: ArcField, which: np.ndarray, lss: float,
+                 grow: float = 0.0) -> ArcField:
+    """``field`` with the arcs of the vertices ``which`` (bool mask) cut to the orientations
+    free from every point of their star (check 1 of
+    :func:`~tether.game.certificate.certify` on each triangle at the vertex, whatever the
+    other vertices hold): the part of the arc inside the star's common free window
+    (:func:`~tether.game.field_lp.windows_of_spans`, each of its ends :data:`_CLIP_GAP` in),
+    the widest such part over :data:`_CLIP_REFS` candidate orientations inside the arc; where
+    no part is free, the star's widest free window among candidates around the circle. A
+    vertex whose star has no free window keeps its arc.
+
+    Why: the LP of :func:`~tether.game.field_lp.lp_field` moves each end by at most its
+    trust region per round and holds a vertex whose reference arc is blocked from its star
+    (an arc interpolated from a coarse field over a wall's corner can be); cut first, the
+    vertex is free to move again.
+    """
+    which = np.asarray(which, dtype=bool)
+    stars = np.flatnonzero(which[field.tri].any(axis=1))
+    if not len(stars):
+        return field
+    tri = field.tri[stars]
+    spans = triangle_spans(env, field.points[tri], lss, grow)
+    nv = len(field.points)
+    lo, w = field.lo, field.w
+    best_lo, best_hi = lo.copy(), lo + w
+    best_w = np.full(nv, -np.inf)
+    k = (np.arange(_CLIP_REFS) + 0.5) / _CLIP_REFS
+    for inside, frac in ((True, k), (False, k)):
+        for f in frac:
+            ref = lo + f * (w if inside else _TAU)  # per vertex
+            f_lo = np.full(nv, -np.inf)
+            f_hi = np.full(nv, np.inf)
+            for j in range(3):
+                r = ref[tri[:, j]]
+                a, b = windows_of_spans(spans, r, len(tri))
+                np.maximum.at(f_lo, tri[:, j], a - r)
+                np.minimum.at(f_hi, tri[:, j], b - r)
+            a_lo, a_hi = ref + f_lo + _CLIP_GAP, ref + f_hi - _CLIP_GAP
+            if inside:  # the part of the arc in the window around ref
+                a_lo, a_hi = np.maximum(a_lo, ref - f * w), np.minimum(a_hi, ref + (1 - f) * w)
+            else:  # an open side of the window: a whole turn from its other end
+                lo_inf, hi_inf = ~np.isfinite(a_lo), ~np.isfinite(a_hi)
+                a_lo = np.where(lo_inf & hi_inf, ref - math.pi, np.where(lo_inf, a_hi - _TAU,
+                                                                         a_lo))
+                a_hi = np.where(lo_inf & hi_inf, ref + math.pi, np.where(hi_inf, a_lo + _TAU,
+                                                                         a_hi))
+            a_hi = np.minimum(a_hi, a_lo + _TAU)
+            width = a_hi - a_lo
+            take = which & (width > best_w) & (width > 0)
+            if not inside:
+                take &= best_w <= 0  # around the circle only where the arc has no free part
+            best_lo[take], best_hi[take], best_w[take] = a_lo[take], a_hi[take], width[take]
+    new_w = np.minimum(best_hi - best_lo, _TAU)
+    keep = ~(which & (best_w > 0))
+    return ArcField(field.points, field.tri, np.where(keep, lo, best_lo),
+                    np.where(keep, w, np.where(new_w >= _TAU - 1e-9, _TAU, new_w)))
+
+
 def solve_patch(env: Environment, field: ArcField, free: np.ndarray, lss: float, vt: float,
-                vo: float, grow: float = 0.0, rounds: int = 20
+                vo: float, grow: float = 0.0, rounds: int = 20, clip: bool = True
                 ) -> tuple[ArcField, np.ndarray, int, int]:
     """One patch: the LP of :func:`~tether.game.field_lp.lp_field` on the triangles of
     ``field`` with a vertex in ``free`` (bool per vertex), every other vertex of them fixed.
@@ -114,7 +177,8 @@ def solve_patch(env: Environment, field: ArcField, free: np.ndarray, lss: float,
     fail :func:`~tether.game.certificate.certify` (``after < before``), else ``field``
     itself; a vertex outside ``free`` keeps its arc bit for bit either way. ``before`` and
     ``after`` count the patch's failing triangles. A patch with no free vertex is returned
-    as it is (``sub`` empty, 0 and 0).
+    as it is (``sub`` empty, 0 and 0). ``clip``: the free vertices of triangles that fail
+    check 1 are cut to their star's free orientations first (:func:`clip_to_free`).
     """
     free = np.asarray(free, dtype=bool)
     if free.shape != (len(field.points),):
@@ -127,12 +191,18 @@ def solve_patch(env: Environment, field: ArcField, free: np.ndarray, lss: float,
     tri = local.reshape(-1, 3)
     pts = field.points[verts]
     part = ArcField(pts, tri, field.lo[verts], field.w[verts])
-    before = int(certify(part, env, lss, vt, vo, grow).bad.sum())
+    checks = certify(part, env, lss, vt, vo, grow)
+    before = int(checks.bad.sum())
     if before == 0:
         return field, sub, 0, 0
-    res = lp_field(env, pts, tri, part.lo, part.w, lss, vt, vo, rounds=rounds, grow=grow,
-                   fixed=~free[verts])
     move = free[verts]
+    ref = part
+    if clip and checks.free.any():  # blocked arcs cut first: the LP cannot move them
+        blocked = np.zeros(len(pts), bool)
+        blocked[tri[checks.free].ravel()] = True
+        ref = clip_to_free(env, part, blocked & move, lss, grow)
+    res = lp_field(env, pts, tri, ref.lo, ref.w, lss, vt, vo, rounds=rounds, grow=grow,
+                   fixed=~move)
     lo = np.where(move, res.lo, part.lo)
     w = np.where(move, np.minimum(res.hi - res.lo, _TAU), part.w)
     after = int(certify(ArcField(pts, tri, lo, w), env, lss, vt, vo, grow).bad.sum())
@@ -245,7 +315,10 @@ def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
     ``coarse_h`` and ``orientations`` bins), its field interpolated onto
     :func:`~tether.game.certificate.free_mesh` at ``h``, then :func:`repair_patches`
     (``passes``, ``seconds``). Returns ``(field, checks, log)``: the fine field, ``certify``
-    of it, and the records (``{"coarse": ...}`` then the passes).
+    of it, and the records: ``{"coarse": ...}`` (the coarse mesh's vertices, whether its
+    field is certified and its failing triangles, the fine field's failing triangles before
+    the patches ``fine_failing``, and seconds: ``t_kernel``, ``t_search``, ``t_mesh``), then
+    one per pass of :func:`repair_patches`.
 
     Raises
     ------
@@ -266,7 +339,7 @@ def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
     t0 = time.perf_counter()
     kern = surveillance_kernel(env, lss, vt, vo, h=coarse_h, orientations=orientations)
     t_kernel = time.perf_counter() - t0
-    fc, cc, clog = solve_field(env, kern, lss, vt, vo, grow=grow)
+    fc, cc, clog = solve_field(env, kern, lss, vt, vo, grow=grow, progress=progress)
     t_coarse = time.perf_counter() - t0
     pts, tri, _ = free_mesh(env, h, lattice_points(env, h))
     f0 = interpolate_field(fc, pts, tri)
@@ -278,5 +351,6 @@ def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
                              "t_mesh": t_mesh - t_coarse, "log": clog}}]
     f, checks, plog = repair_patches(env, f0, lss, vt, vo, grow, passes=passes,
                                      seconds=seconds, progress=progress)
+    log[0]["coarse"]["fine_failing"] = plog[0]["failing"] if plog else int(checks.bad.sum())
     log += plog
     return f, checks, log
