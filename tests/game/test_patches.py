@@ -15,6 +15,7 @@ from tether.errors import InvalidParameterError
 from tether.game.certificate import ArcField, certify, first_field, free_mesh, interpolate_field
 from tether.game.kernel import surveillance_kernel
 from tether.game.patches import (
+    clip_to_free,
     coarse_to_fine,
     lattice_points,
     patch_vertices,
@@ -133,3 +134,28 @@ def test_coarse_to_fine_certifies_a_room():
     assert checks.passed and certify(f, room, LSS, VT, VO).passed
     assert len(f.points) > 2 * log[0]["coarse"]["vertices"]
     assert sum(r["repaired"] for r in log[1:]) > 0
+
+
+def test_clipped_arcs_are_free_from_their_stars(field):
+    """Every clipped arc, sampled densely, is free from points sampled in every triangle of
+    its vertex's star (an independent rod test); unclipped vertices keep their arcs."""
+    from tether.arcs import rod_is_free_many
+
+    bad = certify(field, ROOM4, LSS, VT, VO).free
+    which = np.zeros(len(field.points), bool)
+    which[field.tri[bad].ravel()] = True
+    assert which.any()
+    g = clip_to_free(ROOM4, field, which, LSS)
+    assert np.array_equal(g.lo[~which], field.lo[~which])
+    assert np.array_equal(g.w[~which], field.w[~which])
+    rng = np.random.default_rng(1)
+    bc = rng.dirichlet(np.ones(3), 40)
+    changed = 0
+    for v in np.flatnonzero(which):
+        star = field.tri[(field.tri == v).any(axis=1)]
+        pts = np.einsum("sk,tkd->tsd", bc, field.points[star]).reshape(-1, 2)
+        a = g.lo[v] + np.linspace(0, g.w[v], 25)
+        ok = rod_is_free_many(ROOM4, np.repeat(pts, len(a), axis=0), np.tile(a, len(pts)), LSS)
+        assert ok.all(), v
+        changed += g.w[v] != field.w[v] or g.lo[v] != field.lo[v]
+    assert changed > 0

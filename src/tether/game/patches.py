@@ -148,12 +148,13 @@ def clip_to_free(env: Environment, field: ArcField, which: np.ndarray, lss: floa
             a_lo, a_hi = ref + f_lo + _CLIP_GAP, ref + f_hi - _CLIP_GAP
             if inside:  # the part of the arc in the window around ref
                 a_lo, a_hi = np.maximum(a_lo, ref - f * w), np.minimum(a_hi, ref + (1 - f) * w)
-            else:  # an open side of the window: a whole turn from its other end
-                lo_inf, hi_inf = ~np.isfinite(a_lo), ~np.isfinite(a_hi)
-                a_lo = np.where(lo_inf & hi_inf, ref - math.pi, np.where(lo_inf, a_hi - _TAU,
-                                                                         a_lo))
-                a_hi = np.where(lo_inf & hi_inf, ref + math.pi, np.where(hi_inf, a_lo + _TAU,
-                                                                         a_hi))
+            else:  # an open side of the window (nothing blocked there): a whole turn from
+                # its other end (a blocked ref has a_lo = +inf, a_hi = -inf: no width)
+                lo_open, hi_open = a_lo == -np.inf, a_hi == np.inf
+                a_lo = np.where(lo_open & hi_open, ref - math.pi,
+                                np.where(lo_open, a_hi - _TAU, a_lo))
+                a_hi = np.where(lo_open & hi_open, ref + math.pi,
+                                np.where(hi_open, a_lo + _TAU, a_hi))
             a_hi = np.minimum(a_hi, a_lo + _TAU)
             width = a_hi - a_lo
             take = which & (width > best_w) & (width > 0)
