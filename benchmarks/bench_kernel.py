@@ -18,6 +18,7 @@ process (its own peak memory), and ``--docs`` writes the table into ``docs/certi
 ("Big maps")::
 
     python benchmarks/bench_kernel.py --office [--ratios 0.3,0.6] [--seconds 300] [--docs]
+    python benchmarks/bench_kernel.py --office --rows ROWS.jsonl --docs  # a former run's rows
 """
 
 from __future__ import annotations
@@ -91,15 +92,20 @@ def _table(rows: list[dict]) -> str:
     return "\n".join([head, rule, *body])
 
 
-def big_maps(ratios: list[float], seconds: float, docs: bool, save: str | None) -> None:
-    """Every big map at every ratio, each in a child process; the table printed (and written
+def big_maps(ratios: list[float], seconds: float, docs: bool, save: str | None,
+             rows_file: str | None = None) -> None:
+    """Every big map at every ratio, each in a child process (or the rows a former run wrote
+    to ``rows_file``, one JSON object a line: its stderr); the table printed (and written
     into the docs with ``docs``)."""
     rows = []
-    for name, *_ in BIG_MAPS:
+    if rows_file is not None:
+        rows = [json.loads(line) for line in Path(rows_file).read_text().splitlines()
+                if line.startswith("{")]
+    for name, _, h, _ in BIG_MAPS if rows_file is None else ():
         for ratio in ratios if name == "office" else [0.3]:
             out = subprocess.run(
                 [sys.executable, __file__, "--one", name, str(ratio), "--seconds", str(seconds)]
-                + (["--save", save.format(map=name.split("(")[0], ratio=ratio)] if save
+                + (["--save", save.format(map=name.split("(")[0], ratio=ratio, h=h)] if save
                    else []), capture_output=True, text=True, check=True)
             rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
@@ -129,7 +135,9 @@ def main() -> None:
     ap.add_argument("--docs", action="store_true",
                     help="with --office: write the table into docs/certified.md")
     ap.add_argument("--save", help="with --office: save each certified field to this path "
-                                   "(format keys {map} and {ratio})")
+                                   "(format keys {map}, {ratio} and {h})")
+    ap.add_argument("--rows", help="with --office: the table from the rows a former run "
+                                   "printed on stderr (no run)")
     ap.add_argument("--one", nargs=2, metavar=("MAP", "RATIO"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
@@ -137,7 +145,7 @@ def main() -> None:
         return
     if args.office:
         big_maps([float(r) for r in args.ratios.split(",")], args.seconds, args.docs,
-                 args.save)
+                 args.save, args.rows)
         return
     env = load_map(example_path("gallery"))
     x0, y0, x1, y1 = env.bounds
