@@ -72,9 +72,14 @@ def lattice_points(env: Environment, h: float) -> np.ndarray:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from tether import Environment
-    >>> lattice_points(Environment([(0, 0), (2, 0), (2, 1), (0, 1)]), 0.5).tolist()
-    [[0.25, 0.5], [0.75, 0.5], [1.25, 0.5], [1.75, 0.5]]
+    >>> from tether.game import build_grid
+    >>> room = Environment([(0, 0), (2, 0), (2, 1), (0, 1)])
+    >>> lattice_points(room, 0.5)[:5].tolist()
+    [[0.25, 0.25], [0.75, 0.25], [1.25, 0.25], [1.75, 0.25], [0.25, 0.75]]
+    >>> np.array_equal(lattice_points(room, 0.5), build_grid(room, 0.5, 0.5, 8).points)
+    True
     """
     origin, nx, ny = lattice(env, float(h))
     gx, gy = np.meshgrid(origin[0] + h * np.arange(nx), origin[1] + h * np.arange(ny))
