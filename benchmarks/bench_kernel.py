@@ -9,16 +9,116 @@ are noisy (say so when quoting them).
 Usage::
 
     python benchmarks/bench_kernel.py [--ratio 0.6] [--lss 1]
+
+``--office`` instead times the certified kernel on big maps (issue #22, "Speed"): the bundled
+office at 0.05 m (lss 0.8) and ``floor_plan(20, seed=0)`` at 0.1 (lss 0.4), each searched on a
+coarse mesh first, read on the fine one and repaired there in patches
+(``certified_kernel(coarse_h=...)``, :mod:`tether.game.patches`). Each row runs in a child
+process (its own peak memory), and ``--docs`` writes the table into ``docs/certified.md``
+("Big maps")::
+
+    python benchmarks/bench_kernel.py --office [--ratios 0.3,0.6] [--seconds 300] [--docs]
+    python benchmarks/bench_kernel.py --office --rows ROWS.jsonl --docs  # a former run's rows
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 from tether.examples import path as example_path
 from tether.game import build_grid, surveillance_kernel
 from tether.io import load_map
+
+#: The big maps' rows: (name, lss, h, coarse h), map units.
+BIG_MAPS = (("office", 0.8, 0.05, 0.2), ("floor_plan(20, seed=0)", 0.4, 0.1, 0.2))
+_DOCS = Path(__file__).resolve().parents[1] / "docs" / "certified.md"
+_BEGIN, _END = "<!-- bench_kernel --office: begin -->", "<!-- bench_kernel --office: end -->"
+
+
+def _big_map(name: str):
+    from tether.examples import load
+    from tether.examples.floorplan import floor_plan
+
+    return load("office", ".yaml") if name == "office" else floor_plan(20, seed=0)
+
+
+def _one_big(name: str, ratio: float, seconds: float, save: str | None) -> dict:
+    """One row, in this process: the certified kernel of a big map, timed by stage."""
+    from tether.game.certified import certified_kernel
+
+    lss, h, coarse = next((b[1], b[2], b[3]) for b in BIG_MAPS if b[0] == name)
+    env = _big_map(name)
+    t0, c0 = time.perf_counter(), time.process_time()
+    ck = certified_kernel(env, lss, ratio, 1.0, h=h, coarse_h=coarse, repair_seconds=seconds)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    first = ck.log[0]["coarse"]
+    passes = [e for e in ck.log[1:] if "pass" in e]
+    row = {"map": name, "lss": lss, "vt/vo": ratio, "h": h, "coarse h": coarse,
+           "vertices": len(ck.field.points), "triangles": len(ck.field.tri),
+           "coarse failing": first["failing"], "first failing": first["fine_failing"],
+           "failing": int(ck.checks.bad.sum()), "certified": ck.certified,
+           "safe %": 100 * ck.safe_fraction(samples=20_000)[0] if ck.certified else 0.0,
+           "t coarse kernel": first["t_kernel"], "t coarse search": first["t_search"],
+           "t fine mesh": first["t_mesh"],
+           "t patches": passes[-1]["seconds"] if passes else 0.0,
+           "patches": sum(e["patches"] for e in passes), "wall s": wall, "cpu s": cpu,
+           "peak MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+           "load": os.getloadavg()[0]}
+    if save and ck.certified:
+        ck.save(save)
+    return row
+
+
+_COLS = (("map", "{}"), ("vt/vo", "{:g}"), ("h", "{:g}"), ("coarse h", "{:g}"),
+         ("triangles", "{:,}"), ("coarse failing", "{:,}"), ("first failing", "{:,}"),
+         ("failing", "{:,}"), ("safe %", "{:.1f}"), ("t coarse search", "{:.0f}"),
+         ("t fine mesh", "{:.0f}"), ("t patches", "{:.0f}"), ("wall s", "{:.0f}"),
+         ("cpu s", "{:.0f}"), ("peak MB", "{:,.0f}"), ("load", "{:.1f}"))
+
+
+def _table(rows: list[dict]) -> str:
+    head = "| " + " | ".join(c for c, _ in _COLS) + " |"
+    rule = "|" + "|".join("---" if c == "map" else "---:" for c, _ in _COLS) + "|"
+    body = ["| " + " | ".join(f.format(r[c]) if r[c] is not None else "–" for c, f in _COLS)
+            + " |" for r in rows]
+    return "\n".join([head, rule, *body])
+
+
+def big_maps(ratios: list[float], seconds: float, docs: bool, save: str | None,
+             rows_file: str | None = None) -> None:
+    """Every big map at every ratio, each in a child process (or the rows a former run wrote
+    to ``rows_file``, one JSON object a line: its stderr); the table printed (and written
+    into the docs with ``docs``)."""
+    rows = []
+    if rows_file is not None:
+        rows = [json.loads(line) for line in Path(rows_file).read_text().splitlines()
+                if line.startswith("{")]
+    for name, _, h, _ in BIG_MAPS if rows_file is None else ():
+        for ratio in ratios if name == "office" else [0.3]:
+            out = subprocess.run(
+                [sys.executable, __file__, "--one", name, str(ratio), "--seconds", str(seconds)]
+                + (["--save", save.format(map=name.split("(")[0], ratio=ratio, h=h)] if save
+                   else []), capture_output=True, text=True, check=True)
+            rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    table = _table(rows)
+    print(table)
+    if docs:
+        text = _DOCS.read_text()
+        block = f"{_BEGIN}\n{table}\n{_END}"
+        new = re.sub(re.escape(_BEGIN) + ".*?" + re.escape(_END), lambda _: block, text,
+                     flags=re.S)
+        if new == text and block not in text:
+            raise SystemExit(f"no {_BEGIN} ... {_END} block in {_DOCS}")
+        _DOCS.write_text(new)
 
 
 def main() -> None:
@@ -27,7 +127,26 @@ def main() -> None:
     ap.add_argument("--lss", type=float, default=1.0)
     ap.add_argument("--grids", default="50:90,100:180,141:256",
                     help="comma-separated N:n_a (h = size/N)")
+    ap.add_argument("--office", action="store_true",
+                    help="the certified kernel on the big maps instead (module docstring)")
+    ap.add_argument("--ratios", default="0.3,0.6", help="with --office: the office's vt/vo")
+    ap.add_argument("--seconds", type=float, default=300.0,
+                    help="with --office: the patches' budget per map, seconds")
+    ap.add_argument("--docs", action="store_true",
+                    help="with --office: write the table into docs/certified.md")
+    ap.add_argument("--save", help="with --office: save each certified field to this path "
+                                   "(format keys {map}, {ratio} and {h})")
+    ap.add_argument("--rows", help="with --office: the table from the rows a former run "
+                                   "printed on stderr (no run)")
+    ap.add_argument("--one", nargs=2, metavar=("MAP", "RATIO"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.one:
+        print(json.dumps(_one_big(args.one[0], float(args.one[1]), args.seconds, args.save)))
+        return
+    if args.office:
+        big_maps([float(r) for r in args.ratios.split(",")], args.seconds, args.docs,
+                 args.save, args.rows)
+        return
     env = load_map(example_path("gallery"))
     x0, y0, x1, y1 = env.bounds
     size = max(x1 - x0, y1 - y0)

@@ -42,6 +42,10 @@ def cmd_kernel(args: argparse.Namespace) -> int:
         from tether.errors import InvalidParameterError
 
         raise InvalidParameterError("--delay applies to --certified only")
+    if args.coarse is not None and not args.certified:
+        from tether.errors import InvalidParameterError
+
+        raise InvalidParameterError("--coarse applies to --certified only")
     refining = (args.refine, args.band_width, args.max_vertices) != (None, None, None)
     if refining and not args.certified:
         from tether.errors import InvalidParameterError
@@ -105,7 +109,10 @@ def _certified(args: argparse.Namespace, env) -> int:
     ck = certified_kernel(env, args.lss, args.vt, args.vo, h=args.h,
                           orientations=args.orientations, delay=args.delay or 0.0,
                           progress=lambda e: bar(f"LP round {e['round']}",
-                                                 min(e["round"] / 60, 0.99)))
+                                                 min(e["round"] / 60, 0.99))
+                          if "round" in e else bar(f"patches, pass {e['pass']}: "
+                                                   f"{e['failing']} triangles failed", 0.99),
+                          coarse_h=args.coarse)
     bar("done", 1.0)
     out = ck.to_dict()
     frac, err = ck.safe_fraction(samples=20_000)
@@ -242,6 +249,10 @@ def register(add) -> None:
                          "nothing is undecided there)")
     sp.add_argument("--max-vertices", type=int_range(3, 10**8), metavar="N",
                     help="with --certified: refine no further than N mesh vertices")
+    sp.add_argument("--coarse", type=float_arg, metavar="H",
+                    help="with --certified, for big maps: search the field on a mesh of "
+                         "spacing H first, read it on the mesh of --h and repair it there in "
+                         "patches (no grid kernel at --h)")
     sp.add_argument("--at", nargs=3, type=finite_arg, metavar=("X", "Y", "A"),
                     help="also report whether (x, y, a) (a in radians) is in the kernel")
     sp.add_argument("--json", action="store_true", help="print JSON")

@@ -59,7 +59,8 @@ from tether.game.cells import (
 
 __all__ = ["MARGIN", "STAR_SPLITS", "W_MIN", "ArcField", "Checks", "bisect", "certify",
            "end_slack", "first_field", "free_mesh", "hat_gradients", "heading_window_min",
-           "lifted_ends", "longest_edge_first", "sight_widening", "window_min", "window_min_at"]
+           "lifted_ends", "longest_edge_first", "sight_widening", "window_min", "window_min_at",
+           "interpolate_field"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -289,7 +290,8 @@ def sight_widening(grow: float, lss: float) -> float:
     return math.asin(grow / lss) if grow > 0 else 0.0
 
 
-def first_field(kern, grow: float = 0.0, splits: int = STAR_SPLITS) -> ArcField:
+def first_field(kern, grow: float = 0.0, splits: int = STAR_SPLITS,
+                coarse: ArcField | None = None) -> ArcField:
     """The field the search starts from, on :func:`free_mesh` of ``kern``'s lattice
     (``kern``: a :class:`~tether.game.kernel.Kernel`, the conservative grid scheme): at each
     vertex the run of orientations free from every point of the vertex's star and in
@@ -312,9 +314,17 @@ def first_field(kern, grow: float = 0.0, splits: int = STAR_SPLITS) -> ArcField:
     or a chain of edges (``docs/certified.md``, (R1)); nothing else changes (without a closed
     vertex, the mesh of :func:`free_mesh` and the same field, bit for bit). The field returned
     may still hold closed arcs when ``splits`` did not open them.
+
+    **From a coarser field** (``coarse``, an :class:`ArcField` of the same map and frame, e.g.
+    one certified on a coarser mesh): the arcs are ``coarse`` interpolated at the vertices of
+    :func:`free_mesh` (:func:`interpolate_field`) instead of being read from ``kern``'s bins
+    (only its lattice is used, and no star is split). None (the default): the field above,
+    bit for bit.
     """
     grid = kern.grid
     pts, tri, src = free_mesh(grid.env, grid.h, grid.points)
+    if coarse is not None:
+        return interpolate_field(coarse, pts, tri)
     for k in range(max(splits, 0) + 1):
         f = _first_arcs(kern, pts, tri, src, grow)
         closed = f.w <= 0
@@ -601,3 +611,66 @@ def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float,
     else:
         blocked, meets = triangle_blocked_any(env, xy, lo.min(axis=1), hi.max(axis=1), lss)
     return Checks(blocked & meets, bad_open & meets, bad_lo & meets, bad_hi & meets, meets)
+
+
+#: Candidate triangles of the coarse mesh tried per point by :func:`interpolate_field`
+#: (nearest centroids first).
+_LOCATE_K = 16
+#: Barycentric coordinate (unitless) down to which a point counts as inside a triangle.
+_INSIDE_TOL = -1e-9
+
+
+def interpolate_field(coarse: ArcField, points: np.ndarray, tri: np.ndarray) -> ArcField:
+    """``coarse`` read at the vertices ``points`` (map units, (n, 2)) of another mesh ``tri`` of
+    the same free space: the field on that mesh whose vertex arcs are ``coarse``'s set-valued
+    map at each point.
+
+    Each point is located in a triangle of ``coarse`` (among the :data:`_LOCATE_K` of nearest
+    centroid, the first holding it to :data:`_INSIDE_TOL` in barycentric coordinates; else the
+    one it is least outside of, its coordinates clamped to the triangle: a point on a wall
+    between two wall points of the coarse mesh). There the lifted ends
+    (:func:`lifted_ends`) are interpolated linearly: ``lo = Σ b_j·lo_j``, ``w = min(Σ b_j·hi_j
+    − lo, 2π)``, exactly the field ``coarse`` holds at the point. Where the coarse triangle's
+    gap centres wind (no lift) the arc of its vertex of largest coordinate is taken.
+
+    A fine triangle inside one coarse triangle carries the same linear ends on a smaller
+    range, so it passes every check the coarse triangle passes; one that straddles coarse
+    edges need not (the search repairs it: :mod:`tether.game.patches`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> f = ArcField(pts, np.array([[0, 1, 2]]), np.array([0.0, 0.3, 0.6]), np.full(3, 1.0))
+    >>> g = interpolate_field(f, np.array([[0.5, 0.5], [0.2, 0.0]]), np.array([[0, 1, 0]]))
+    >>> np.round(g.lo, 6).tolist(), np.round(g.w, 6).tolist()
+    ([0.45, 0.06], [1.0, 1.0])
+    """
+    points = np.asarray(points, dtype=float)
+    ctri = coarse.tri
+    cxy = coarse.points[ctri]
+    k = min(_LOCATE_K, len(ctri))
+    _, cand = cKDTree(cxy.mean(axis=1)).query(points, k=k)
+    cand = cand.reshape(len(points), k)
+    a, b, c = cxy[cand, 0], cxy[cand, 1], cxy[cand, 2]  # (n, k, 2)
+    v0, v1, v2 = b - a, c - a, points[:, None, :] - a
+    det = v0[..., 0] * v1[..., 1] - v0[..., 1] * v1[..., 0]
+    l1 = (v2[..., 0] * v1[..., 1] - v2[..., 1] * v1[..., 0]) / det
+    l2 = (v0[..., 0] * v2[..., 1] - v0[..., 1] * v2[..., 0]) / det
+    bary = np.stack([1 - l1 - l2, l1, l2], axis=-1)  # (n, k, 3)
+    worst = bary.min(axis=2)
+    pick = np.argmax(np.where(worst >= _INSIDE_TOL, 1.0 + 0 * worst, worst), axis=1)
+    rows = np.arange(len(points))
+    t = cand[rows, pick]
+    bc = np.clip(bary[rows, pick], 0.0, None)
+    bc /= bc.sum(axis=1, keepdims=True)
+    lo3, hi3, winds = lifted_ends(coarse.lo, coarse.w, ctri)
+    lo = (bc * lo3[t]).sum(axis=1)
+    w = np.minimum((bc * hi3[t]).sum(axis=1) - lo, _TAU)
+    partial = (coarse.w[ctri] < FULL).any(axis=1)
+    bad = winds[t] & partial[t]
+    if bad.any():
+        v = ctri[t[bad], np.argmax(bc[bad], axis=1)]
+        lo[bad], w[bad] = coarse.lo[v], coarse.w[v]
+    w = np.where(w >= FULL, _TAU, w)
+    return ArcField(points, np.asarray(tri), _wrap(lo), w)

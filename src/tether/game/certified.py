@@ -286,7 +286,9 @@ def check_delay(delay: Any, vt: float, lss: float) -> float:
 def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
                      h: float | None = None, orientations: int = 180,
                      progress: Any = None, delay: float = 0.0,
-                     start: CertifiedKernel | None = None) -> CertifiedKernel:
+                     start: CertifiedKernel | None = None,
+                     coarse_h: float | None = None,
+                     repair_seconds: float | None = None) -> CertifiedKernel:
     """The certified surveillance kernel: an arc field the exact checks pass, or the best
     field found with ``certified`` False (then nothing is claimed safe).
 
@@ -308,6 +310,14 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
     start : CertifiedKernel, optional
         A field of the same map, speeds and spacing (one certified at a shorter delay) to try
         first: checked at ``delay`` and kept if it passes, else the search starts from it.
+    coarse_h : float, optional
+        For big maps: search the field on a mesh of this spacing (map units, coarser than
+        ``h``) first, read it on the mesh of spacing ``h`` and repair it there in patches
+        (:func:`~tether.game.patches.coarse_to_fine`; ``docs/certified.md``, "Big maps"). No
+        grid kernel at ``h`` is computed then. None (the default): the search on the mesh of
+        ``h`` from the grid kernel at ``h``, as before.
+    repair_seconds : float, optional
+        With ``coarse_h``: start no patch after this many seconds of repair.
 
     Examples
     --------
@@ -327,9 +337,18 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
         h = max(x1 - x0, y1 - y0) / 40
     if not (math.isfinite(h) and h > 0):
         raise InvalidParameterError(f"the mesh spacing h must be a finite number > 0, got {h}")
+    if coarse_h is not None:
+        if not (math.isfinite(coarse_h) and coarse_h > h):
+            raise InvalidParameterError(f"the coarse spacing must be a finite number > h = "
+                                        f"{h:g}, got {coarse_h}")
+        if start is not None:
+            raise InvalidParameterError("a start field and a coarse spacing exclude each other")
     t0 = time.perf_counter()
     frame, space = env.frame, env.internal
     lss_i, vt_i, vo_i = lss * frame.scale, vt / vo, 1.0
+    if coarse_h is not None:
+        return _coarse_to_fine(env, lss, vt, vo, h, orientations, progress, delay, coarse_h, t0,
+                               repair_seconds)
     kern = surveillance_kernel(space, lss_i, vt_i, vo_i, h=h * frame.scale,
                                orientations=orientations)
     try:
@@ -338,6 +357,26 @@ def certified_kernel(env: Environment, lss: float, vt: float, vo: float,
                                      start=None if start is None else start.field)
     except ValueError as exc:  # the mesh cannot follow the walls at this spacing
         raise InvalidParameterError(f"no certified kernel at h = {h:g}: {exc}") from None
+    return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0,
+                           frame, space, delay)
+
+
+def _coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
+                    orientations: int, progress: Any, delay: float, coarse_h: float,
+                    t0: float, seconds: float | None) -> CertifiedKernel:
+    """:func:`certified_kernel` with ``coarse_h``: :func:`~tether.game.patches.coarse_to_fine`
+    in the map's normalized frame."""
+    from tether.game.patches import coarse_to_fine
+
+    frame, space = env.frame, env.internal
+    try:
+        f, checks, log = coarse_to_fine(space, lss * frame.scale, vt / vo, 1.0,
+                                        h * frame.scale, coarse_h * frame.scale,
+                                        orientations, grow=vt * delay * frame.scale,
+                                        seconds=seconds, progress=progress)
+    except ValueError as exc:  # a mesh cannot follow the walls at this spacing
+        raise InvalidParameterError(f"no certified kernel at h = {h:g} from {coarse_h:g}: "
+                                    f"{exc}") from None
     return CertifiedKernel(env, lss, vt, vo, h, f, checks, log, time.perf_counter() - t0,
                            frame, space, delay)
 
