@@ -109,6 +109,7 @@ def test_interpolation_reproduces_a_linear_field():
     assert (whole.w == 2 * np.pi).all()
 
 
+@pytest.mark.slow
 def test_first_field_from_a_coarse_field_is_its_interpolation():
     """``first_field(kern, coarse=f)``: the mesh of ``kern``'s lattice, ``f`` read at its
     vertices; the default (no ``coarse``) is the field from the kernel's bins."""
