@@ -51,6 +51,7 @@ def test_a_plateau_releases_then_stops_and_the_rule_holds(room):
     assert (r.core <= (f.w >= 2 * np.pi - 1e-9)).all()  # the core only shrinks
 
 
+@pytest.mark.slow
 def test_without_the_plateau_rule_the_try_runs_on(room):
     space, lss, f = room
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, VT, 1.0, rounds=7, plateau=0)

@@ -71,8 +71,8 @@ from tether.game.certificate import (
 )
 
 __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
-           "SEARCH_ROUNDS", "free_windows", "lp_field", "solve_field", "triangle_spans",
-           "vortex_radius", "windows_of_spans"]
+           "SEARCH_ROUNDS", "WIDTH_REL", "aligned_radius", "free_windows",
+           "lp_field", "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
 #: whole-circle vertex in the core, released where needed)
@@ -87,6 +87,11 @@ SEARCH_ROUNDS = 60
 PLATEAU_ROUNDS = 5
 #: Relative fall of the slack that counts as progress for :data:`PLATEAU_ROUNDS`
 PLATEAU_REL = 1e-3
+#: Relative growth of the mean width that counts as progress once the slack is zero: a
+#: search without slack whose mean width has not grown by this much within
+#: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
+#: the stall's move)
+WIDTH_REL = 1e-4
 #: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
 #: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
 #: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
@@ -195,17 +200,16 @@ def windows_of_spans(spans: tuple[np.ndarray, np.ndarray, np.ndarray], ref: np.n
 
 
 def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.ndarray,
-                     core: np.ndarray, lss: float, vt: float, vo: float) -> np.ndarray:
-    """Core vertices that must keep the whole circle: those within ``r = lss·vt/(sqrt(vo² −
-    vt²) − vt)`` of a whole-circle triangle whose gap centres wind (a vortex). A gap place
-    turning once around a point at distance ``r`` turns at ``1/r`` per unit, the fastest an
-    end can follow in the worst heading."""
+                     core: np.ndarray, r: float) -> np.ndarray:
+    """Core vertices that must keep the whole circle: those within ``r`` (map units) of a
+    whole-circle triangle whose gap centres wind (a vortex); none where ``r < 0``.
+    :func:`vortex_radius` is the radius for every alignment of the gap, :func:`aligned_radius`
+    the one for a gap that points at the vortex."""
     _, _, winds = lifted_ends(lo, w, tri)
     hot = winds & core[tri].all(axis=1)
     out = np.zeros(len(lo), bool)
-    if hot.any():
+    if hot.any() and r >= 0:
         from scipy.spatial import cKDTree
-        r = lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
         near = cKDTree(points[tri[hot]].mean(axis=1)).query(points, distance_upper_bound=r)[0]
         out = np.isfinite(near)
     return out & core
@@ -361,15 +365,17 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
              fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
              seed_cuts: bool = False, paired_ends: bool = True,
-             plateau: int = PLATEAU_ROUNDS) -> LPResult:
+             plateau: int = PLATEAU_ROUNDS, protect: float | None = None) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
     per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
     units): whole-circle vertices at least this far from every gap start in the core (or
     ``core``, a mask); ``release`` (map units, default three mean edge lengths): how near to a
-    stuck slack a core vertex is released. ``progress`` gets each round's record. ``grow``
-    (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
+    stuck slack a core vertex is released; ``protect`` (map units, default
+    :func:`vortex_radius`): core vertices this near a vortex (a whole-circle triangle whose
+    gap centres wind) are never released (none if negative). ``progress`` gets each round's
+    record. ``grow`` (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
     :func:`free_windows`). Returns the ends per vertex (radians) and the search's record
     (per round: ``t_windows``, ``t_lp``, ``t_ends``, the seconds spent on the free windows,
     the LP, and the end rows' bounds with the cutting planes).
@@ -392,7 +398,9 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     within ``plateau`` rounds (a plateau, :data:`PLATEAU_ROUNDS`; 0: never; a search that
     cycles between two fields never stalls). Stuck with slack, it releases the core vertices
     near the slack (below) and goes on; with none to release, it stops. The round's record
-    then says ``"stuck": "stall"`` or ``"plateau"``.
+    then says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
+    (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
+    within ``plateau`` rounds.
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -454,7 +462,9 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             dist, _ = cKDTree(points[~full0]).query(points[full0])
             core[full0] = dist >= core_radius
     core = core.copy()
-    protected = _vortex_vertices(points, L, H - L, tri, core, lss, vt, vo)
+    if protect is None:
+        protect = vortex_radius(lss, vt, vo)
+    protected = _vortex_vertices(points, L, H - L, tri, core, protect)
     cen = xy.mean(axis=1)
     # the (heading, end) pairs whose end rows each triangle has: base_headings evenly
     # spaced ones from the start, and the cutting planes (end 0 the lower, 1 the upper)
@@ -511,6 +521,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         search_cuts(L, H, et)
     slack_sum = np.inf
     best, best_round = np.inf, 0  # the plateau's reference: the best slack, and its round
+    widest, widest_round = 0.0, 0  # without slack: the widest mean width, and its round
     r = 0
     for r in range(1, rounds + 1):
         t0 = time.perf_counter()
@@ -578,7 +589,12 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         if slack_sum < (1.0 - PLATEAU_REL) * best:
             best, best_round = slack_sum, r
         stalled = added == 0 and move < 1e-3
-        if stalled and slack_sum <= 0.0:
+        if slack_sum > 0.0:
+            widest, widest_round = 0.0, r
+        elif entry["mean_w"] > (1.0 + WIDTH_REL) * widest:
+            widest, widest_round = entry["mean_w"], r
+        if slack_sum <= 0.0 and (stalled or 0 < plateau <= r - widest_round):
+            entry["stuck"] = "stall" if stalled else "widths"
             break
         if slack_sum > 0.0 and (stalled or 0 < plateau <= r - best_round):
             entry["stuck"] = "stall" if stalled else "plateau"
@@ -608,6 +624,17 @@ def vortex_radius(lss: float, vt: float, vo: float) -> float:
     return lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
 
 
+def aligned_radius(lss: float, vt: float, vo: float) -> float:
+    """The smallest radius (map units) of a whole-circle disc around a vortex whose gap points
+    at its centre: ``lss·vt/(vo + vt)``. On the circle of radius ``ρ`` the ends ``lo = hi −
+    2π = ψ + π`` (``ψ`` the polar angle) turn at ``1/ρ`` along it, and both end conditions
+    hold for ``lss·vt/ρ <= vo + vt`` (``docs/certified.md``, "Where no field is certified";
+    ``tests/game/test_certified_cores.py`` checks it with
+    :func:`~tether.game.certificate.end_slack`). It exists at every speed ratio, where
+    :func:`vortex_radius` (every alignment) does not above ``1/√2``."""
+    return lss * vt / (vo + vt)
+
+
 def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
                 tries: tuple[float, ...] = CORE_TRIES, rounds: int = SEARCH_ROUNDS,
                 progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
@@ -616,7 +643,9 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
     """The first field :func:`~tether.game.certificate.certify` passes, searched from
     :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
     the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
-    gaps (0: every whole-circle vertex, released where needed). Returns ``(field, checks,
+    gaps (0: every whole-circle vertex, released where needed; above ``vt/vo = 1/√2``, where
+    :func:`vortex_radius` is negative, every size gives that same core and the same search,
+    which runs once). Returns ``(field, checks,
     log)``: the last field tried and its checks (``checks.passed`` when certified; None when
     the first field already has a closed arc, which no search can open), and one record per
     try.
@@ -628,6 +657,8 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
     without progress after which a try counts as stuck (:func:`lp_field`)."""
     log: list = []
     r_v = vortex_radius(lss, vt, vo)
+    if r_v < 0:  # above vt/vo = 1/√2 every core size is the whole-circle set: one try
+        tries = tries[:1]
     f = first_field(kern, grow)
     checks = None
     if start is not None and np.array_equal(start.points, f.points) \
