@@ -32,7 +32,7 @@ from pathlib import Path
 from tether.examples import path as example_path
 from tether.game import surveillance_kernel
 from tether.game.certificate import first_field
-from tether.game.field_lp import solve_field
+from tether.game.field_lp import PLATEAU_ROUNDS, solve_field
 from tether.io import load_map
 
 
@@ -42,6 +42,8 @@ def main() -> None:
     ap.add_argument("--ratio", type=float, default=0.3, help="vt/vo (vo = 1)")
     ap.add_argument("--lss", type=float, default=1.0)
     ap.add_argument("--sizes", default="40,60,100", help="comma-separated N (h = size/N)")
+    ap.add_argument("--plateau", type=int, default=PLATEAU_ROUNDS,
+                    help="rounds without progress that stop a try (0: the stall only)")
     ap.add_argument("--doc", default=None,
                     help="a Markdown file whose bench_certified block gets the table")
     args = ap.parse_args()
@@ -65,7 +67,7 @@ def main() -> None:
         cpu_inner = time.process_time() - c0
         f0 = first_field(kern)
         t2 = time.perf_counter()
-        f, checks, log = solve_field(space, kern, lss, vt, vo)
+        f, checks, log = solve_field(space, kern, lss, vt, vo, plateau=args.plateau)
         t3 = time.perf_counter()
         cpu = time.process_time() - c0
         rounds = sum(e.get("rounds", 0) for e in log)
@@ -85,6 +87,11 @@ def main() -> None:
               + f" {str(ok):>10} {total:>8.2f} {total / (t1 - t0):>8.1f} {cpu:>8.2f}"
               f" {cpu / cpu_inner:>6.1f}",
               flush=True)
+        for e in log:  # one line per try of the search: its core size and how it ended
+            if "rounds" in e:
+                print(f"      core {e['core']:.2f}: {e['rounds']} rounds, slack "
+                      f"{e['slack']:.4g}, {e['failing']} failing, stuck at "
+                      f"{e.get('stuck') or '-'}", flush=True)
     if args.doc:
         _write_doc(Path(args.doc), rows, load0, os.getloadavg()[0])
 

@@ -10,6 +10,7 @@ Usage::
     python docs/certified_table.py --quick    # one ratio, fewer runs, prints only
     python docs/certified_table.py --starts 48 --workers 2 --skip gallery:0.6 --skip gallery:0.9
     python docs/certified_table.py --only convex_corner:0.3   # one row again, the rest kept
+    python docs/certified_table.py --only gallery:0.3 --starts 0 --print-only  # a check
 
 The last is how the table in the docs was made: 48 random certified starts per target kind
 and row (336 runs a row), on two processes, about half an hour on the shared 2-core machine.
@@ -176,6 +177,8 @@ def main() -> None:
     ap.add_argument("--only", action="append", default=[], metavar="MAP:RATIO",
                     help="recompute only this row, copy the others from the docs' table (and "
                          "leave the examples and the figure); repeatable")
+    ap.add_argument("--print-only", action="store_true",
+                    help="with --only: print the rows, write nothing (a quick check)")
     args = ap.parse_args()
     skip = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.skip))
     only = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.only))
@@ -186,6 +189,8 @@ def main() -> None:
     if only:
         text = doc.read_text()
         body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers, only, text)
+        if args.print_only:
+            return
     else:
         figure()
         body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers)

@@ -70,7 +70,8 @@ from tether.game.certificate import (
     window_min_at,
 )
 
-__all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "SEARCH_ROUNDS", "free_windows",
+__all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
+           "SEARCH_ROUNDS", "WIDTH_REL", "aligned_radius", "free_windows",
            "lp_field", "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
@@ -78,6 +79,19 @@ __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "SEARCH_ROUNDS", "free_win
 CORE_TRIES = (0.0, 2 / 3, 1.0)
 #: LP rounds of one try of the search
 SEARCH_ROUNDS = 60
+#: Rounds without progress after which a search with slack counts as stuck (a *plateau*):
+#: its elastic slack has not fallen below ``(1 − PLATEAU_REL)`` times its best within this
+#: many rounds. A stuck search can also cycle (the slack alternating between two values,
+#: the ends moving back and forth by more than the stall's move), so waiting for the ends
+#: to stop moving is not enough (``docs/certified.md``, "How the field is found").
+PLATEAU_ROUNDS = 5
+#: Relative fall of the slack that counts as progress for :data:`PLATEAU_ROUNDS`
+PLATEAU_REL = 1e-3
+#: Relative growth of the mean width that counts as progress once the slack is zero: a
+#: search without slack whose mean width has not grown by this much within
+#: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
+#: the stall's move)
+WIDTH_REL = 1e-4
 #: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
 #: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
 #: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
@@ -186,17 +200,16 @@ def windows_of_spans(spans: tuple[np.ndarray, np.ndarray, np.ndarray], ref: np.n
 
 
 def _vortex_vertices(points: np.ndarray, lo: np.ndarray, w: np.ndarray, tri: np.ndarray,
-                     core: np.ndarray, lss: float, vt: float, vo: float) -> np.ndarray:
-    """Core vertices that must keep the whole circle: those within ``r = lss·vt/(sqrt(vo² −
-    vt²) − vt)`` of a whole-circle triangle whose gap centres wind (a vortex). A gap place
-    turning once around a point at distance ``r`` turns at ``1/r`` per unit, the fastest an
-    end can follow in the worst heading."""
+                     core: np.ndarray, r: float) -> np.ndarray:
+    """Core vertices that must keep the whole circle: those within ``r`` (map units) of a
+    whole-circle triangle whose gap centres wind (a vortex); none where ``r < 0``.
+    :func:`vortex_radius` is the radius for every alignment of the gap, :func:`aligned_radius`
+    the one for a gap that points at the vortex."""
     _, _, winds = lifted_ends(lo, w, tri)
     hot = winds & core[tri].all(axis=1)
     out = np.zeros(len(lo), bool)
-    if hot.any():
+    if hot.any() and r >= 0:
         from scipy.spatial import cKDTree
-        r = lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
         near = cKDTree(points[tri[hot]].mean(axis=1)).query(points, distance_upper_bound=r)[0]
         out = np.isfinite(near)
     return out & core
@@ -351,15 +364,18 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              release: float | None = None,
              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
              fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
-             seed_cuts: bool = False, paired_ends: bool = True) -> LPResult:
+             seed_cuts: bool = False, paired_ends: bool = True,
+             plateau: int = PLATEAU_ROUNDS, protect: float | None = None) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
     per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
     units): whole-circle vertices at least this far from every gap start in the core (or
     ``core``, a mask); ``release`` (map units, default three mean edge lengths): how near to a
-    stuck slack a core vertex is released. ``progress`` gets each round's record. ``grow``
-    (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
+    stuck slack a core vertex is released; ``protect`` (map units, default
+    :func:`vortex_radius`): core vertices this near a vortex (a whole-circle triangle whose
+    gap centres wind) are never released (none if negative). ``progress`` gets each round's
+    record. ``grow`` (map units): ``vt·d`` for a sensing delay ``d`` (the free windows of
     :func:`free_windows`). Returns the ends per vertex (radians) and the search's record
     (per round: ``t_windows``, ``t_lp``, ``t_ends``, the seconds spent on the free windows,
     the LP, and the end rows' bounds with the cutting planes).
@@ -376,6 +392,15 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     the first LP sees the base headings only). ``paired_ends``: a cutting plane found for
     one end adds the rows of its heading for both ends (the search as tuned; False: only for
     that end, half the rows).
+
+    The search is *stuck* when a round adds no cutting plane and moves no end by 1e-3 rad
+    or more (a stall), or when its slack has not fallen by :data:`PLATEAU_REL` of its best
+    within ``plateau`` rounds (a plateau, :data:`PLATEAU_ROUNDS`; 0: never; a search that
+    cycles between two fields never stalls). Stuck with slack, it releases the core vertices
+    near the slack (below) and goes on; with none to release, it stops. The round's record
+    then says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
+    (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
+    within ``plateau`` rounds.
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -437,7 +462,9 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             dist, _ = cKDTree(points[~full0]).query(points[full0])
             core[full0] = dist >= core_radius
     core = core.copy()
-    protected = _vortex_vertices(points, L, H - L, tri, core, lss, vt, vo)
+    if protect is None:
+        protect = vortex_radius(lss, vt, vo)
+    protected = _vortex_vertices(points, L, H - L, tri, core, protect)
     cen = xy.mean(axis=1)
     # the (heading, end) pairs whose end rows each triangle has: base_headings evenly
     # spaced ones from the start, and the cutting planes (end 0 the lower, 1 the upper)
@@ -493,6 +520,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     if seed_cuts:  # the reference's own violated headings, before the first LP
         search_cuts(L, H, et)
     slack_sum = np.inf
+    best, best_round = np.inf, 0  # the plateau's reference: the best slack, and its round
+    widest, widest_round = 0.0, 0  # without slack: the widest mean width, and its round
     r = 0
     for r in range(1, rounds + 1):
         t0 = time.perf_counter()
@@ -557,9 +586,18 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         log.append(entry)
         if progress is not None:
             progress(entry)
-        if added == 0 and move < 1e-3:
-            if slack_sum <= 0.0:
-                break
+        if slack_sum < (1.0 - PLATEAU_REL) * best:
+            best, best_round = slack_sum, r
+        stalled = added == 0 and move < 1e-3
+        if slack_sum > 0.0:
+            widest, widest_round = 0.0, r
+        elif entry["mean_w"] > (1.0 + WIDTH_REL) * widest:
+            widest, widest_round = entry["mean_w"], r
+        if slack_sum <= 0.0 and (stalled or 0 < plateau <= r - widest_round):
+            entry["stuck"] = "stall" if stalled else "widths"
+            break
+        if slack_sum > 0.0 and (stalled or 0 < plateau <= r - best_round):
+            entry["stuck"] = "stall" if stalled else "plateau"
             # stuck with slack: the core vertices near the triangles that need it give up
             # the whole circle (their gap may open), and the search goes on
             hot = cen[et[np.flatnonzero(s.reshape(-1, 2).max(axis=1) > 1e-9)]]
@@ -575,6 +613,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             et, idle = ends_checked()
             model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
             entry["released"] = int(len(freed))
+            best, best_round = np.inf, r  # a new LP: its slack is measured afresh
     return LPResult(L, H, slack_sum, r, log, core)
 
 
@@ -585,14 +624,28 @@ def vortex_radius(lss: float, vt: float, vo: float) -> float:
     return lss * vt / (math.sqrt(vo * vo - vt * vt) - vt)
 
 
+def aligned_radius(lss: float, vt: float, vo: float) -> float:
+    """The smallest radius (map units) of a whole-circle disc around a vortex whose gap points
+    at its centre: ``lss·vt/(vo + vt)``. On the circle of radius ``ρ`` the ends ``lo = hi −
+    2π = ψ + π`` (``ψ`` the polar angle) turn at ``1/ρ`` along it, and both end conditions
+    hold for ``lss·vt/ρ <= vo + vt`` (``docs/certified.md``, "Where no field is certified";
+    ``tests/game/test_certified_cores.py`` checks it with
+    :func:`~tether.game.certificate.end_slack`). It exists at every speed ratio, where
+    :func:`vortex_radius` (every alignment) does not above ``1/√2``."""
+    return lss * vt / (vo + vt)
+
+
 def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
                 tries: tuple[float, ...] = CORE_TRIES, rounds: int = SEARCH_ROUNDS,
                 progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
-                start: ArcField | None = None) -> tuple[ArcField, Checks | None, list]:
+                start: ArcField | None = None, plateau: int = PLATEAU_ROUNDS
+                ) -> tuple[ArcField, Checks | None, list]:
     """The first field :func:`~tether.game.certificate.certify` passes, searched from
     :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
     the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
-    gaps (0: every whole-circle vertex, released where needed). Returns ``(field, checks,
+    gaps (0: every whole-circle vertex, released where needed; above ``vt/vo = 1/√2``, where
+    :func:`vortex_radius` is negative, every size gives that same core and the same search,
+    which runs once). Returns ``(field, checks,
     log)``: the last field tried and its checks (``checks.passed`` when certified; None when
     the first field already has a closed arc, which no search can open), and one record per
     try.
@@ -600,9 +653,12 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
     ``grow`` (map units, ``vt·d``): the sensing delay of :func:`certify`. ``start``: a field
     on the same mesh to try first (one certified at a shorter delay: it is checked at this
     one, kept if it passes, else the search starts from it with the first core size of
-    ``tries``, and then from the first field as without it)."""
+    ``tries``, and then from the first field as without it). ``plateau``: the rounds
+    without progress after which a try counts as stuck (:func:`lp_field`)."""
     log: list = []
     r_v = vortex_radius(lss, vt, vo)
+    if r_v < 0:  # above vt/vo = 1/√2 every core size is the whole-circle set: one try
+        tries = tries[:1]
     f = first_field(kern, grow)
     checks = None
     if start is not None and np.array_equal(start.points, f.points) \
@@ -612,20 +668,22 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
         log.append({"start": "given", "failing": int(checks.bad.sum())})
         if checks.passed:
             return g, checks, log
-        g, checks = _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow, log)
+        g, checks = _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow, log,
+                           plateau)
         if checks.passed:
             return g, checks, log
     if (f.w <= 0).any():
         log.append({"core": None, "closed_arcs": int((f.w <= 0).sum())})
         return f, None, log
-    f, checks = _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log)
+    f, checks = _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log,
+                             plateau)
     return f, checks, log
 
 
 def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
             tries: tuple[float, ...], r_v: float, rounds: int,
-            progress: Callable[[dict], Any] | None, grow: float, log: list
-            ) -> tuple[ArcField, Checks]:
+            progress: Callable[[dict], Any] | None, grow: float, log: list,
+            plateau: int = PLATEAU_ROUNDS) -> tuple[ArcField, Checks]:
     """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
     field passes :func:`certify`: the last field and its checks (records appended to
     ``log``)."""
@@ -633,12 +691,13 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
     checks = None
     for q in tries:
         r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
-                     core_radius=q * r_v, progress=progress, grow=grow)
+                     core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau)
         f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
         t0 = time.perf_counter()
         checks = certify(f, env, lss, vt, vo, grow)
         rec = [e for e in r.log if "t_lp" in e]
         log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
+                    "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
                     "failing": int(checks.bad.sum()),
                     "t_windows": sum(e["t_windows"] for e in rec),
                     "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
