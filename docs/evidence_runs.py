@@ -304,11 +304,18 @@ def replay_command(rec: dict, folder: Path) -> str:
             f"--duration {SECONDS:g} --dt {DT:g}")
 
 
-def _label(key: str) -> tuple[str, str, str, str]:
-    """A field's columns in the summary: map, vt/vo, lss, mesh h (the key for a file)."""
+def _label(key: str, folder: Path) -> tuple[str, str, str, str]:
+    """A field's columns in the summary: map, vt/vo, lss, mesh h (for a file field, read from
+    the file's parameters, its map named with the key's stem; the key alone if it is gone)."""
     spec = parse_field(key)
     if spec.external:
-        return (f"`{key}`", "", "", "")
+        path = field_file(folder, key)
+        if not path.is_file():
+            return (f"`{key}`", "", "", "")
+        with np.load(path, allow_pickle=False) as d:
+            lss, vt, vo, h = (float(x) for x in d["params"])
+            name = json.loads(str(d["map"])).get("name", "")
+        return (f"{name} (`{key}`)", f"{vt / vo:g}", f"{lss:g}", f"{h:g}")
     name = f"{spec.name} (radial)" if spec.radial else spec.name
     return (name, f"{spec.ratio:g}", f"{spec.lss:g}", f"{spec.h:g}")
 
@@ -330,7 +337,7 @@ def summary(records: list[dict], bad: int, folder: Path) -> str:
                 f"{3600 / cpu:.0f} |")
 
     for (key, kind), rs in sorted(groups.items()):
-        rows.append(row((*_label(key), kind), rs))
+        rows.append(row((*_label(key, folder), kind), rs))
     by_kind: dict[str, list[dict]] = defaultdict(list)
     for r in records:
         by_kind[r["kind"]].append(r)
