@@ -195,6 +195,8 @@ def test_bad_budgets_are_one_line_errors():
         refine_certified(None, None, width=float("nan"))
     with pytest.raises(InvalidParameterError, match="ring"):
         refine_certified(None, None, ring=-1)
+    with pytest.raises(InvalidParameterError, match="ring"):
+        refine_certified(None, None, search_ring=1.5)
 
 
 # --- the loop on a room (slow) -------------------------------------------------------------
@@ -254,6 +256,34 @@ def test_widening_moves_only_near_the_split(refined):
     old_free = np.flatnonzero(free[:n_old])
     assert (rk.field.w[old_free] > ck.field.w[old_free] + 1e-6).any()
     assert rk.certified and rk.refine_log[1]["kept"] == "lp"
+
+
+@pytest.mark.slow
+def test_search_ring_repairs_a_failing_field_locally(refined):
+    """A certified field spoilt at three vertices next to a wall (their arcs turned by 0.6
+    rad): with ``search_ring=1`` the search moves only the split triangles' vertices and one
+    ring around them (every other vertex keeps its arc, ``lo`` bit for bit). It does not
+    repair this field in one round (what it keeps fails elsewhere): the local search is
+    cheaper, not a cure by itself."""
+    ck, outer, _ = refined
+    f = ck.field
+    d = SMALL.boundary_distance(*ck.frame.to_user(f.points).T)
+    spoil = np.argsort(np.where(d > 0.2, d, np.inf))[:3]
+    lo = f.lo.copy()
+    lo[spoil] += 0.6
+    bad = ArcField(f.points, f.tri, lo, f.w.copy())
+    checks = certify(bad, *ck.game)
+    assert not checks.passed
+    spoilt = CertifiedKernel(ck.env, LSS, VT, VO, 0.5, bad, checks, frame=ck.frame,
+                             space=ck.space)
+    rk = refine_certified(spoilt, outer, max_rounds=1, search_ring=1)
+    n_old = len(f.points)
+    free = free_near_split(rk.field.tri, n_old, 1)
+    held = np.flatnonzero(~free)
+    assert len(held) > n_old // 2
+    assert np.array_equal(rk.field.lo[held], bad.lo[held])
+    assert np.allclose(rk.field.w[held], bad.w[held], rtol=0, atol=1e-12)  # w = hi − lo
+    assert rk.refine_log[1]["kept"] == "search" and not rk.certified
 
 
 def test_free_near_split_against_adjacency():

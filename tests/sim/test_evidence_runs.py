@@ -45,7 +45,7 @@ def test_shards_resume_and_summary(ev, tmp_path):
                                              (f, 4), (other, 4)]
     text = ev.summary(records, bad, tmp_path)
     assert "4 runs, 1 lost or outside (1 unreadable lines skipped)" in text
-    assert "| **all** |  |  | **all** | 4 | 1 | 0 |" in text
+    assert "| **all** |  |  |  | **all** | 4 | 1 | 0 |" in text
     assert f"--replay {f}:3" in text
     assert "--target random --start 1.5 2.25 0.125 --seed 3" in text
     assert f"--kernel {ev.field_file(tmp_path, f)}" in text
@@ -72,6 +72,35 @@ def test_the_docs_table_counts_the_shards(ev):
     """The table in docs/certified.md is what the committed shards say (regenerate with
     ``python docs/evidence_runs.py --summary --doc docs/certified.md``)."""
     records, bad = ev.read_shards(DOCS / "evidence")
-    table = ev.summary([r for r in records if r["field"] in ev.FIELDS], bad, DOCS / "evidence")
+    table = ev.summary(records, bad, DOCS / "evidence")
     text = (DOCS / "certified.md").read_text()
     assert table.rstrip() in text
+
+
+def test_field_keys_floor_plans_radial_lss_and_files(ev):
+    s = ev.parse_field("floor_plan:20:0:0.3:0.1:0.2")
+    assert (s.name, s.ratio, s.h, s.lss, s.radial, s.bundled) == (
+        "floor_plan:20:0", 0.3, 0.1, 0.2, False, False)
+    assert s.env().name == "plan-20-0"
+    s = ev.parse_field("radial:nonconvex_corner:0.9:0.075:0.15")
+    assert (s.name, s.ratio, s.h, s.lss, s.radial, s.bundled) == (
+        "nonconvex_corner", 0.9, 0.075, 0.15, True, True)
+    s = ev.parse_field("gallery:0.3:0.25")  # the old keys keep their meaning
+    assert (s.name, s.ratio, s.h, s.lss, s.radial) == ("gallery", 0.3, 0.25, 1.0, False)
+    assert ev.parse_field("file:office_0.3").external
+    for bad in ("floor_plan:x:0:0.3:0.1", "floor_plan:20:0:0.3", "radial:gallery:0.3",
+                "gallery:0.3:0.25:1:2", "file:", "file:a/b"):
+        with pytest.raises(SystemExit, match="evidence_runs: a (file )?field is"):
+            ev.parse_field(bad)
+    with pytest.raises(SystemExit, match="--field-file"):
+        ev.compute_field(ev.parse_field("file:missing"))
+
+
+def test_summary_of_a_floor_plan_and_a_file_field(ev, tmp_path):
+    plan, office = "floor_plan:20:0:0.3:0.1:0.2", "file:office_0.3"
+    records = [_rec(plan, 0, ev.KINDS[0], "lost"), _rec(office, 1, ev.KINDS[1])]
+    text = ev.summary(records, 0, tmp_path)
+    assert "| floor_plan:20:0 | 0.3 | 0.2 | 0.1 | " in text
+    assert f"| `{office}` |  |  |  | " in text
+    assert f"--replay {plan}:0" in text
+    assert "tether simulate" not in text  # a generated map: the script's replay only

@@ -203,7 +203,8 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
                      max_vertices: int | None = None, width: float | None = None,
                      lp_rounds: int = 20,
                      progress: Callable[[dict], Any] | None = None,
-                     ring: int | None = RING) -> CertifiedKernel:
+                     ring: int | None = RING,
+                     search_ring: int | None = None) -> CertifiedKernel:
     """Refine ``ck``'s mesh where its band is (module docstring) and widen the field again.
 
     Parameters
@@ -228,7 +229,13 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
         The widening of a certified field moves only the vertices of the split triangles and
         of this many rings of triangles around them (:func:`free_near_split`); the others
         keep the carried ends. None: the LP over the whole mesh. :func:`certify` checks the
-        whole field either way. A field not certified yet is searched over the whole mesh.
+        whole field either way.
+    search_ring : int or None
+        The same for a field not certified yet (the search's three core sizes, from the
+        carried field): None (the default) searches the whole mesh; an integer moves only the
+        vertices of the split triangles (those that failed) and of this many rings around
+        them, so that a field that fails in a few places is repaired there at the cost of a
+        local LP (``docs/certified.md``, "Floor plans").
 
     Returns
     -------
@@ -244,6 +251,7 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
     "failed"``).
     """
     _check_budget(max_rounds, max_vertices, width, ring)
+    _check_budget(max_rounds, max_vertices, width, search_ring)
     t0 = time.perf_counter()
     env, lss, vt, vo = ck.game
     grow = ck.grow
@@ -266,7 +274,8 @@ def refine_certified(ck: CertifiedKernel, optimistic: Any, max_rounds: int = 3,
             if progress is not None:
                 progress(log[-1])
             break
-        free = None if ring is None else free_near_split(g.tri, len(cur.field.points), ring)
+        rings = ring if cur.certified else search_ring
+        free = None if rings is None else free_near_split(g.tri, len(cur.field.points), rings)
         g, checks, how = _widen(env, g, lss, vt, vo, grow, cur.certified, lp_rounds, free)
         if how == "failed":  # neither the LP's field nor the carried one passes: keep cur
             log.append({"round": r, "stopped": "failed", "failing": int(checks.bad.sum())})
@@ -295,7 +304,7 @@ def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
     yet: the search's three core sizes (as :func:`~tether.game.field_lp.solve_field`'s) from
     the carried field, the one with the fewest failing triangles kept (``"search"``, or
     ``"carried"`` when none has fewer than the carried field). ``free``: the vertices the
-    LP from a certified field may move (None: all)."""
+    LP may move (None: all)."""
     if was_certified:
         res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=lp_rounds,
                        grow=grow, fixed=None if free is None else ~free)
@@ -308,7 +317,8 @@ def _widen(env: Any, g: ArcField, lss: float, vt: float, vo: float, grow: float,
     best, best_checks = g, certify(g, env, lss, vt, vo, grow)
     for q in CORE_TRIES:
         res = lp_field(env, g.points, g.tri, g.lo, g.w, lss, vt, vo, rounds=SEARCH_ROUNDS,
-                       core_radius=q * vortex_radius(lss, vt, vo), grow=grow)
+                       core_radius=q * vortex_radius(lss, vt, vo), grow=grow,
+                       fixed=None if free is None else ~free)
         found = ArcField(g.points, g.tri, res.lo, np.minimum(res.hi - res.lo, _TAU))
         checks = certify(found, env, lss, vt, vo, grow)
         if checks.bad.sum() < best_checks.bad.sum():
