@@ -184,7 +184,10 @@ def solve_patch(env: Environment, field: ArcField, free: np.ndarray, lss: float,
     itself; a vertex outside ``free`` keeps its arc bit for bit either way. ``before`` and
     ``after`` count the patch's failing triangles. A patch with no free vertex is returned
     as it is (``sub`` empty, 0 and 0). ``clip``: the free vertices of triangles that fail
-    check 1 are cut to their star's free orientations first (:func:`clip_to_free`).
+    check 1 are cut to their star's free orientations first (:func:`clip_to_free`). The
+    patch's LP runs its ``rounds`` without the plateau rule (``plateau=0``: it stops at a
+    stall only): a patch's few rounds are cheap, and stopping them at a plateau left
+    triangles failing that the full rounds repair (``tests/game/test_patches.py``).
     """
     free = np.asarray(free, dtype=bool)
     if free.shape != (len(field.points),):
@@ -208,7 +211,7 @@ def solve_patch(env: Environment, field: ArcField, free: np.ndarray, lss: float,
         blocked[tri[checks.free].ravel()] = True
         ref = clip_to_free(env, part, blocked & move, lss, grow)
     res = lp_field(env, pts, tri, ref.lo, ref.w, lss, vt, vo, rounds=rounds, grow=grow,
-                   fixed=~move)
+                   fixed=~move, plateau=0)
     lo = np.where(move, res.lo, part.lo)
     w = np.where(move, np.minimum(res.hi - res.lo, _TAU), part.w)
     after = int(certify(ArcField(pts, tri, lo, w), env, lss, vt, vo, grow).bad.sum())
@@ -313,7 +316,7 @@ def repair_patches(env: Environment, field: ArcField, lss: float, vt: float, vo:
 def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
                    coarse_h: float, orientations: int = 180, grow: float = 0.0,
                    passes: int = 4, seconds: float | None = None,
-                   progress: Callable[[dict], Any] | None = None
+                   progress: Callable[[dict], Any] | None = None, plateau: int = 0
                    ) -> tuple[ArcField, Checks, list]:
     """A field on the mesh of spacing ``h`` (map units) from one searched at ``coarse_h``
     (module docstring): the coarse search
@@ -324,7 +327,9 @@ def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
     of it, and the records: ``{"coarse": ...}`` (the coarse mesh's vertices, whether its
     field is certified and its failing triangles, the fine field's failing triangles before
     the patches ``fine_failing``, and seconds: ``t_kernel``, ``t_search``, ``t_mesh``), then
-    one per pass of :func:`repair_patches`.
+    one per pass of :func:`repair_patches`. ``plateau``: the coarse search's plateau rule
+    (:func:`~tether.game.field_lp.lp_field`; 0, the default: a try stops only at a stall, as
+    when the figures of ``docs/certified.md``, "Big maps", were measured).
 
     Raises
     ------
@@ -345,7 +350,8 @@ def coarse_to_fine(env: Environment, lss: float, vt: float, vo: float, h: float,
     t0 = time.perf_counter()
     kern = surveillance_kernel(env, lss, vt, vo, h=coarse_h, orientations=orientations)
     t_kernel = time.perf_counter() - t0
-    fc, cc, clog = solve_field(env, kern, lss, vt, vo, grow=grow, progress=progress)
+    fc, cc, clog = solve_field(env, kern, lss, vt, vo, grow=grow, progress=progress,
+                             plateau=plateau)
     t_coarse = time.perf_counter() - t0
     pts, tri, _ = free_mesh(env, h, lattice_points(env, h))
     f0 = interpolate_field(fc, pts, tri)
