@@ -55,6 +55,7 @@ def test_meeting_pairs_are_the_envelope_pairs(seed, r, frame):
     assert grid.meeting(pts - r, pts + r)[1].tolist() == si.tolist()  # kept blocks alike
 
 
+@pytest.mark.slow
 def test_meeting_is_strtree_query_on_rectangles():
     """``SegmentGrid.meeting`` answers as an STRtree of the segments does, for boxes of
     several sizes (one block set per size)."""

@@ -217,6 +217,7 @@ def test_type_b_and_c():
     assert piece_at(d, (7, 6)).kind == "C"
 
 
+@pytest.mark.slow
 def test_type_d_same_and_opposite_sides():
     env = Environment(ROOM, ([[2, 2], [2, 3], [3, 3], [3, 2]],
                              [[4, 2], [4, 2.8], [5, 2.8], [5, 2]]))

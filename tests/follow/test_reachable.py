@@ -83,6 +83,7 @@ def _random_walk(env, start, vt, dt, steps, rng):
     return np.array(out)
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None)
 @given(seed=st.integers(0, 2**16))
 def test_random_walks_never_leave_the_reachable_set(seed):

@@ -185,6 +185,7 @@ def test_collinear_vertices_change_nothing(name, data):
     assert counts_only(summary(more, lss)) == counts_only(base(name))
 
 
+@pytest.mark.slow
 def test_square_with_100_collinear_vertices_is_the_square():
     square = Environment([[0, 0], [10, 0], [10, 10], [0, 10]], (), "square")
     plain = summary(square, 3.0)
