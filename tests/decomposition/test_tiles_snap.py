@@ -315,3 +315,25 @@ def test_real_floor_plan_knot_snap_rounded_in_tiles():
                                                           (xy[k], xy[k + 1], idx[k]))
         assert log["float_failed"] and got[4] == grid
         assert _wkb(got[0].lines()) == _wkb(whole)
+
+
+# ------------------------------------------------------------- auto tiles when snap rounding
+def test_auto_snap_tiles_aim_at_snap_tile_segments(monkeypatch):
+    """With ``noding="snap"`` and ``"auto"``, the grid aims at ``SNAP_TILE_SEGMENTS`` input
+    segments a tile (smaller than ``TILE_SEGMENTS``: GEOS's hot-pixel index costs less a
+    segment in a smaller tile), and the parts are still the untiled snap rounding's, bit for
+    bit, with the same sources."""
+    import tether.decomposition.tiles as tiles_mod
+    monkeypatch.setattr(tiles_mod, "SNAP_TILE_SEGMENTS", 400)
+    env = load_example("rectangle")
+    inner, ilss = _internal(env, 0.3 * env.diameter)
+    tol = REL_CURVE_TOL * inner.diameter
+    curves = critical_curves(inner, ilss)
+    log = {}
+    tiled = arrangement(inner, curves, tol,
+                        tiled_noder("auto", SerialExecutor(), tol, log=log, arcs=(inner, ilss),
+                                    noding="snap"), "snap")
+    whole = arrangement(inner, curves, tol, noding="snap")
+    nx, ny = log["tiles"]
+    assert nx * ny > 1 and not log["float_failed"] and log["grid"] == whole.grid > 0
+    assert_same_parts(whole, tiled)

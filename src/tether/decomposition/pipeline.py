@@ -79,7 +79,8 @@ def decompose(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
     tiles : (int, int) or str, optional
         ``(nx, ny)`` (or ``"NXxNY"``) tiles, at most :data:`tether.decomposition.tiles.MAX_TILES`,
         or ``"auto"`` (about :data:`tether.decomposition.tiles.TILE_SEGMENTS` input segments
-        per tile); None (default): untiled. Only the noding, the face tracing, the faces'
+        per tile, :data:`tether.decomposition.tiles.SNAP_TILE_SEGMENTS` where the tiles snap
+        round); None (default): untiled. Only the noding, the face tracing, the faces'
         free arcs and the pieces' crossings, arcs and lines are tiled (the pieces on a grid
         of their own, :func:`tether.decomposition.tiles.tiled_crossings`): the curves,
         regions and the pieces' chains and candidates are made whole, so the memory check

@@ -116,7 +116,7 @@ from tether.errors import ArrangementError, InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
 __all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "PIECE_TILE_CHAINS",
-           "SNAP_MARGIN_PIXELS", "TILE_MARGIN", "TILE_SEGMENTS",
+           "SNAP_MARGIN_PIXELS", "SNAP_TILE_SEGMENTS", "TILE_MARGIN", "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "pieces_tile", "process_executor",
            "runs_of", "segments_by_tile", "tile_box", "tile_grid", "tiled_crossings",
@@ -125,6 +125,15 @@ __all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "PIECE_TILE
 #: Input segments per tile aimed at when the tiles are chosen automatically (``"auto"``):
 #: GEOS's noder takes ~4 us per segment, so ~1 s of noding per tile.
 TILE_SEGMENTS = 250_000
+
+#: Input segments per tile aimed at when snap-rounding tasks are tiled automatically: most
+#: of a snap-rounding task's time is GEOS's hot-pixel k-d tree queried with each segment's
+#: bounding box, bound by cache misses (the tree of a 250,000-segment task is tens of MB),
+#: so smaller trees take less time a segment, more than the wider margins sent cost: a task
+#: of the 4,000-vertex floor plan (262,537 segments) noded as 2 x 2 and 3 x 3 sub-tiles took
+#: 0.65 and 0.56 times its CPU time whole, for 1.23 and 1.31 times its segments
+#: (``docs/scale.md``). The tiled parts do not depend on the grid.
+SNAP_TILE_SEGMENTS = 32_000
 
 #: Chains per tile aimed at when the pieces' tiles are chosen automatically (``"auto"``,
 #: :func:`tiled_crossings`): one :data:`tether.decomposition.pieces.PIECE_BATCH` per task,
@@ -712,7 +721,9 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     if a task's noder failed (the tasks not yet started are cancelled). ``ref``: the
     segments ``(a, b, source)`` the sources are found among (None: the input's own);
     ``grid_size``: the snap-rounding grid (map units; 0: floating-point noding), which
-    widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells. A floating-point
+    widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells and, with ``"auto"``
+    tiles, aims at :data:`SNAP_TILE_SEGMENTS` segments a tile instead of
+    :data:`TILE_SEGMENTS`. A floating-point
     task gets the input within twice the margin of its tile (a retry, within the margin of
     its region); a snap-rounding task within the margin and :data:`SNAP_MARGIN_PIXELS`
     cells (or twice ``reach``) more: a snap-rounded part depends on the input within about
@@ -723,7 +734,9 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         return [], 0
     lo, hi = np.minimum(la, lb), np.maximum(la, lb)
     span = hi.max(axis=0) - lo.min(axis=0)
-    shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]))
+    per_tile = TILE_SEGMENTS if grid_size == 0 else SNAP_TILE_SEGMENTS
+    shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]),
+                                                     per_tile)
     grid = tile_grid(np.vstack((la, lb)), shape)
     nx, ny = grid.shape
     margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach,
