@@ -92,7 +92,7 @@ PLATEAU_REL = 1e-3
 #: :data:`RELEASE_REL` of its best before the release, else the try ends (``"stuck":
 #: "release"``). A release that frees what held the slack pays at once: in every recorded
 #: search that certifies (gallery 0.3 at N = 64 and 100, the room at 0.3 and 0.6) the slack
-#: fell by 44 % to 100 % within three rounds of each release. Where no field exists (the
+#: fell by 44 % to 100 % within three rounds of each release. Where none is found (the
 #: room at 0.9) it fell by 11 %, while the LP, with thousands of new end rows a round, grew
 #: slower each round (0.5 s before the release, 45 s six rounds after): that try ran for
 #: over ten CPU minutes without this rule (``docs/kernel.md``, "The certified kernel's
