@@ -1,6 +1,7 @@
 """The search's release rule (``tether.game.field_lp``, :data:`RELEASE_ROUNDS`,
 :data:`RELEASE_REL`): a release of core vertices whose slack has not fallen by a quarter of its
-best before the release within three rounds ends the try. Checked against the rule recomputed
+best before the release within three rounds ends the try, if that round still added cutting
+planes for over 1 % of the LP's rows. Checked against the rule recomputed
 from the rounds' own slacks, on the 10 x 10 room at a coarse mesh (h 1) at vt/vo 0.9, where no
 field exists and the release does not pay, and at 0.6, where it does."""
 
@@ -12,7 +13,7 @@ import pytest
 from tether.examples import path as example_path
 from tether.game import surveillance_kernel
 from tether.game.certificate import first_field
-from tether.game.field_lp import RELEASE_REL, RELEASE_ROUNDS, lp_field
+from tether.game.field_lp import RELEASE_CUTS, RELEASE_REL, RELEASE_ROUNDS, lp_field
 from tether.io import load_map
 
 PLATEAU = 3  # rounds: a short plateau, so that the release comes early
@@ -30,9 +31,9 @@ def _rounds(log: list) -> list:
 
 
 def _release_checks(rec: list) -> list:
-    """Per release in ``rec``: (the round that judges it, whether it paid), recomputed from
-    the recorded slacks (the best before it: the least slack since the try's start or the
-    previous release)."""
+    """Per release in ``rec``: (the round that judges it, whether it paid, whether that round
+    still grew the LP), recomputed from the recorded slacks (the best before it: the least
+    slack since the try's start or the previous release) and cutting planes."""
     out, start = [], 0
     for i, e in enumerate(rec):
         if "released" in e:
@@ -42,7 +43,9 @@ def _release_checks(rec: list) -> list:
                 ratio = min(after) / before
                 # the search's best is within 0.1 % of the least (its plateau threshold)
                 assert abs(ratio - (1 - RELEASE_REL)) > 2e-3, "too near the threshold to judge"
-                out.append((e["round"] + RELEASE_ROUNDS, ratio <= 1 - RELEASE_REL))
+                judge = rec[i + RELEASE_ROUNDS]
+                out.append((judge["round"], ratio <= 1 - RELEASE_REL,
+                            judge["cuts_added"] > RELEASE_CUTS * judge["rows"]))
             start = i + 1
     return out
 
@@ -52,11 +55,11 @@ def test_a_release_that_does_not_pay_ends_the_try():
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.9, 1.0, rounds=40, plateau=PLATEAU)
     rec = _rounds(r.log)
     checks = _release_checks(rec)
-    assert checks and not checks[-1][1]  # the last release did not pay ...
+    assert checks and not checks[-1][1] and checks[-1][2]  # the last release did not pay ...
     assert rec[-1]["round"] == checks[-1][0] == r.rounds < 40  # ... and its judge ended it
     assert rec[-1].get("stuck") == "release"
-    for rnd, paid in checks[:-1]:  # any earlier release paid
-        assert paid and rec[rnd - 1].get("stuck") != "release"
+    for rnd, paid, growing in checks[:-1]:  # any earlier release paid or was settling
+        assert (paid or not growing) and rec[rnd - 1].get("stuck") != "release"
     assert r.slack > 0
 
 
@@ -65,7 +68,7 @@ def test_a_release_that_pays_lets_the_try_go_on():
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.6, 1.0, rounds=40, plateau=PLATEAU)
     rec = _rounds(r.log)
     checks = _release_checks(rec)
-    assert checks and all(paid for _, paid in checks)
+    assert checks and all(paid for _, paid, _ in checks)
     assert not [e for e in rec if e.get("stuck") == "release"]
     assert r.rounds > checks[0][0]  # the try went on past the first release's judge
 

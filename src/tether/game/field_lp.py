@@ -71,9 +71,9 @@ from tether.game.certificate import (
 )
 
 __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
-           "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "WIDTH_REL", "aligned_radius",
-           "free_windows", "lp_field", "solve_field", "triangle_spans", "vortex_radius",
-           "windows_of_spans"]
+           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "WIDTH_REL",
+           "aligned_radius", "free_windows", "lp_field", "solve_field", "triangle_spans",
+           "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
 #: whole-circle vertex in the core, released where needed)
@@ -89,18 +89,24 @@ PLATEAU_ROUNDS = 5
 #: Relative fall of the slack that counts as progress for :data:`PLATEAU_ROUNDS`
 PLATEAU_REL = 1e-3
 #: Rounds after a release of core vertices within which the slack must have fallen by
-#: :data:`RELEASE_REL` of its best before the release, else the try ends (``"stuck":
-#: "release"``). A release that frees what held the slack pays at once: in every recorded
-#: search that certifies (gallery 0.3 at N = 64 and 100, the room at 0.3 and 0.6) the slack
-#: fell by 44 % to 100 % within three rounds of each release. Where none is found (the
-#: room at 0.9) it fell by 11 %, while the LP, with thousands of new end rows a round, grew
-#: slower each round (0.5 s before the release, 45 s six rounds after): that try ran for
-#: over ten CPU minutes without this rule (``docs/kernel.md``, "The certified kernel's
-#: search").
+#: :data:`RELEASE_REL` of its best before the release, else, while the search is still far
+#: from settled (:data:`RELEASE_CUTS`), the try ends (``"stuck": "release"``). A release
+#: that frees what held the slack pays at once: in every recorded search that certifies
+#: (gallery 0.3 at N = 64 and 100, the room at 0.3 and 0.6) the slack fell by 44 % to 100 %
+#: within three rounds of each release. Where none is found (the room at 0.9) it fell by
+#: 11 %, while the LP, with thousands of new end rows a round, grew slower each round (0.5 s
+#: before the release, 45 s six rounds after): that try ran for over ten CPU minutes without
+#: this rule (``docs/kernel.md``, "The certified kernel's search").
 RELEASE_ROUNDS = 3
 #: Relative fall of the slack (against its best before the release) that a release must
 #: bring within :data:`RELEASE_ROUNDS` rounds
 RELEASE_REL = 0.25
+#: A release that has not paid ends the try only if the round that judges it added cutting
+#: planes for more than this share of the LP's rows (the LP still growing: the room at 0.9
+#: added 3 % at round 9). A try that is settling goes on to its stall: the 6 x 6 room at
+#: 0.3, ``h`` 0.5, whose release did not pay (slack 2.8) and which then added 0.1 %, is
+#: certified four rounds later, and would not be if it ended there.
+RELEASE_CUTS = 0.01
 #: Relative growth of the mean width that counts as progress once the slack is zero: a
 #: search without slack whose mean width has not grown by this much within
 #: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
@@ -417,7 +423,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
     within ``plateau`` rounds. A release must pay: when the slack has not fallen by
     :data:`RELEASE_REL` of its best before the release within ``release_rounds`` rounds of it
-    (:data:`RELEASE_ROUNDS`; 0: no such limit), the try ends there (``"stuck": "release"``).
+    (:data:`RELEASE_ROUNDS`; 0: no such limit), and that round added cutting planes for more
+    than :data:`RELEASE_CUTS` of the LP's rows, the try ends there (``"stuck": "release"``).
     The record of a round that released says how many vertices (``"released"``); each
     release rebuilds the LP, which is then solved cold.
 
@@ -619,7 +626,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             break
         since = min(since, slack_sum)
         if released_at and 0 < release_rounds == r - released_at \
-                and since > (1.0 - RELEASE_REL) * before:
+                and since > (1.0 - RELEASE_REL) * before \
+                and added > RELEASE_CUTS * entry["rows"]:
             entry["stuck"] = "release"  # the last release did not pay: the try ends
             break
         if slack_sum > 0.0 and (stalled or 0 < plateau <= r - best_round):
