@@ -32,7 +32,7 @@ from pathlib import Path
 from tether.examples import path as example_path
 from tether.game import surveillance_kernel
 from tether.game.certificate import first_field
-from tether.game.field_lp import PLATEAU_ROUNDS, solve_field
+from tether.game.field_lp import PLATEAU_ROUNDS, RELEASE_ROUNDS, solve_field
 from tether.io import load_map
 
 
@@ -44,6 +44,11 @@ def main() -> None:
     ap.add_argument("--sizes", default="40,60,100", help="comma-separated N (h = size/N)")
     ap.add_argument("--plateau", type=int, default=PLATEAU_ROUNDS,
                     help="rounds without progress that stop a try (0: the stall only)")
+    ap.add_argument("--release-rounds", type=int, default=RELEASE_ROUNDS,
+                    help="rounds within which a release of core vertices must pay, else the "
+                         "try ends (0: no such limit)")
+    ap.add_argument("--h", type=float, default=None,
+                    help="one mesh spacing (map units) instead of --sizes")
     ap.add_argument("--doc", default=None,
                     help="a Markdown file whose bench_certified block gets the table")
     args = ap.parse_args()
@@ -58,8 +63,10 @@ def main() -> None:
     print(f"{'N':>5} {'vertices':>9} {'inner s':>8} {'first s':>8} {'LP rounds':>10} "
           f"{'search s':>9} {'windows':>8} {'LP':>8} {'ends':>8} {'checks':>8} "
           f"{'certified':>10} {'total s':>8} {'x inner':>8} {'cpu s':>8} {'x cpu':>6}")
-    for n in (int(x) for x in args.sizes.split(",")):
+    sizes = [size / args.h] if args.h else [int(x) for x in args.sizes.split(",")]
+    for n in sizes:
         h = size / n * frame.scale
+        n = round(n)
         c0 = time.process_time()
         t0 = time.perf_counter()
         kern = surveillance_kernel(space, lss, vt, vo, h=h, orientations=180)
@@ -67,7 +74,8 @@ def main() -> None:
         cpu_inner = time.process_time() - c0
         f0 = first_field(kern)
         t2 = time.perf_counter()
-        f, checks, log = solve_field(space, kern, lss, vt, vo, plateau=args.plateau)
+        f, checks, log = solve_field(space, kern, lss, vt, vo, plateau=args.plateau,
+                                     release_rounds=args.release_rounds)
         t3 = time.perf_counter()
         cpu = time.process_time() - c0
         rounds = sum(e.get("rounds", 0) for e in log)
@@ -90,7 +98,8 @@ def main() -> None:
         for e in log:  # one line per try of the search: its core size and how it ended
             if "rounds" in e:
                 print(f"      core {e['core']:.2f}: {e['rounds']} rounds, slack "
-                      f"{e['slack']:.4g}, {e['failing']} failing, stuck at "
+                      f"{e['slack']:.4g}, {e['releases']} releases, {e['failing']} failing, "
+                      f"stuck at "
                       f"{e.get('stuck') or '-'}", flush=True)
     if args.doc:
         _write_doc(Path(args.doc), rows, load0, os.getloadavg()[0])

@@ -71,8 +71,9 @@ from tether.game.certificate import (
 )
 
 __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
-           "SEARCH_ROUNDS", "WIDTH_REL", "aligned_radius", "free_windows",
-           "lp_field", "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
+           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "WIDTH_REL",
+           "aligned_radius", "free_windows", "lp_field", "solve_field", "triangle_spans",
+           "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
 #: whole-circle vertex in the core, released where needed)
@@ -87,6 +88,25 @@ SEARCH_ROUNDS = 60
 PLATEAU_ROUNDS = 5
 #: Relative fall of the slack that counts as progress for :data:`PLATEAU_ROUNDS`
 PLATEAU_REL = 1e-3
+#: Rounds after a release of core vertices within which the slack must have fallen by
+#: :data:`RELEASE_REL` of its best before the release, else, while the search is still far
+#: from settled (:data:`RELEASE_CUTS`), the try ends (``"stuck": "release"``). A release
+#: that frees what held the slack pays at once: in every recorded search that certifies
+#: (gallery 0.3 at N = 64 and 100, the room at 0.3 and 0.6) the slack fell by 44 % to 100 %
+#: within three rounds of each release. Where none is found (the room at 0.9) it fell by
+#: 11 %, while the LP, with thousands of new end rows a round, grew slower each round (0.5 s
+#: before the release, 45 s six rounds after): that try ran for over ten CPU minutes without
+#: this rule (``docs/kernel.md``, "The certified kernel's search").
+RELEASE_ROUNDS = 3
+#: Relative fall of the slack (against its best before the release) that a release must
+#: bring within :data:`RELEASE_ROUNDS` rounds
+RELEASE_REL = 0.25
+#: A release that has not paid ends the try only if the round that judges it added cutting
+#: planes for more than this share of the LP's rows (the LP still growing: the room at 0.9
+#: added 3 % at round 9). A try that is settling goes on to its stall: the 6 x 6 room at
+#: 0.3, ``h`` 0.5, whose release did not pay (slack 2.8) and which then added 0.1 %, is
+#: certified four rounds later, and would not be if it ended there.
+RELEASE_CUTS = 0.01
 #: Relative growth of the mean width that counts as progress once the slack is zero: a
 #: search without slack whose mean width has not grown by this much within
 #: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
@@ -365,7 +385,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
              fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
              seed_cuts: bool = False, paired_ends: bool = True,
-             plateau: int = PLATEAU_ROUNDS, protect: float | None = None) -> LPResult:
+             plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
+             release_rounds: int = RELEASE_ROUNDS) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
     ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
@@ -400,7 +421,12 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     near the slack (below) and goes on; with none to release, it stops. The round's record
     then says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
     (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
-    within ``plateau`` rounds.
+    within ``plateau`` rounds. A release must pay: when the slack has not fallen by
+    :data:`RELEASE_REL` of its best before the release within ``release_rounds`` rounds of it
+    (:data:`RELEASE_ROUNDS`; 0: no such limit), and that round added cutting planes for more
+    than :data:`RELEASE_CUTS` of the LP's rows, the try ends there (``"stuck": "release"``).
+    The record of a round that released says how many vertices (``"released"``); each
+    release rebuilds the LP, which is then solved cold.
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -522,6 +548,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     slack_sum = np.inf
     best, best_round = np.inf, 0  # the plateau's reference: the best slack, and its round
     widest, widest_round = 0.0, 0  # without slack: the widest mean width, and its round
+    released_at, before, since = 0, np.inf, np.inf  # the last release: its round, the best
+    # slack before it, the least since
     r = 0
     for r in range(1, rounds + 1):
         t0 = time.perf_counter()
@@ -596,6 +624,12 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         if slack_sum <= 0.0 and (stalled or 0 < plateau <= r - widest_round):
             entry["stuck"] = "stall" if stalled else "widths"
             break
+        since = min(since, slack_sum)
+        if released_at and 0 < release_rounds == r - released_at \
+                and since > (1.0 - RELEASE_REL) * before \
+                and added > RELEASE_CUTS * entry["rows"]:
+            entry["stuck"] = "release"  # the last release did not pay: the try ends
+            break
         if slack_sum > 0.0 and (stalled or 0 < plateau <= r - best_round):
             entry["stuck"] = "stall" if stalled else "plateau"
             # stuck with slack: the core vertices near the triangles that need it give up
@@ -613,6 +647,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             et, idle = ends_checked()
             model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
             entry["released"] = int(len(freed))
+            released_at, before, since = r, min(best, slack_sum), np.inf
             best, best_round = np.inf, r  # a new LP: its slack is measured afresh
     return LPResult(L, H, slack_sum, r, log, core)
 
@@ -638,8 +673,8 @@ def aligned_radius(lss: float, vt: float, vo: float) -> float:
 def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
                 tries: tuple[float, ...] = CORE_TRIES, rounds: int = SEARCH_ROUNDS,
                 progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
-                start: ArcField | None = None, plateau: int = PLATEAU_ROUNDS
-                ) -> tuple[ArcField, Checks | None, list]:
+                start: ArcField | None = None, plateau: int = PLATEAU_ROUNDS,
+                release_rounds: int = RELEASE_ROUNDS) -> tuple[ArcField, Checks | None, list]:
     """The first field :func:`~tether.game.certificate.certify` passes, searched from
     :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
     the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
@@ -654,7 +689,8 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
     on the same mesh to try first (one certified at a shorter delay: it is checked at this
     one, kept if it passes, else the search starts from it with the first core size of
     ``tries``, and then from the first field as without it). ``plateau``: the rounds
-    without progress after which a try counts as stuck (:func:`lp_field`)."""
+    without progress after which a try counts as stuck, ``release_rounds``: those within which
+    a release of core vertices must pay (:func:`lp_field`)."""
     log: list = []
     r_v = vortex_radius(lss, vt, vo)
     if r_v < 0:  # above vt/vo = 1/√2 every core size is the whole-circle set: one try
@@ -669,21 +705,22 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
         if checks.passed:
             return g, checks, log
         g, checks = _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow, log,
-                           plateau)
+                            plateau, release_rounds)
         if checks.passed:
             return g, checks, log
     if (f.w <= 0).any():
         log.append({"core": None, "closed_arcs": int((f.w <= 0).sum())})
         return f, None, log
     f, checks = _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log,
-                             plateau)
+                        plateau, release_rounds)
     return f, checks, log
 
 
 def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
             tries: tuple[float, ...], r_v: float, rounds: int,
             progress: Callable[[dict], Any] | None, grow: float, log: list,
-            plateau: int = PLATEAU_ROUNDS) -> tuple[ArcField, Checks]:
+            plateau: int = PLATEAU_ROUNDS, release_rounds: int = RELEASE_ROUNDS
+            ) -> tuple[ArcField, Checks]:
     """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
     field passes :func:`certify`: the last field and its checks (records appended to
     ``log``)."""
@@ -691,13 +728,15 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
     checks = None
     for q in tries:
         r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
-                     core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau)
+                     core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau,
+                     release_rounds=release_rounds)
         f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
         t0 = time.perf_counter()
         checks = certify(f, env, lss, vt, vo, grow)
         rec = [e for e in r.log if "t_lp" in e]
         log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
                     "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
+                    "releases": sum(1 for e in r.log if "released" in e),
                     "failing": int(checks.bad.sum()),
                     "t_windows": sum(e["t_windows"] for e in rec),
                     "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
