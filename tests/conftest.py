@@ -188,3 +188,23 @@ class SerialExecutor(Executor):
         f = Future()
         f.set_result(fn(*args, **kwargs))
         return f
+
+
+def corner_room_first_field(vt: float) -> tuple:
+    """The 10 x 10 room (bundled ``nonconvex_corner``) in its normalized frame and its first
+    certified-field guess on a coarse mesh (h 1, 90 orientations, ``vo`` = 1): ``(space, lss,
+    field)``, the search's small test case (``tests/game/test_field_lp_*.py``)."""
+    from tether.examples import path as example_path
+    from tether.game import surveillance_kernel
+    from tether.game.certificate import first_field
+    from tether.io import load_map
+
+    env = load_map(example_path("nonconvex_corner"))
+    space, s = env.internal, env.frame.scale
+    kern = surveillance_kernel(space, s, vt, 1.0, h=1.0 * s, orientations=90)
+    return space, s, first_field(kern)
+
+
+def lp_rounds(log: list) -> list:
+    """The LP rounds' records of an ``lp_field`` log (those with a slack)."""
+    return [e for e in log if "slack" in e]

@@ -8,33 +8,23 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import corner_room_first_field, lp_rounds
 
-from tether.examples import path as example_path
-from tether.game import surveillance_kernel
-from tether.game.certificate import first_field
 from tether.game.field_lp import PLATEAU_REL, lp_field
-from tether.io import load_map
 
 VT = 0.6
 
 
 @pytest.fixture(scope="module")
 def room():
-    env = load_map(example_path("nonconvex_corner"))
-    space, s = env.internal, env.frame.scale
-    kern = surveillance_kernel(space, s, VT, 1.0, h=1.0 * s, orientations=90)
-    return space, s, first_field(kern)
-
-
-def _rounds(log: list) -> list:
-    return [e for e in log if "slack" in e]
+    return corner_room_first_field(VT)
 
 
 def test_a_plateau_releases_then_stops_and_the_rule_holds(room):
     space, lss, f = room
     k = 3
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, VT, 1.0, rounds=40, plateau=k)
-    rec = _rounds(r.log)
+    rec = lp_rounds(r.log)
     # recompute the rule from the recorded slacks
     best, since = np.inf, 0
     for e in rec:
@@ -56,4 +46,4 @@ def test_without_the_plateau_rule_the_try_runs_on(room):
     space, lss, f = room
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, VT, 1.0, rounds=7, plateau=0)
     assert r.rounds == 7  # with the rule (k = 3) round 6 is a plateau
-    assert not [e for e in _rounds(r.log) if e.get("stuck") == "plateau"]
+    assert not [e for e in lp_rounds(r.log) if e.get("stuck") == "plateau"]

@@ -9,25 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import corner_room_first_field, lp_rounds
 
-from tether.examples import path as example_path
-from tether.game import surveillance_kernel
-from tether.game.certificate import first_field
 from tether.game.field_lp import RELEASE_CUTS, RELEASE_REL, RELEASE_ROUNDS, lp_field
-from tether.io import load_map
 
 PLATEAU = 3  # rounds: a short plateau, so that the release comes early
-
-
-def _room(vt: float):
-    env = load_map(example_path("nonconvex_corner"))
-    space, s = env.internal, env.frame.scale
-    kern = surveillance_kernel(space, s, vt, 1.0, h=1.0 * s, orientations=90)
-    return space, s, first_field(kern)
-
-
-def _rounds(log: list) -> list:
-    return [e for e in log if "slack" in e]
 
 
 def _release_checks(rec: list) -> list:
@@ -51,9 +37,9 @@ def _release_checks(rec: list) -> list:
 
 
 def test_a_release_that_does_not_pay_ends_the_try():
-    space, lss, f = _room(0.9)
+    space, lss, f = corner_room_first_field(0.9)
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.9, 1.0, rounds=40, plateau=PLATEAU)
-    rec = _rounds(r.log)
+    rec = lp_rounds(r.log)
     checks = _release_checks(rec)
     assert checks and not checks[-1][1] and checks[-1][2]  # the last release did not pay ...
     assert rec[-1]["round"] == checks[-1][0] == r.rounds < 40  # ... and its judge ended it
@@ -64,9 +50,9 @@ def test_a_release_that_does_not_pay_ends_the_try():
 
 
 def test_a_release_that_pays_lets_the_try_go_on():
-    space, lss, f = _room(0.6)
+    space, lss, f = corner_room_first_field(0.6)
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.6, 1.0, rounds=40, plateau=PLATEAU)
-    rec = _rounds(r.log)
+    rec = lp_rounds(r.log)
     checks = _release_checks(rec)
     assert checks and all(paid for _, paid, _ in checks)
     assert not [e for e in rec if e.get("stuck") == "release"]
@@ -75,12 +61,12 @@ def test_a_release_that_pays_lets_the_try_go_on():
 
 @pytest.mark.slow
 def test_without_the_release_rule_the_try_runs_on():
-    space, lss, f = _room(0.9)
+    space, lss, f = corner_room_first_field(0.9)
     with_rule = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.9, 1.0, rounds=40,
                          plateau=PLATEAU)
     n = with_rule.rounds + 2
     r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.9, 1.0, rounds=n, plateau=PLATEAU,
                  release_rounds=0)
     assert r.rounds == n  # past the round where the rule ends the try
-    assert not [e for e in _rounds(r.log) if e.get("stuck") == "release"]
+    assert not [e for e in lp_rounds(r.log) if e.get("stuck") == "release"]
     assert np.isfinite(r.slack)
