@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 import tether.curves.tasks as tasks
 from tether.curves import critical_curves
+from tether.decomposition import decompose
 from tether.decomposition.tiles import process_executor
 from tether.examples import load
 from tether.examples.floorplan import floor_plan
@@ -27,10 +28,11 @@ class Counting(Executor):
     """An executor's wrapper counting the tasks submitted to it."""
 
     def __init__(self, inner: Executor):
-        self.inner, self.count = inner, 0
+        self.inner, self.count, self.fns = inner, 0, []
 
     def submit(self, fn, /, *args, **kwargs):
         self.count += 1
+        self.fns.append(fn)
         return self.inner.submit(fn, *args, **kwargs)
 
 
@@ -97,3 +99,12 @@ def test_random_maps_on_threads(env, frac, chunk, monkeypatch):
     x0, y0, x1, y1 = env.bounds
     with ThreadPoolExecutor(2) as pool:
         assert_same_by_tasks(env, frac * min(x1 - x0, y1 - y0), pool, monkeypatch, chunk)
+
+
+def test_tiled_decompose_makes_the_intervals_on_its_executor():
+    """The pipeline passes the tiles' executor to the curves (tether/decomposition/pipeline.py)."""
+    env = load("rectangle")
+    with ThreadPoolExecutor(2) as pool:
+        counting = Counting(pool)
+        decompose(env, 0.3 * env.diameter, tiles=(2, 2), executor=counting)
+    assert counting.fns.count(tasks._chunk_intervals) == 2  # the offsets (A), the circles (B)

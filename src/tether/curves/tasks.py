@@ -16,6 +16,7 @@ from concurrent.futures import Executor, Future
 
 import numpy as np
 
+from tether._util.memory import release_memory
 from tether.curves.critical import critical_intervals
 from tether.curves.families import Family
 from tether.environment import Environment
@@ -76,5 +77,9 @@ def _submit_chunks(executor: Executor, env: Environment, fam: Family, chunk: int
 
 
 def _chunk_intervals(env: Environment, rows: Family) -> Intervals:
-    """The task: ``critical_intervals(env, rows)`` (run in a worker)."""
-    return critical_intervals(env, rows)
+    """The task: ``critical_intervals(env, rows)`` (run in a worker), the C heap's freed
+    memory returned to the system before the result is sent (as the tiles' tasks do,
+    :func:`tether.decomposition.tiles.trimmed`)."""
+    out = critical_intervals(env, rows)
+    release_memory()
+    return out
