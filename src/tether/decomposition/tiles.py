@@ -87,7 +87,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 from collections.abc import Callable
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 from typing import Any
@@ -764,44 +764,70 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     if ref is not None:
         rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
     done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
-    futures = {t: submit(near[nptr[t]:nptr[t + 1]],
-                         None if ref is None else rnear[rptr[t]:rptr[t + 1]],
-                         done[t][0], (grid, t), ())
-               for t in range(grid.count)}
+    first = {t: submit(near[nptr[t]:nptr[t + 1]],
+                       None if ref is None else rnear[rptr[t]:rptr[t + 1]],
+                       done[t][0], (grid, t), ())
+             for t in _largest_first(np.diff(nptr))}
     del near, rnear
-    got, level, finished, total, shown = [], 0, 0, len(futures), 0.0
     stage = f"tiles ({nx}x{ny})"
-    while futures:
-        pending = {}
-        # a failed task is seen as soon as it ends (the others are cancelled: a failing
-        # floating-point task can take minutes); the results are then taken in task order
-        tile_of_future = {f: t for t, f in futures.items()}
-        for f in as_completed(tile_of_future):
-            finished += 1
-            shown = max(shown, finished / total)  # retries add tasks: never backwards
-            report(stage, 0.3 + 0.15 * shown)
-            if f.result() is None:
-                for g in futures.values():
-                    g.cancel()
-                return None
-        for t, f in futures.items():
-            r = f.result()
-            got.append(r)
-            log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
-            if len(r[4]):
-                pending[t] = r
-        level += 1
-        futures = {}
-        for t, r in pending.items():  # larger regions around the parts not vouched for
-            trust = mask_around(r[5], margin * 2.0 ** level, margin)
-            futures[t] = submit(_segments_near(trust, lo, hi, pad),
-                                None if ref is None else _segments_near(trust, rlo, rhi,
-                                                                        2 * reach),
-                                trust, r[4], done[t])
-            done[t] = (*done[t], trust)
-            log["retries"] += 1
-            total += 1
+
+    def follow(level: int, t: int, r: tuple) -> Any:
+        # a larger region around the parts the task could not vouch for, at once
+        log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
+        if not len(r[4]):
+            return None
+        trust = mask_around(r[5], margin * 2.0 ** (level + 1), margin)
+        f = submit(_segments_near(trust, lo, hi, pad),
+                   None if ref is None else _segments_near(trust, rlo, rhi, 2 * reach),
+                   trust, r[4], done[t])
+        done[t] = (*done[t], trust)
+        log["retries"] += 1
+        return f
+
+    results = _rounds(first, follow, lambda frac: report(stage, 0.3 + 0.15 * frac))
+    if results is None:
+        return None
+    got = [results[k] for k in sorted(results)]
     return got, sent
+
+
+def _largest_first(sizes: np.ndarray) -> list[int]:
+    """The tiles in the order their tasks are submitted: the largest (``sizes``: segments
+    or parts sent) first, ties in tile order, so that a pool's workers do not end on one big
+    task while the other waits (the results are taken in tile order all the same)."""
+    return [int(t) for t in np.argsort(-np.asarray(sizes), kind="stable")]
+
+
+def _rounds(first: dict[int, Any], follow: Callable[[int, int, Any], Any],
+            report: Callable[[float], Any],
+            keep: Callable[[Any, Any], Any] = lambda f, r: r) -> dict | None:
+    """The tiles' tasks and their retries (``first``: each tile's first task's future):
+    each result is handed to ``follow(level, tile, result)`` as soon as its task ends, which
+    submits the tile's next task (a future) or returns None, so the workers never wait for
+    the slowest task of a round. Returns ``keep(future, result)`` by ``(level, tile)``
+    (sorted: the order of the rounds, then of the tiles), or None as soon as a task returns
+    None (the tasks not yet started are cancelled; no retry of the tasks ended with it is
+    submitted). ``report`` gets the fraction of the tasks finished (never backwards)."""
+    key_of = {f: (0, t) for t, f in first.items()}
+    out, finished, shown = {}, 0, 0.0
+    while key_of:
+        ended, _ = wait(list(key_of), return_when=FIRST_COMPLETED)
+        ended = sorted(ended, key=key_of.__getitem__)
+        if any(f.result() is None for f in ended):  # before any retry of those ended
+            for g in key_of:
+                g.cancel()
+            return None
+        for f in ended:
+            level, t = key_of.pop(f)
+            r = f.result()
+            finished += 1
+            nxt = follow(level, t, r)
+            if nxt is not None:
+                key_of[nxt] = (level + 1, t)
+            out[level, t] = keep(f, r)
+            shown = max(shown, finished / (finished + len(key_of)))
+            report(shown)
+    return out
 
 
 def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: float
@@ -921,57 +947,56 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     log.update(face_tiles=grid.shape, face_margin=margin, face_retries=0,
                face_parts_sent=0.0, face_fallback=False)
     sent = 0
+    near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
+    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
+    sel_of = {}
 
     def submit(sel: np.ndarray, trust: Any, complete: Any, own: Any, done: tuple) -> Any:
         nonlocal sent
         sent += len(sel)
         xy = coords[ragged_arange(start[sel], count[sel])]
-        return sel, executor.submit(trimmed, trace_tile, xy, count[sel], trust, complete, own,
-                                    done, arcs)
+        f = executor.submit(trimmed, trace_tile, xy, count[sel], trust, complete, own, done,
+                            arcs)
+        sel_of[f] = sel
+        return f
 
-    near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
-    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
-    futures = {t: submit(near[nptr[t]:nptr[t + 1]], done[t][0],
-                         grown(tile_box(grid, t), 1.5 * margin), (grid, t), ())
-               for t in range(grid.count)}
+    first = {t: submit(near[nptr[t]:nptr[t + 1]], done[t][0],
+                       grown(tile_box(grid, t), 1.5 * margin), (grid, t), ())
+             for t in _largest_first(np.diff(nptr))}
     del near
-    side = np.full(2 * n, -1, np.int64)
-    rings, arc_parts = [], []
-    nfaces, level, finished, total, shown = 0, 0, 0, len(futures), 0.0
     stage = f"face tiles ({nx}x{ny})"
-    while futures:
-        pending = {}
-        for t, (sel, f) in futures.items():
-            r = f.result()
-            finished += 1
-            shown = max(shown, finished / total)
-            report(stage, 0.45 + 0.04 * shown)
-            if r is None:
-                log["face_fallback"] = True
-                return None
-            xy, offsets, he, face, retry, seen, peak, fa, area = r
-            log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
-            ghe = 2 * sel[he // 2] + he % 2
-            if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
-                log["face_fallback"] = True
-                return None
-            side[ghe] = face + nfaces
-            rings.append(FaceRings(xy, *offsets, area))
-            if fa is not None:
-                arc_parts.append((fa, nfaces))
-            nfaces += len(area)
-            if len(retry):
-                pending[t] = retry, seen
-        level += 1
-        futures = {}
-        for t, (pts, seen) in pending.items():  # larger regions around the faces' walks seen
-            trust = mask_around(seen, margin * 2.0 ** (level - 1), margin)
-            complete = trust.dilated(math.ceil(margin / trust.cell))
-            futures[t] = submit(_segments_near(trust, plo, phi, margin), trust, complete,
-                                pts, done[t])
-            done[t] = (*done[t], trust)
-            log["face_retries"] += 1
-            total += 1
+
+    def follow(level: int, t: int, r: tuple) -> Any:
+        # a larger region around the faces' walks seen, submitted as soon as the task ends
+        retry, seen = r[4], r[5]
+        if not len(retry):
+            return None
+        trust = mask_around(seen, margin * 2.0 ** level, margin)
+        complete = trust.dilated(math.ceil(margin / trust.cell))
+        f = submit(_segments_near(trust, plo, phi, margin), trust, complete, retry, done[t])
+        done[t] = (*done[t], trust)
+        log["face_retries"] += 1
+        return f
+
+    results = _rounds(first, follow, lambda frac: report(stage, 0.45 + 0.04 * frac),
+                      keep=lambda f, r: (sel_of.pop(f), r))
+    if results is None:
+        log["face_fallback"] = True
+        return None
+    side = np.full(2 * n, -1, np.int64)
+    rings, arc_parts, nfaces = [], [], 0
+    for key in sorted(results):  # in the order of levels, then tiles: the faces' numbers
+        sel, (xy, offsets, he, face, retry, seen, peak, fa, area) = results.pop(key)
+        log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
+        ghe = 2 * sel[he // 2] + he % 2
+        if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
+            log["face_fallback"] = True
+            return None
+        side[ghe] = face + nfaces
+        rings.append(FaceRings(xy, *offsets, area))
+        if fa is not None:
+            arc_parts.append((fa, nfaces))
+        nfaces += len(area)
     log["face_parts_sent"] = sent / n
     log["faces"] = nfaces
     pf = np.sort(side.reshape(n, 2), axis=1)
