@@ -116,7 +116,8 @@ from tether.errors import ArrangementError, InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
 __all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "PIECE_TILE_CHAINS",
-           "SNAP_MARGIN_PIXELS", "SNAP_TILE_SEGMENTS", "TILE_MARGIN", "TILE_SEGMENTS",
+           "SNAP_MARGIN_PIXELS", "SNAP_MAX_TILES", "SNAP_TILE_SEGMENTS", "TILE_MARGIN",
+           "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "pieces_tile", "process_executor",
            "runs_of", "segments_by_tile", "tile_box", "tile_grid", "tiled_crossings",
@@ -132,8 +133,14 @@ TILE_SEGMENTS = 250_000
 #: so smaller trees take less time a segment, more than the wider margins sent cost: a task
 #: of the 4,000-vertex floor plan (262,537 segments) noded as 2 x 2 and 3 x 3 sub-tiles took
 #: 0.65 and 0.56 times its CPU time whole, for 1.23 and 1.31 times its segments
-#: (``docs/scale.md``). The tiled parts do not depend on the grid.
-SNAP_TILE_SEGMENTS = 32_000
+#: (``docs/scale.md``); the 2,000-vertex plan's tasks took 26.0 CPU s in 10 x 6 tiles and
+#: 30.5 s in 7 x 5 (``benchmarks/bench_tiles.py``). The tiled parts do not depend on the
+#: grid.
+SNAP_TILE_SEGMENTS = 20_000
+
+#: The most snap-rounding tiles chosen automatically (more than :data:`MAX_TILES`: the
+#: 4,000-vertex plan's ~2 million input segments would be held to 55 tiles of ~40,000).
+SNAP_MAX_TILES = 128
 
 #: Chains per tile aimed at when the pieces' tiles are chosen automatically (``"auto"``,
 #: :func:`tiled_crossings`): one :data:`tether.decomposition.pieces.PIECE_BATCH` per task,
@@ -228,17 +235,17 @@ def check_tiles(tiles: Any) -> tuple[int, int] | str:
     return nx, ny
 
 
-def auto_tiles(segments: int, width: float, height: float, per_tile: int = TILE_SEGMENTS
-               ) -> tuple[int, int]:
+def auto_tiles(segments: int, width: float, height: float, per_tile: int = TILE_SEGMENTS,
+               cap: int = MAX_TILES) -> tuple[int, int]:
     """The grid for ``segments`` input segments over a ``width x height`` box: about
-    ``per_tile`` (:data:`TILE_SEGMENTS`) segments per tile (at most :data:`MAX_TILES` tiles),
-    the tiles about square. Depends on the input's size only, never on the number of
-    workers."""
-    n = min(max(math.ceil(segments / per_tile), 1), MAX_TILES)
+    ``per_tile`` (:data:`TILE_SEGMENTS`) segments per tile (at most ``cap`` tiles,
+    :data:`MAX_TILES`), the tiles about square. Depends on the input's size only, never on
+    the number of workers."""
+    n = min(max(math.ceil(segments / per_tile), 1), cap)
     aspect = width / height if width > 0 and height > 0 else 1.0
     nx = min(max(round(math.sqrt(n * aspect)), 1), n)
     ny = math.ceil(n / nx)
-    while nx * ny > MAX_TILES:
+    while nx * ny > cap:
         ny -= 1
     return nx, ny
 
@@ -722,8 +729,8 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     segments ``(a, b, source)`` the sources are found among (None: the input's own);
     ``grid_size``: the snap-rounding grid (map units; 0: floating-point noding), which
     widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells and, with ``"auto"``
-    tiles, aims at :data:`SNAP_TILE_SEGMENTS` segments a tile instead of
-    :data:`TILE_SEGMENTS`. A floating-point
+    tiles, aims at :data:`SNAP_TILE_SEGMENTS` segments a tile (at most
+    :data:`SNAP_MAX_TILES` tiles) instead of :data:`TILE_SEGMENTS`. A floating-point
     task gets the input within twice the margin of its tile (a retry, within the margin of
     its region); a snap-rounding task within the margin and :data:`SNAP_MARGIN_PIXELS`
     cells (or twice ``reach``) more: a snap-rounded part depends on the input within about
@@ -734,9 +741,10 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         return [], 0
     lo, hi = np.minimum(la, lb), np.maximum(la, lb)
     span = hi.max(axis=0) - lo.min(axis=0)
-    per_tile = TILE_SEGMENTS if grid_size == 0 else SNAP_TILE_SEGMENTS
+    per_tile, cap = (TILE_SEGMENTS, MAX_TILES) if grid_size == 0 else (SNAP_TILE_SEGMENTS,
+                                                                       SNAP_MAX_TILES)
     shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]),
-                                                     per_tile)
+                                                     per_tile, cap)
     grid = tile_grid(np.vstack((la, lb)), shape)
     nx, ny = grid.shape
     margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach,
