@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 import math
+import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 
 import lattice_maps as lm
@@ -320,7 +321,14 @@ def test_rounds_retry_before_the_round_ends():
             return _done("b1")
         return None
 
-    out = _rounds(first, follow, shown.append)
+    # a safety net: were the retry only sent once the round ends, the slow task ends after 10 s
+    # and the order assertion below fails, instead of the test hanging
+    net = threading.Timer(10.0, lambda: slow.done() or slow.set_result("a0"))
+    net.start()
+    try:
+        out = _rounds(first, follow, shown.append)
+    finally:
+        net.cancel()
     assert out == {(0, 0): "a0", (0, 1): "b0", (0, 2): "c0", (1, 1): "b1"}
     assert calls[0] == (0, 1, "b0", False)  # tile 1 followed up before tile 0 ended
     assert sorted(c[:3] for c in calls) == [(0, 0, "a0"), (0, 1, "b0"), (0, 2, "c0"),
