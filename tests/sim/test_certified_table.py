@@ -4,20 +4,12 @@ fields (``--field-file``) kept when the script's own rows are computed again."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.fixture(scope="module")
-def ct():
-    spec = importlib.util.spec_from_file_location("certified_table", DOCS / "certified_table.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def ct(doc_script):
+    return doc_script("certified_table")
 
 
 OLD = """x
