@@ -1081,11 +1081,12 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
                  if bounds[t + 1] > bounds[t]]
         log["piece_tasks"] = len(tasks)
         ahead = _tasks_ahead(executor)
+        sizes = (chains.size, cands.count)  # every chain's, counted once, not once a task
 
         def submit(ids: np.ndarray) -> Any:
             return executor.submit(trimmed, pieces_tile, env, lss,
                                    *_task_inputs(ids, curves, chains, cands, srcs, reg, parts,
-                                                 start))
+                                                 start, sizes))
 
         # at most ``ahead`` tasks' inputs made and waiting (each a copy of its chains' data)
         futures = {k: submit(tasks[k]) for k in range(min(ahead, len(tasks)))}
@@ -1131,20 +1132,22 @@ def _as_part_lines(parts: Any) -> PartLines:
 
 def _task_inputs(ids: np.ndarray, curves: list[Curve], chains: Chains, cands: Candidates,
                  srcs: tuple[np.ndarray, np.ndarray], reg: tuple[StructureRows, np.ndarray],
-                 parts: PartLines, start: np.ndarray) -> tuple:
+                 parts: PartLines, start: np.ndarray,
+                 sizes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple:
     """The arguments of :func:`pieces_tile` (after the map and ``lss``) for the chains
     ``ids`` (increasing), numbered for the task: their curves (:func:`_curves_subset`),
     their chains over their own parts, their candidates, their curves' CSR, the structure
     rows of their regions and their parts' coordinates (``start``: each part's first row in
-    ``parts.xy``)."""
-    size = chains.size[ids]
+    ``parts.xy``; ``sizes``: ``chains.size`` and ``cands.count``, if made already)."""
+    chain_size, cand_count = (chains.size, cands.count) if sizes is None else sizes
+    size = chain_size[ids]
     pid = chains.parts[ragged_arange(chains.ptr[ids], size)]  # a part is in one chain
     sub = PartLines(np.take(parts.xy, ragged_arange(start[pid], parts.count[pid]), axis=0),
                     parts.count[pid], parts.length[pid])
     regions, pair = np.unique(chains.pair[ids], return_inverse=True)
     rows, reg_of = reg
     used, reg_local = np.unique(reg_of[regions], return_inverse=True)
-    ccount = cands.count[ids]
+    ccount = cand_count[ids]
     crow = ragged_arange(cands.ptr[ids], ccount)
     sptr, ssrc = srcs
     scount = sptr[ids + 1] - sptr[ids]
