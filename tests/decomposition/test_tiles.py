@@ -287,6 +287,9 @@ def test_auto_tiles():
     nx, ny = auto_tiles(3_600_000, 20.0, 10.0)
     assert nx * ny >= 3_600_000 / 250_000 and nx > ny
     assert 1 <= np.prod(auto_tiles(10**9, 1.0, 1.0)) <= MAX_TILES
+    # the snap-rounding tasks' own cap: more tiles than a grid given by hand may have
+    nx, ny = auto_tiles(10**9, 2.0, 1.0, 20_000, 128)
+    assert 64 < nx * ny <= 128 and nx > ny
 
 
 # ---------------------------------------------------------------- the command line

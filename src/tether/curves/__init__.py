@@ -42,10 +42,13 @@ curve is computed and refuses what does not fit the memory budget (the default c
 
 from __future__ import annotations
 
+from concurrent.futures import Executor
+
 from tether._util.memory import release_memory
 from tether.curves.budget import check_exact
 from tether.curves.critical import ON_WALL_TOLS as ON_WALL_TOLS
-from tether.curves.critical import critical_intervals, off_walls, wall_band
+from tether.curves.critical import critical_intervals as critical_intervals
+from tether.curves.critical import off_walls, wall_band
 from tether.curves.draw import draw_all, overshoot_family, vertex_estimates
 from tether.curves.families import (
     KIND_NAMES,
@@ -57,6 +60,7 @@ from tether.curves.families import (
 )
 from tether.curves.project import project_many
 from tether.curves.share import share_lines
+from tether.curves.tasks import family_intervals
 from tether.environment import Environment
 from tether.errors import ResourceLimitError
 from tether.tolerances import REL_CURVE_TOL
@@ -86,8 +90,8 @@ def check_vertex_budget(vertices: float, lss: float) -> None:
             "a coarser curve tolerance, or split the map")
 
 
-def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
-                    ) -> list[Curve]:
+def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL,
+                    executor: Executor | None = None) -> list[Curve]:
     """All candidate curves with a critical part, each with its polylines.
 
     Parameters
@@ -97,6 +101,9 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
         Rod length, map units.
     rel_tol : float
         Polyline approximation tolerance relative to the map diameter.
+    executor : concurrent.futures.Executor, optional
+        Computes the critical intervals in tasks (:mod:`tether.curves.tasks`: the same
+        curves, bit for bit); None: in this process.
 
     Returns
     -------
@@ -116,16 +123,15 @@ def critical_curves(env: Environment, lss: float, rel_tol: float = REL_CURVE_TOL
     """
     if not env.is_internal:  # computed in the normalized frame, reported in the user's
         names = env.feature_names_map()
-        return curves_to_user(critical_curves(env.internal, lss * env.frame.scale, rel_tol),
-                              env.frame, names)
+        return curves_to_user(critical_curves(env.internal, lss * env.frame.scale, rel_tol,
+                                              executor), env.frame, names)
     tol = rel_tol * env.diameter
     margin = 20 * tol
     curves: list[Curve] = []
     found = []
     first = env.coincident
     walls = None
-    for fam in candidate_families(env, lss):
-        ivs = critical_intervals(env, fam)
+    for fam, ivs in family_intervals(env, candidate_families(env, lss), executor):
         if fam.kind == "B":  # touching rings: one circle per point (see ``families._family_b``)
             ivs = [iv if first[c] == c else [] for c, iv in enumerate(ivs)]
         if fam.kind in "ACD":

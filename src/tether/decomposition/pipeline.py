@@ -191,7 +191,8 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     tol = rel_tol * env.diameter
     report = progress or (lambda stage, frac: None)
     report("critical curves", 0.0)
-    curves = critical_curves(env, lss, rel_tol)  # whole: tiles node them, nothing earlier
+    # whole: tiles node them, nothing earlier; their intervals made by the tiles' executor
+    curves = critical_curves(env, lss, rel_tol, None if tiling is None else tiling[1])
     report("arrangement", 0.3)
     noder = None if tiling is None else tiled_noder(tiling[0], tiling[1], tol, report,
                                                     arcs=(env, lss), noding=noding)

@@ -88,7 +88,7 @@ import math
 import multiprocessing
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 from typing import Any
@@ -117,7 +117,8 @@ from tether.errors import ArrangementError, InvalidParameterError
 from tether.spatial import SegmentGrid, segments_near
 
 __all__ = ["CUT_FRACTION", "FACE_MARGIN", "MASK_CELLS", "MAX_TILES", "PIECE_TILE_CHAINS",
-           "SNAP_MARGIN_PIXELS", "SNAP_TILE_SEGMENTS", "TILE_MARGIN", "TILE_SEGMENTS",
+           "SNAP_MARGIN_PIXELS", "SNAP_MAX_TILES", "SNAP_TILE_SEGMENTS", "TILE_MARGIN",
+           "TILE_SEGMENTS",
            "CellMask", "TileGrid", "auto_tiles", "check_tiles", "cut_positions", "grown",
            "mask_around", "node_tile", "part_sources", "pieces_tile", "process_executor",
            "runs_of", "segments_by_tile", "tile_box", "tile_grid", "tiled_crossings",
@@ -133,8 +134,14 @@ TILE_SEGMENTS = 250_000
 #: so smaller trees take less time a segment, more than the wider margins sent cost: a task
 #: of the 4,000-vertex floor plan (262,537 segments) noded as 2 x 2 and 3 x 3 sub-tiles took
 #: 0.65 and 0.56 times its CPU time whole, for 1.23 and 1.31 times its segments
-#: (``docs/scale.md``). The tiled parts do not depend on the grid.
-SNAP_TILE_SEGMENTS = 32_000
+#: (``docs/scale.md``); the 2,000-vertex plan's tasks took 26.0 CPU s in 10 x 6 tiles and
+#: 30.5 s in 7 x 5 (``benchmarks/bench_tiles.py``). The tiled parts do not depend on the
+#: grid.
+SNAP_TILE_SEGMENTS = 20_000
+
+#: The most snap-rounding tiles chosen automatically (more than :data:`MAX_TILES`: the
+#: 4,000-vertex plan's ~2 million input segments would be held to 55 tiles of ~40,000).
+SNAP_MAX_TILES = 128
 
 #: Chains per tile aimed at when the pieces' tiles are chosen automatically (``"auto"``,
 #: :func:`tiled_crossings`): one :data:`tether.decomposition.pieces.PIECE_BATCH` per task,
@@ -229,17 +236,17 @@ def check_tiles(tiles: Any) -> tuple[int, int] | str:
     return nx, ny
 
 
-def auto_tiles(segments: int, width: float, height: float, per_tile: int = TILE_SEGMENTS
-               ) -> tuple[int, int]:
+def auto_tiles(segments: int, width: float, height: float, per_tile: int = TILE_SEGMENTS,
+               cap: int = MAX_TILES) -> tuple[int, int]:
     """The grid for ``segments`` input segments over a ``width x height`` box: about
-    ``per_tile`` (:data:`TILE_SEGMENTS`) segments per tile (at most :data:`MAX_TILES` tiles),
-    the tiles about square. Depends on the input's size only, never on the number of
-    workers."""
-    n = min(max(math.ceil(segments / per_tile), 1), MAX_TILES)
+    ``per_tile`` (:data:`TILE_SEGMENTS`) segments per tile (at most ``cap`` tiles,
+    :data:`MAX_TILES`), the tiles about square. Depends on the input's size only, never on
+    the number of workers."""
+    n = min(max(math.ceil(segments / per_tile), 1), cap)
     aspect = width / height if width > 0 and height > 0 else 1.0
     nx = min(max(round(math.sqrt(n * aspect)), 1), n)
     ny = math.ceil(n / nx)
-    while nx * ny > MAX_TILES:
+    while nx * ny > cap:
         ny -= 1
     return nx, ny
 
@@ -723,8 +730,8 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     segments ``(a, b, source)`` the sources are found among (None: the input's own);
     ``grid_size``: the snap-rounding grid (map units; 0: floating-point noding), which
     widens the margin to at least :data:`SNAP_MARGIN_PIXELS` grid cells and, with ``"auto"``
-    tiles, aims at :data:`SNAP_TILE_SEGMENTS` segments a tile instead of
-    :data:`TILE_SEGMENTS`. A floating-point
+    tiles, aims at :data:`SNAP_TILE_SEGMENTS` segments a tile (at most
+    :data:`SNAP_MAX_TILES` tiles) instead of :data:`TILE_SEGMENTS`. A floating-point
     task gets the input within twice the margin of its tile (a retry, within the margin of
     its region); a snap-rounding task within the margin and :data:`SNAP_MARGIN_PIXELS`
     cells (or twice ``reach``) more: a snap-rounded part depends on the input within about
@@ -735,9 +742,10 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
         return [], 0
     lo, hi = np.minimum(la, lb), np.maximum(la, lb)
     span = hi.max(axis=0) - lo.min(axis=0)
-    per_tile = TILE_SEGMENTS if grid_size == 0 else SNAP_TILE_SEGMENTS
+    per_tile, cap = (TILE_SEGMENTS, MAX_TILES) if grid_size == 0 else (SNAP_TILE_SEGMENTS,
+                                                                       SNAP_MAX_TILES)
     shape = tiles if tiles != "auto" else auto_tiles(len(la), float(span[0]), float(span[1]),
-                                                     per_tile)
+                                                     per_tile, cap)
     grid = tile_grid(np.vstack((la, lb)), shape)
     nx, ny = grid.shape
     margin = max(TILE_MARGIN * float(min(span[0] / nx, span[1] / ny)), 4 * reach,
@@ -765,44 +773,70 @@ def _node_in_tiles(group: tuple, ref: tuple | None, tiles: tuple[int, int] | str
     if ref is not None:
         rnear, rptr = segments_by_tile(rlo, rhi, grid, margin + 2 * reach)
     done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
-    futures = {t: submit(near[nptr[t]:nptr[t + 1]],
-                         None if ref is None else rnear[rptr[t]:rptr[t + 1]],
-                         done[t][0], (grid, t), ())
-               for t in range(grid.count)}
+    first = {t: submit(near[nptr[t]:nptr[t + 1]],
+                       None if ref is None else rnear[rptr[t]:rptr[t + 1]],
+                       done[t][0], (grid, t), ())
+             for t in _largest_first(np.diff(nptr))}
     del near, rnear
-    got, level, finished, total, shown = [], 0, 0, len(futures), 0.0
     stage = f"tiles ({nx}x{ny})"
-    while futures:
-        pending = {}
-        # a failed task is seen as soon as it ends (the others are cancelled: a failing
-        # floating-point task can take minutes); the results are then taken in task order
-        tile_of_future = {f: t for t, f in futures.items()}
-        for f in as_completed(tile_of_future):
-            finished += 1
-            shown = max(shown, finished / total)  # retries add tasks: never backwards
-            report(stage, 0.3 + 0.15 * shown)
-            if f.result() is None:
-                for g in futures.values():
-                    g.cancel()
-                return None
-        for t, f in futures.items():
-            r = f.result()
-            got.append(r)
-            log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
-            if len(r[4]):
-                pending[t] = r
-        level += 1
-        futures = {}
-        for t, r in pending.items():  # larger regions around the parts not vouched for
-            trust = mask_around(r[5], margin * 2.0 ** level, margin)
-            futures[t] = submit(_segments_near(trust, lo, hi, pad),
-                                None if ref is None else _segments_near(trust, rlo, rhi,
-                                                                        2 * reach),
-                                trust, r[4], done[t])
-            done[t] = (*done[t], trust)
-            log["retries"] += 1
-            total += 1
+
+    def follow(level: int, t: int, r: tuple) -> Any:
+        # a larger region around the parts the task could not vouch for, at once
+        log["worker_peak_bytes"] = max(log["worker_peak_bytes"], r[6])
+        if not len(r[4]):
+            return None
+        trust = mask_around(r[5], margin * 2.0 ** (level + 1), margin)
+        f = submit(_segments_near(trust, lo, hi, pad),
+                   None if ref is None else _segments_near(trust, rlo, rhi, 2 * reach),
+                   trust, r[4], done[t])
+        done[t] = (*done[t], trust)
+        log["retries"] += 1
+        return f
+
+    results = _rounds(first, follow, lambda frac: report(stage, 0.3 + 0.15 * frac))
+    if results is None:
+        return None
+    got = [results[k] for k in sorted(results)]
     return got, sent
+
+
+def _largest_first(sizes: np.ndarray) -> list[int]:
+    """The tiles in the order their tasks are submitted: the largest (``sizes``: segments
+    or parts sent) first, ties in tile order, so that a pool's workers do not end on one big
+    task while the other waits (the results are taken in tile order all the same)."""
+    return [int(t) for t in np.argsort(-np.asarray(sizes), kind="stable")]
+
+
+def _rounds(first: dict[int, Any], follow: Callable[[int, int, Any], Any],
+            report: Callable[[float], Any],
+            keep: Callable[[Any, Any], Any] = lambda f, r: r) -> dict | None:
+    """The tiles' tasks and their retries (``first``: each tile's first task's future):
+    each result is handed to ``follow(level, tile, result)`` as soon as its task ends, which
+    submits the tile's next task (a future) or returns None, so the workers never wait for
+    the slowest task of a round. Returns ``keep(future, result)`` by ``(level, tile)``
+    (sorted: the order of the rounds, then of the tiles), or None as soon as a task returns
+    None (the tasks not yet started are cancelled; no retry of the tasks ended with it is
+    submitted). ``report`` gets the fraction of the tasks finished (never backwards)."""
+    key_of = {f: (0, t) for t, f in first.items()}
+    out, finished, shown = {}, 0, 0.0
+    while key_of:
+        ended, _ = wait(list(key_of), return_when=FIRST_COMPLETED)
+        ended = sorted(ended, key=key_of.__getitem__)
+        if any(f.result() is None for f in ended):  # before any retry of those ended
+            for g in key_of:
+                g.cancel()
+            return None
+        for f in ended:
+            level, t = key_of.pop(f)
+            r = f.result()
+            finished += 1
+            nxt = follow(level, t, r)
+            if nxt is not None:
+                key_of[nxt] = (level + 1, t)
+            out[level, t] = keep(f, r)
+            shown = max(shown, finished / (finished + len(key_of)))
+            report(shown)
+    return out
 
 
 def _segments_near(trust: CellMask, lo: np.ndarray, hi: np.ndarray, margin: float
@@ -922,57 +956,56 @@ def _faces_in_tiles(coords: np.ndarray, count: np.ndarray, tiles: tuple[int, int
     log.update(face_tiles=grid.shape, face_margin=margin, face_retries=0,
                face_parts_sent=0.0, face_fallback=False)
     sent = 0
+    near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
+    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
+    sel_of = {}
 
     def submit(sel: np.ndarray, trust: Any, complete: Any, own: Any, done: tuple) -> Any:
         nonlocal sent
         sent += len(sel)
         xy = coords[ragged_arange(start[sel], count[sel])]
-        return sel, executor.submit(trimmed, trace_tile, xy, count[sel], trust, complete, own,
-                                    done, arcs)
+        f = executor.submit(trimmed, trace_tile, xy, count[sel], trust, complete, own, done,
+                            arcs)
+        sel_of[f] = sel
+        return f
 
-    near, nptr = segments_by_tile(plo, phi, grid, 2 * margin)
-    done = {t: (grown(tile_box(grid, t), margin),) for t in range(grid.count)}
-    futures = {t: submit(near[nptr[t]:nptr[t + 1]], done[t][0],
-                         grown(tile_box(grid, t), 1.5 * margin), (grid, t), ())
-               for t in range(grid.count)}
+    first = {t: submit(near[nptr[t]:nptr[t + 1]], done[t][0],
+                       grown(tile_box(grid, t), 1.5 * margin), (grid, t), ())
+             for t in _largest_first(np.diff(nptr))}
     del near
-    side = np.full(2 * n, -1, np.int64)
-    rings, arc_parts = [], []
-    nfaces, level, finished, total, shown = 0, 0, 0, len(futures), 0.0
     stage = f"face tiles ({nx}x{ny})"
-    while futures:
-        pending = {}
-        for t, (sel, f) in futures.items():
-            r = f.result()
-            finished += 1
-            shown = max(shown, finished / total)
-            report(stage, 0.45 + 0.04 * shown)
-            if r is None:
-                log["face_fallback"] = True
-                return None
-            xy, offsets, he, face, retry, seen, peak, fa, area = r
-            log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
-            ghe = 2 * sel[he // 2] + he % 2
-            if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
-                log["face_fallback"] = True
-                return None
-            side[ghe] = face + nfaces
-            rings.append(FaceRings(xy, *offsets, area))
-            if fa is not None:
-                arc_parts.append((fa, nfaces))
-            nfaces += len(area)
-            if len(retry):
-                pending[t] = retry, seen
-        level += 1
-        futures = {}
-        for t, (pts, seen) in pending.items():  # larger regions around the faces' walks seen
-            trust = mask_around(seen, margin * 2.0 ** (level - 1), margin)
-            complete = trust.dilated(math.ceil(margin / trust.cell))
-            futures[t] = submit(_segments_near(trust, plo, phi, margin), trust, complete,
-                                pts, done[t])
-            done[t] = (*done[t], trust)
-            log["face_retries"] += 1
-            total += 1
+
+    def follow(level: int, t: int, r: tuple) -> Any:
+        # a larger region around the faces' walks seen, submitted as soon as the task ends
+        retry, seen = r[4], r[5]
+        if not len(retry):
+            return None
+        trust = mask_around(seen, margin * 2.0 ** level, margin)
+        complete = trust.dilated(math.ceil(margin / trust.cell))
+        f = submit(_segments_near(trust, plo, phi, margin), trust, complete, retry, done[t])
+        done[t] = (*done[t], trust)
+        log["face_retries"] += 1
+        return f
+
+    results = _rounds(first, follow, lambda frac: report(stage, 0.45 + 0.04 * frac),
+                      keep=lambda f, r: (sel_of.pop(f), r))
+    if results is None:
+        log["face_fallback"] = True
+        return None
+    side = np.full(2 * n, -1, np.int64)
+    rings, arc_parts, nfaces = [], [], 0
+    for key in sorted(results):  # in the order of levels, then tiles: the faces' numbers
+        sel, (xy, offsets, he, face, retry, seen, peak, fa, area) = results.pop(key)
+        log["worker_peak_bytes"] = max(log.get("worker_peak_bytes", 0), peak)
+        ghe = 2 * sel[he // 2] + he % 2
+        if np.any(side[ghe] >= 0):  # a half-edge on faces of two tasks: never seen
+            log["face_fallback"] = True
+            return None
+        side[ghe] = face + nfaces
+        rings.append(FaceRings(xy, *offsets, area))
+        if fa is not None:
+            arc_parts.append((fa, nfaces))
+        nfaces += len(area)
     log["face_parts_sent"] = sent / n
     log["faces"] = nfaces
     pf = np.sort(side.reshape(n, 2), axis=1)
