@@ -19,7 +19,8 @@ inputs made, the tasks, their results joined or written); *piece wait*, the part
 the main process waited for the tasks' results; *finish*, from there to the decomposition
 made (with ``--out``: the regions, cells and curves written, and the index); *result*, the
 decomposition returned (with ``--out``: the store read back); G and the elimination; total;
-*main CPU*, the main process's CPU seconds over all of it, its threads' included), peak
+*main CPU*, the main process's CPU seconds over all of it, its threads' included; *workers
+CPU*, the worker processes' CPU seconds, all of them together, once they are shut down), peak
 resident memory in MB of the main process and of the largest worker, the input segments sent
 to the noding tasks over the input's count and the number of retry tasks, the parts sent to
 the face tasks over the parts' count and the face retry tasks
@@ -232,6 +233,7 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "finish": at["done"] - at.get("piece_tiles_end", at["done"]),
        "result": w1 - at["done"],
        "main CPU": time.process_time() - c0,
+       "workers CPU": sum(resource.getrusage(resource.RUSAGE_CHILDREN)[:2]),
        "piece task CPU": piece_log.get("piece_task_cpu"),
        "G+elim": w2 - w1, "total": w2 - w0,
        "main MB": main_mb, "worker MB": worker_mb,
@@ -275,9 +277,9 @@ print(json.dumps(row))
 
 COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", "stitch",
            "rest", "structures", "grouping", "chains", "records", "piece tasks", "piece wait",
-           "finish", "result", "G+elim", "total", "main CPU", "main MB", "worker MB", "sent",
-           "retries", "face sent", "face retries", "regions", "cells", "pieces", "verdict",
-           "equal untiled", "untiled MB", "noder")
+           "finish", "result", "G+elim", "total", "main CPU", "workers CPU", "main MB",
+           "worker MB", "sent", "retries", "face sent", "face retries", "regions", "cells",
+           "pieces", "verdict", "equal untiled", "untiled MB", "noder")
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str,
