@@ -11,6 +11,12 @@ Usage::
     python docs/certified_table.py --starts 48 --workers 2 --skip gallery:0.6 --skip gallery:0.9
     python docs/certified_table.py --only convex_corner:0.3   # one row again, the rest kept
     python docs/certified_table.py --only gallery:0.3 --starts 0 --print-only  # a check
+    python docs/certified_table.py --field-file docs/evidence/fields/file_STEM.npz --starts 48
+
+``--field-file`` adds (or replaces) the row of a certified field saved with
+``CertifiedKernel.save`` (a rod length other than 1, a refined mesh): the field is read and
+certified again (its *seconds* are those checks), the grid kernels are computed at its own
+``lss`` and spacing, and the runs start from it; every other row is kept.
 
 The last is how the table in the docs was made: 48 random certified starts per target kind
 and row (336 runs a row), on two processes, about half an hour on the shared 2-core machine.
@@ -27,7 +33,7 @@ import numpy as np
 
 from tether.examples import path as example_path
 from tether.game import surveillance_kernel
-from tether.game.certified import certified_kernel
+from tether.game.certified import certified_kernel, load_certified
 from tether.game.controller import CertifiedController
 from tether.io import load_map
 from tether.sim.protocols import World
@@ -42,6 +48,9 @@ RATIOS = (0.3, 0.6, 0.9)
 KINDS = tuple(sorted(set(TARGETS) - {"path", "track", "pedestrian"}))
 LSS, VO = 1.0, 1.0
 BEGIN, END = "<!-- certified_table: begin -->", "<!-- certified_table: end -->"
+HEADER = ("| map | vt/vo | lss | mesh h | certified | certified % | inner kernel % | "
+          "outer kernel % | seconds | runs from certified starts | lost | states outside |")
+RULE = "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
 
 
 def field_starts(ck, n: int, rng) -> tuple[np.ndarray, np.ndarray]:
@@ -96,51 +105,77 @@ def table(maps, ratios, starts: int, seconds: float, skip: frozenset = frozenset
     says so; ``only``: when not empty, the pairs computed, every other row copied from the
     table ``old``)."""
     kept = _rows_of(old)
-    rows = ["| map | vt/vo | mesh h | certified | certified % | inner kernel % | "
-            "outer kernel % | seconds | runs from certified starts | lost | states outside |",
-            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    rows = [HEADER, RULE]
     rng = np.random.default_rng(0)
     for name, h in maps.items():
         env = load_map(example_path(name))
         for ratio in ratios:
-            if only and (name, ratio) not in only and (name, ratio) in kept:
-                rows.append(kept[(name, ratio)])
+            key = (name, ratio, LSS)
+            if only and (name, ratio) not in only and key in kept:
+                rows.append(kept.pop(key))
                 continue
+            kept.pop(key, None)
             if (name, ratio) in skip:
-                rows.append(f"| {name} | {ratio:g} | {h:g} | not run (`--skip`) | | | | | | | |")
+                rows.append(f"| {name} | {ratio:g} | {LSS:g} | {h:g} | not run (`--skip`) "
+                            f"| | | | | | | |")
                 continue
             t0 = time.perf_counter()
             ck = certified_kernel(env, LSS, ratio * VO, VO, h=h)
-            secs = time.perf_counter() - t0
-            inner = surveillance_kernel(env, LSS, ratio * VO, VO, h=h).safe_fraction_total()
-            outer = surveillance_kernel(env, LSS, ratio * VO, VO, h=h,
-                                        scheme="outer").safe_fraction_total()
-            if ck.certified:
-                frac, err = ck.safe_fraction(samples=50_000)
-                n, lost, out = runs(ck, starts, seconds, rng, workers)
-                cells = (f"yes | {100 * frac:.1f} ± {100 * err:.1f}", f"{n}", f"{lost}",
-                         f"{out}")
-            else:
-                if ck.checks is None:  # the grid kernel leaves some vertex no orientation
-                    why = f"no first field: {ck.log[-1].get('closed_arcs', '?')} closed arcs"
-                else:
-                    why = f"{int(ck.checks.bad.sum())} triangles fail"
-                cells = (f"no ({why}) | 0", "—", "—", "—")
-            rows.append(f"| {name} | {ratio:g} | {h:g} | {cells[0]} | {100 * inner:.1f} | "
-                        f"{100 * outer:.1f} | {secs:.0f} | {cells[1]} | {cells[2]} | "
-                        f"{cells[3]} |")
+            rows.append(row(ck, time.perf_counter() - t0, starts, seconds, rng, workers))
             print(rows[-1], flush=True)
+    rows += kept.values()  # the rows of field files, kept as they were
     return "\n".join(rows)
 
 
+def row(ck, secs: float, starts: int, seconds: float, rng, workers: int = 1) -> str:
+    """One row of the table for the certified kernel ``ck`` (``secs``: its time), the grid
+    kernels computed at its rod length, speeds and spacing."""
+    env, lss, vt, vo = ck.env, ck.lss, ck.vt, ck.vo
+    inner = surveillance_kernel(env, lss, vt, vo, h=ck.h).safe_fraction_total()
+    outer = surveillance_kernel(env, lss, vt, vo, h=ck.h, scheme="outer").safe_fraction_total()
+    if ck.certified:
+        frac, err = ck.safe_fraction(samples=50_000)
+        n, lost, out = runs(ck, starts, seconds, rng, workers)
+        cells = (f"yes | {100 * frac:.1f} ± {100 * err:.1f}", f"{n}", f"{lost}", f"{out}")
+    else:
+        if ck.checks is None:  # the grid kernel leaves some vertex no orientation
+            why = f"no first field: {ck.log[-1].get('closed_arcs', '?')} closed arcs"
+        else:
+            why = f"{int(ck.checks.bad.sum())} triangles fail"
+        cells = (f"no ({why}) | 0", "—", "—", "—")
+    mesh = f"{ck.h:g} refined" if ck.refined else f"{ck.h:g}"
+    return (f"| {ck.env.name} | {vt / vo:g} | {lss:g} | {mesh} | {cells[0]} | "
+            f"{100 * inner:.1f} | {100 * outer:.1f} | {secs:.0f} | {cells[1]} | {cells[2]} | "
+            f"{cells[3]} |")
+
+
+def file_rows(paths: list[str], starts: int, seconds: float, old: str, workers: int = 1
+              ) -> str:
+    """The table ``old`` with a row for each saved field of ``paths`` (read and certified
+    again; a row of the same map, ratio and lss replaced, else added at the end)."""
+    kept = _rows_of(old)
+    rng = np.random.default_rng(0)
+    for p in paths:
+        t0 = time.perf_counter()
+        ck = load_certified(p)
+        line = row(ck, time.perf_counter() - t0, starts, seconds, rng, workers)
+        print(line, flush=True)
+        kept[(ck.env.name, round(ck.vt / ck.vo, 6), ck.lss)] = line
+    return "\n".join([HEADER, RULE, *kept.values()])
+
+
 def _rows_of(text: str) -> dict:
-    """The rows of the table in ``text`` (between its markers), by ``(map, ratio)``."""
+    """The rows of the table in ``text`` (between its markers), by ``(map, ratio, lss)``, in
+    their order (a row of the table before its ``lss`` column gets ``lss`` = 1)."""
     m = re.search(re.escape(BEGIN) + "(.*?)" + re.escape(END), text, flags=re.S)
     rows = {}
     for line in (m.group(1).splitlines() if m else []):
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) > 2 and cells[0] in MAPS:
-            rows[(cells[0], float(cells[1]))] = line.strip()
+        if len(cells) < 3 or cells[0] in ("map", "---"):
+            continue
+        if len(cells) == 11:  # no lss column yet: every such row has lss = 1
+            cells.insert(2, f"{LSS:g}")
+        rows[(cells[0], float(cells[1]), float(cells[2]))] = "| " + " | ".join(cells) + " |"
     return rows
 
 
@@ -179,6 +214,9 @@ def main() -> None:
                          "leave the examples and the figure); repeatable")
     ap.add_argument("--print-only", action="store_true",
                     help="with --only: print the rows, write nothing (a quick check)")
+    ap.add_argument("--field-file", action="append", default=[], metavar="PATH",
+                    help="add (or replace) the row of a saved certified field, keep the rest; "
+                         "repeatable")
     args = ap.parse_args()
     skip = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.skip))
     only = frozenset((m, float(r)) for m, r in (x.split(":") for x in args.only))
@@ -186,7 +224,12 @@ def main() -> None:
         table(MAPS, (0.3,), 2, 5.0)
         return
     doc = DOCS / "certified.md"
-    if only:
+    if args.field_file:
+        text = doc.read_text()
+        body = file_rows(args.field_file, args.starts, 15.0, text, args.workers)
+        if args.print_only:
+            return
+    elif only:
         text = doc.read_text()
         body = table(MAPS, RATIOS, args.starts, 15.0, skip, args.workers, only, text)
         if args.print_only:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import collections
 import math
-from concurrent.futures import ThreadPoolExecutor
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import lattice_maps as lm
 import numpy as np
@@ -28,6 +29,8 @@ from tether.decomposition.tiles import (
     MASK_CELLS,
     MAX_TILES,
     TileGrid,
+    _largest_first,
+    _rounds,
     auto_tiles,
     check_tiles,
     cut_positions,
@@ -290,6 +293,57 @@ def test_auto_tiles():
     # the snap-rounding tasks' own cap: more tiles than a grid given by hand may have
     nx, ny = auto_tiles(10**9, 2.0, 1.0, 20_000, 128)
     assert 64 < nx * ny <= 128 and nx > ny
+
+
+def _done(value) -> Future:
+    f = Future()
+    f.set_result(value)
+    return f
+
+
+def test_largest_first():
+    assert _largest_first(np.array([3, 5, 5, 1, 0])) == [1, 2, 0, 3, 4]
+    assert _largest_first(np.array([], np.int64)) == []
+
+
+def test_rounds_retry_before_the_round_ends():
+    """A tile's retry is submitted while another tile's first task still runs (here tile 0's
+    future ends only once tile 1's retry is submitted), and the results come back keyed by
+    (round, tile) whatever the order the tasks ended in."""
+    slow = Future()
+    first = {0: slow, 1: _done("b0"), 2: _done("c0")}
+    calls, shown = [], []
+
+    def follow(level, t, r):
+        calls.append((level, t, r, slow.done()))
+        if (level, t) == (0, 1):
+            slow.set_result("a0")  # the slow task ends only after this retry is out
+            return _done("b1")
+        return None
+
+    # a safety net: were the retry only sent once the round ends, the slow task ends after 10 s
+    # and the order assertion below fails, instead of the test hanging
+    net = threading.Timer(10.0, lambda: slow.done() or slow.set_result("a0"))
+    net.start()
+    try:
+        out = _rounds(first, follow, shown.append)
+    finally:
+        net.cancel()
+    assert out == {(0, 0): "a0", (0, 1): "b0", (0, 2): "c0", (1, 1): "b1"}
+    assert calls[0] == (0, 1, "b0", False)  # tile 1 followed up before tile 0 ended
+    assert sorted(c[:3] for c in calls) == [(0, 0, "a0"), (0, 1, "b0"), (0, 2, "c0"),
+                                            (1, 1, "b1")]
+    assert shown == sorted(shown) and shown[-1] == 1.0
+
+
+def test_rounds_stop_at_a_failed_task():
+    """A task returning None stops the lot: the tasks not ended are cancelled and no retry
+    is asked for, not even of a task that ended with it."""
+    waiting = Future()
+    followed = []
+    out = _rounds({0: waiting, 1: _done(None), 2: _done("c0")},
+                  lambda level, t, r: followed.append((level, t)), lambda frac: None)
+    assert out is None and followed == [] and waiting.cancelled()
 
 
 # ---------------------------------------------------------------- the command line

@@ -3,7 +3,6 @@ by a kill), the runs left to do on resuming, and the summary's counts and replay
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -13,11 +12,8 @@ DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.fixture(scope="module")
-def ev():
-    spec = importlib.util.spec_from_file_location("evidence_runs", DOCS / "evidence_runs.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def ev(doc_script):
+    return doc_script("evidence_runs")
 
 
 def _rec(field: str, i: int, kind: str, outcome: str = "held", outside: int = 0) -> dict:

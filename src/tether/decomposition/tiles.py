@@ -813,8 +813,8 @@ def _rounds(first: dict[int, Any], follow: Callable[[int, int, Any], Any],
     """The tiles' tasks and their retries (``first``: each tile's first task's future):
     each result is handed to ``follow(level, tile, result)`` as soon as its task ends, which
     submits the tile's next task (a future) or returns None, so the workers never wait for
-    the slowest task of a round. Returns ``keep(future, result)`` by ``(level, tile)``
-    (sorted: the order of the rounds, then of the tiles), or None as soon as a task returns
+    the slowest task of a round. Returns ``keep(future, result)`` by ``(level, tile)`` (in
+    the order the tasks ended: the callers sort the keys), or None as soon as a task returns
     None (the tasks not yet started are cancelled; no retry of the tasks ended with it is
     submitted). ``report`` gets the fraction of the tasks finished (never backwards)."""
     key_of = {f: (0, t) for t, f in first.items()}
