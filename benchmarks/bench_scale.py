@@ -11,7 +11,16 @@ Columns: vertices, tiles (``NXxNY``), workers, wall times in seconds (critical c
 work: the input cut into tiles and noded by the workers, with the parts' sources; face tiles:
 the parts joined, sent to the face tasks and their faces traced by the workers, retries
 included; stitching: the faces and the parts' faces joined, the arrangement made; the rest of
-the decomposition: face structures, regions, pieces; G and the elimination; total), peak
+the decomposition, and its stages: *structures*, the faces' structures numbered; *grouping*,
+the faces grouped into numbered regions (specks absorbed); *chains*, the chains between
+regions and their crossing candidates; *records*, the regions' polygons packed and their
+cells; *piece tasks*, from there to the last pieces task's result handled (the tasks'
+inputs made, the tasks, their results joined or written); *piece wait*, the part of that
+the main process waited for the tasks' results; *finish*, from there to the decomposition
+made (with ``--out``: the regions, cells and curves written, and the index); *result*, the
+decomposition returned (with ``--out``: the store read back); G and the elimination; total;
+*main CPU*, the main process's CPU seconds over all of it, its threads' included; *workers
+CPU*, the worker processes' CPU seconds, all of them together, once they are shut down), peak
 resident memory in MB of the main process and of the largest worker, the input segments sent
 to the noding tasks over the input's count and the number of retry tasks, the parts sent to
 the face tasks over the parts' count and the face retry tasks
@@ -36,7 +45,8 @@ printed as JSON, with the main process's peak per stage (``stages``) and the lar
 worker's resident memory sampled over each stage (``worker stages``, MB: between the face
 tiles and the pieces' tasks, what the idle workers hold), and, where the pieces are made in
 tiles (:func:`tether.decomposition.tiles.tiled_crossings`), their grid (``piece tiles``)
-and the largest peak a pieces task's process reported (``piece worker MB``).
+and the largest peak a pieces task's process reported (``piece worker MB``), and each
+pieces task's CPU seconds in its worker, in tile order (``piece task CPU``: their balance).
 
 ``--out DIR`` decomposes with ``out=DIR`` (``{n}`` in ``DIR`` is replaced by the size):
 the pieces and their crossings' arcs written to a store tile by tile as their tasks return
@@ -55,7 +65,8 @@ columns); each row says which command line made it. And, between ``<!-- bench_sc
 begin -->`` and ``<!-- bench_scale stages: end -->`` (if ``FILE`` has them), what the main
 process holds: its peak resident memory over each stage (Linux's ``VmHWM``, reset as each
 stage begins: the curves; the arrangement's input made; the tile work; the stitch; the face
-tiles; the structures numbered; the regions; the pieces; the result made in the map's frame;
+tiles; the structures numbered; the regions grouped; the chains and candidates; the region
+records; the pieces; the result made in the map's frame;
 G; the elimination), the memory it holds once ``decompose`` has returned, and the counts
 (the arrangement's parts and faces, regions, cells, pieces).
 """
@@ -67,6 +78,7 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 CHILD = r"""
@@ -175,7 +187,7 @@ def _stopper():  # the run stopped, its row written, once a process passes stop_
             os._exit(0)
         time.sleep(0.5)
 ex = process_executor(workers)
-w0 = time.perf_counter()
+w0, c0 = time.perf_counter(), time.process_time()
 threading.Thread(target=_stopper, daemon=True).start()
 dec = decompose(env, lss, progress=progress, tiles=tiles, executor=ex,
                 noding=noding_mode, **({"out": store} if store else {}))
@@ -194,8 +206,11 @@ worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
 at = {}
 for stage, t in marks:
     key = ("tiles" if stage.startswith("tiles") else
-           "face tiles" if stage.startswith("face tiles") else stage)
+           "face tiles" if stage.startswith("face tiles") else
+           "piece tiles" if stage.startswith("piece tiles") else stage)
     at.setdefault(key, t)
+    if key == "piece tiles":
+        at["piece_tiles_end"] = t  # the last pieces task's result handled
     if key == "tiles":
         at["tiles_end"] = t
         shape = stage[stage.index("(") + 1:stage.index(")")]
@@ -209,6 +224,17 @@ row = {"vertices": n, "tiles": shape, "workers": workers,
        "face tiles": at["face_tiles_end"] - at["stitch"],
        "stitch": at["face structures"] - at["face_tiles_end"],
        "rest": w1 - at["face structures"],
+       "structures": at["regions"] - at["face structures"],
+       "grouping": at["chains"] - at["regions"],
+       "chains": at["region records"] - at["chains"],
+       "records": at["pieces"] - at["region records"],
+       "piece tasks": at.get("piece_tiles_end", at["done"]) - at["pieces"],
+       "piece wait": piece_log.get("piece_wait"),
+       "finish": at["done"] - at.get("piece_tiles_end", at["done"]),
+       "result": w1 - at["done"],
+       "main CPU": time.process_time() - c0,
+       "workers CPU": sum(resource.getrusage(resource.RUSAGE_CHILDREN)[:2]),
+       "piece task CPU": piece_log.get("piece_task_cpu"),
        "G+elim": w2 - w1, "total": w2 - w0,
        "main MB": main_mb, "worker MB": worker_mb,
        "sent": noder_log["segments_sent"], "retries": noder_log["retries"],
@@ -250,9 +276,10 @@ print(json.dumps(row))
 """
 
 COLUMNS = ("vertices", "tiles", "workers", "curves", "tile work", "face tiles", "stitch",
-           "rest", "G+elim", "total", "main MB", "worker MB", "sent", "retries", "face sent",
-           "face retries", "regions", "cells", "pieces", "verdict", "equal untiled",
-           "untiled MB", "noder")
+           "rest", "structures", "grouping", "chains", "records", "piece tasks", "piece wait",
+           "finish", "result", "G+elim", "total", "main CPU", "workers CPU", "main MB",
+           "worker MB", "sent", "retries", "face sent", "face retries", "regions", "cells",
+           "pieces", "verdict", "equal untiled", "untiled MB", "noder")
 
 
 def run(n: int, workers: int, tiles: str, compare: bool, untiled: str, src: str,
@@ -321,9 +348,35 @@ STAGES_BEGIN, STAGES_END = ("<!-- bench_scale stages: begin -->",
 #: The per-stage table's stage columns: (progress stage, column title).
 STAGES = (("critical curves", "curves"), ("arrangement", "input"), ("tiles", "tile work"),
           ("stitch", "stitch"), ("face tiles", "face tiles"),
-          ("face structures", "structures"), ("regions", "regions"), ("pieces", "pieces"),
+          ("face structures", "structures"), ("regions", "regions"), ("chains", "chains"),
+          ("region records", "records"), ("pieces", "pieces"),
           ("done", "to result"), ("G", "G"), ("elimination", "elim"))
 STAGE_COUNTS = ("vertices", "workers", "parts", "faces", "regions", "cells", "pieces")
+
+
+def _old_rows(block: str, cols: tuple[str, ...]) -> list[list[str]]:
+    """The rows of the Markdown table in ``block`` in the columns ``cols``, read by the
+    table's own header (a name twice, a count and a stage: by its occurrence): a column it
+    lacks (measured before the column existed) is ``-``."""
+    header, rows = None, []
+    for ln in block.splitlines():
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if cells[0] == cols[0]:
+            header = _numbered(cells)
+        elif header is not None and len(cells) == len(header) and cells[0].isdigit():
+            got = dict(zip(header, cells, strict=True))
+            rows.append([got.get(c, "-") for c in _numbered(cols)])
+    return rows
+
+
+def _numbered(names: Sequence[str]) -> list[tuple[str, int]]:
+    """Each name with the number of times it came before."""
+    seen: dict[str, int] = {}
+    out = []
+    for c in names:
+        out.append((c, seen.get(c, 0)))
+        seen[c] = seen.get(c, 0) + 1
+    return out
 
 
 def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
@@ -335,13 +388,7 @@ def write_doc(path: Path, rows: list[dict], argv: str, load: float) -> None:
     head, rest = text.split(BEGIN, 1)
     block, tail = rest.split(END, 1)
     cols = (*COLUMNS, "run")
-    old = {}  # rows of other sizes in this table's columns (others were another noder's)
-    for ln in block.splitlines():
-        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
-        if len(cells) == len(cols) - 1 and cells[0].isdigit():  # before the noder column
-            cells.insert(len(cols) - 2, "-")
-        if len(cells) == len(cols) and cells[0].isdigit():
-            old[int(cells[0]), int(cells[2])] = cells
+    old = {(int(c[0]), int(c[2])): c for c in _old_rows(block, cols)}
     run_note = f"`bench_scale.py {argv}`, load {load:.1f}"
     if "--untiled whole" in argv:
         run_note += " (no strips)"
@@ -366,11 +413,7 @@ def write_stages(path: Path, rows: list[dict], argv: str, load: float) -> None:
     head, rest = text.split(STAGES_BEGIN, 1)
     block, tail = rest.split(STAGES_END, 1)
     cols = (*STAGE_COUNTS, *(t for _, t in STAGES), "held", "run")
-    old = {}
-    for ln in block.splitlines():
-        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
-        if len(cells) == len(cols) and cells[0].isdigit():
-            old[int(cells[0]), int(cells[1])] = cells
+    old = {(int(c[0]), int(c[1])): c for c in _old_rows(block, cols)}
     for r in rows:
         if "stages" not in r:  # refused or failed: no stage measured
             continue

@@ -542,14 +542,10 @@ def _emptied(count: np.ndarray, partner_slot: np.ndarray, slot_cell: Any,
 
 
 def _decrement(count: np.ndarray, idx: np.ndarray) -> None:
-    """``count[i] -= 1`` once per occurrence of ``i`` in ``idx`` (as ``np.subtract.at``,
-    which costs ~0.2-0.4 µs per entry: by distinct values, or a bincount when ``idx`` is
-    long)."""
-    if 16 * len(idx) < len(count):
-        u, k = np.unique(idx, return_counts=True)
-        count[u] -= k.astype(count.dtype)
-    else:
-        count -= np.bincount(idx, minlength=len(count))
+    """``count[i] -= 1`` once per occurrence of ``i`` in ``idx``: ``np.subtract.at`` with a
+    one in ``count``'s own type (numpy's fast path, ~0.01 µs an entry; with a cast, as
+    with a Python int, it costs ~0.2 µs an entry), no sort and no column of every count."""
+    np.subtract.at(count, idx, count.dtype.type(1))
 
 
 def fixed_point(region_of: dict[str, int], pieces_of: dict[int, tuple[int, ...]],

@@ -383,6 +383,7 @@ def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: C
            "ok": np.zeros(m, bool)}
     kept = np.flatnonzero(cands.count > 0)  # the chains with a crossing sample
     sides: tuple[list[ArcTable], list[ArcTable]] = ([], [])
+    whole = None  # one batch: its table is the result as it is (no halves joined again)
     for lo in range(0, max(m, 1), PIECE_BATCH):
         which = np.arange(lo, min(lo + PIECE_BATCH, m))
         b, tables = _pick_crossings(env, chains, cands, None, curves, srcs, lss, which, reg)
@@ -392,7 +393,9 @@ def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: C
         at = b["at"][cands.count[which] > 0]
         arcs = _crossing_table(tables, at)
         del tables, b
-        if len(at):
+        if m <= PIECE_BATCH:
+            whole = arcs
+        elif len(at):
             for side, part in zip(sides, _halves(arcs, len(at)), strict=True):
                 side.append(part)
         del arcs
@@ -401,7 +404,7 @@ def chain_crossings(env: Environment, lss: float, curves: list[Curve], chains: C
     # only, which join_tables empties: each column's batches freed once joined
     halves = sides[0] + sides[1]
     del sides
-    arcs = (join_tables(halves, release_memory) if halves
+    arcs = (whole if whole is not None else join_tables(halves, release_memory) if halves
             else _crossing_table([], np.zeros((0, 3), np.int64)))
     # the lines packed as WKB, made a batch at a time (no shapely object kept)
     lines = packed_geometries(lambda ids: _chain_geometries(arr, chains, ids), kept)

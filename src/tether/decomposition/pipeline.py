@@ -212,7 +212,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     release_memory()
     report("regions", 0.7)
     numbering, chains, cands = face_regions(arr, keep, resolved, face_sid, pts, clear, tol,
-                                            lss)
+                                            lss, report)
     # the segments' grid and the candidates cache are no longer needed: freed before the
     # pieces allocate theirs (at 1,000 map vertices the grid is ~100 MB)
     arr.memo.pop("segments", None)
@@ -220,6 +220,7 @@ def _decompose(env: Environment, lss: float, rel_tol: float, progress: Any,
     arr.memo.pop("part_candidates", None)
     release_memory()
     # the regions made after that: their polygons and cells do not add to the grid's peak
+    report("region records", 0.8)
     regions, cells, codes = make_regions(env, arr, numbering, face_sid, structs, out)
     report("pieces", 0.85)
     if store is not None:  # the arrangement, chains and candidates held by _stored alone

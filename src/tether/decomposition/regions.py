@@ -5,6 +5,7 @@ absorbed by a neighbour, the regions numbered by representative point, and the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -37,12 +38,14 @@ __all__ = ["face_regions", "make_regions"]
 
 def face_regions(arr: Arrangement, keep: np.ndarray, resolved: np.ndarray,
                  face_sid: np.ndarray, pts: np.ndarray, clear: np.ndarray, tol: float,
-                 lss: float) -> tuple[dict[str, Any], Chains, Candidates]:
+                 lss: float, report: Callable[[str, float], Any] | None = None
+                 ) -> tuple[dict[str, Any], Chains, Candidates]:
     """The faces ``keep`` (in the free space; ``resolved`` flags those with a structure, of
     structure ids ``face_sid`` per face, -1: none; points ``pts`` and clearances ``clear``)
     grouped into numbered regions, with the chains between regions and their crossing
     candidates. Sub-resolution faces, then speck regions no chain of which has a candidate,
-    join neighbours (``face_sid`` is updated: the structure taken)."""
+    join neighbours (``face_sid`` is updated: the structure taken). ``report``, if given,
+    gets ``("chains", 0.75)`` once the regions are numbered, before the chains are made."""
     nf = len(arr.faces)
     kept = np.zeros(nf, bool)
     kept[keep] = True
@@ -76,6 +79,8 @@ def face_regions(arr: Arrangement, keep: np.ndarray, resolved: np.ndarray,
         face_sid[faces_in] = -1
         _absorb_groups(list(specks.values()), adjacent, plen, uf, face_sid)
     numbering["flat"], numbering["size"] = flat, size  # the last numbering's: the regions'
+    if report is not None:
+        report("chains", 0.75)
     chains = make_chains(arr, face_region)
     return numbering, chains, crossing_candidates(arr, chains, tol, lss)
 

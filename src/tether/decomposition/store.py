@@ -391,18 +391,34 @@ def _structure_columns(dec: Decomposition) -> tuple[np.ndarray, np.ndarray, np.n
     held = shared_holder(regs, "_structure")
     if type(held) is Structures:
         a, b = np.divmod(held.pairs, held.base)
-        if held._code_map is not None:
+        if held._code_map is not None:  # the file's codes
             a, b = held._code_map[a], held._code_map[b]
-        owner = np.repeat(np.arange(len(held)), np.diff(held.ptr))
-        order = np.lexsort((b, a, owner))
+        a, b = _sorted_pairs(a, b, np.diff(held.ptr), held.base)
         return (np.asarray(held.region, np.int64), np.asarray(held.ptr, np.int64),
-                np.column_stack((a[order], b[order])).astype(np.int64))
+                np.column_stack((a, b)).astype(np.int64))
     ids: dict[Any, int] = {Structure.EMPTY: 0, Structure.FULL: 1}
     sid = np.array([ids.setdefault(r.structure, len(ids)) for r in regs], dtype=np.int64)
     sets = [np.zeros((0, 2), np.int64)] * 2 + [
         np.array(sorted(s), dtype=np.int64).reshape(-1, 2) for s in list(ids)[2:]]
     ptr, pairs = _ragged(sets, 2, np.int64)
     return sid, ptr, pairs
+
+
+def _sorted_pairs(a: np.ndarray, b: np.ndarray, size: np.ndarray, base: int
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs ``(a, b)`` (codes below ``base``) of consecutive runs of ``size`` rows,
+    sorted by ``(a, b)`` within each run: the order of ``np.lexsort((b, a, run))``, by one
+    stable sort of an exact integer key where it fits in 63 bits (several times faster; none
+    if the key is sorted already, as the internal codes are made)."""
+    run = np.repeat(np.arange(len(size)), size)
+    if (len(size) + 1) * base * base < 2**62:
+        key = (run * base + a) * base + b
+        if np.all(key[1:] >= key[:-1]):  # sorted (the internal codes, as made)
+            return a, b
+        order = np.argsort(key, kind="stable")
+    else:
+        order = np.lexsort((b, a, run))
+    return a[order], b[order]
 
 
 def _cell_columns(dec: Decomposition, lo: int, hi: int, memo: dict) -> dict[str, np.ndarray]:

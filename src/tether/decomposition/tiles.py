@@ -86,6 +86,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
@@ -1039,10 +1040,12 @@ def pieces_tile(env: Any, lss: float, curves: list[Curve], chains: Chains, cands
     ``chains`` over the parts ``parts``, ``chains.pair`` indexing the region rows ``reg``,
     ``srcs`` indexing ``curves``, the curves those chains run along). Returns
     ``chain_crossings``'s crossings, kept chains (task-local), arcs and lines' WKB, and this
-    process's peak resident memory (bytes, 0 where unknown)."""
+    process's peak resident memory (bytes, 0 where unknown) and the task's CPU seconds
+    (this process's, :func:`time.process_time`)."""
+    cpu = time.process_time()
     got = chain_crossings(env, lss, curves, chains, cands, srcs, reg,
                           SimpleNamespace(parts=parts))
-    return (*got, _peak_rss())
+    return (*got, _peak_rss(), time.process_time() - cpu)
 
 
 def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
@@ -1073,8 +1076,10 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
     (NXxNY)", fraction)`` as tasks finish, in tile order; the tasks are submitted a few at a
     time (:func:`_tasks_ahead`), each one's inputs made as it is submitted. ``log``, if
     given, gets ``piece_tiles`` (the
-    grid's shape), ``piece_tasks`` (tasks run: tiles with chains) and
-    ``piece_worker_peak_bytes``. With ``sink``, each task's result is handed to it as it
+    grid's shape), ``piece_tasks`` (tasks run: tiles with chains),
+    ``piece_worker_peak_bytes``, ``piece_task_cpu`` (each task's CPU seconds in its worker,
+    in tile order; their balance) and ``piece_wait`` (wall seconds the main process waited
+    for the tasks' results). With ``sink``, each task's result is handed to it as it
     comes, in tile order (``sink(crossings, chains, arcs, lines)``: the
     :func:`tether.decomposition.pieces.chain_crossings` result of the tile, its ``kept`` as
     global chain ids) and not kept: the crossings returned are those of no chain (a store
@@ -1085,7 +1090,8 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
     def crossings(env: Any, lss: float, curves: list[Curve], chains: Chains,
                   cands: Candidates, srcs: tuple[np.ndarray, np.ndarray],
                   reg: tuple[StructureRows, np.ndarray], arr: Any) -> tuple:
-        log.update(piece_tiles=(0, 0), piece_tasks=0, piece_worker_peak_bytes=0)
+        log.update(piece_tiles=(0, 0), piece_tasks=0, piece_worker_peak_bytes=0,
+                   piece_task_cpu=[], piece_wait=0.0)
         if len(chains) == 0:
             return joined_crossings([])
         parts = _as_part_lines(arr.parts)
@@ -1108,18 +1114,22 @@ def tiled_crossings(tiles: tuple[int, int] | str, executor: Executor,
                  if bounds[t + 1] > bounds[t]]
         log["piece_tasks"] = len(tasks)
         ahead = _tasks_ahead(executor)
+        sizes = (chains.size, cands.count)  # every chain's, counted once, not once a task
 
         def submit(ids: np.ndarray) -> Any:
             return executor.submit(trimmed, pieces_tile, env, lss,
                                    *_task_inputs(ids, curves, chains, cands, srcs, reg, parts,
-                                                 start))
+                                                 start, sizes))
 
         # at most ``ahead`` tasks' inputs made and waiting (each a copy of its chains' data)
         futures = {k: submit(tasks[k]) for k in range(min(ahead, len(tasks)))}
         results = []
         stage = f"piece tiles ({grid.shape[0]}x{grid.shape[1]})"
         for k, ids in enumerate(tasks):
-            got, kept, arcs, lines, peak = futures.pop(k).result()
+            waited = time.perf_counter()
+            got, kept, arcs, lines, peak, cpu = futures.pop(k).result()
+            log["piece_wait"] += time.perf_counter() - waited
+            log["piece_task_cpu"].append(round(cpu, 2))
             if k + ahead < len(tasks):
                 futures[k + ahead] = submit(tasks[k + ahead])
             log["piece_worker_peak_bytes"] = max(log["piece_worker_peak_bytes"], peak)
@@ -1155,20 +1165,22 @@ def _as_part_lines(parts: Any) -> PartLines:
 
 def _task_inputs(ids: np.ndarray, curves: list[Curve], chains: Chains, cands: Candidates,
                  srcs: tuple[np.ndarray, np.ndarray], reg: tuple[StructureRows, np.ndarray],
-                 parts: PartLines, start: np.ndarray) -> tuple:
+                 parts: PartLines, start: np.ndarray,
+                 sizes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple:
     """The arguments of :func:`pieces_tile` (after the map and ``lss``) for the chains
     ``ids`` (increasing), numbered for the task: their curves (:func:`_curves_subset`),
     their chains over their own parts, their candidates, their curves' CSR, the structure
     rows of their regions and their parts' coordinates (``start``: each part's first row in
-    ``parts.xy``)."""
-    size = chains.size[ids]
+    ``parts.xy``; ``sizes``: ``chains.size`` and ``cands.count``, if made already)."""
+    chain_size, cand_count = (chains.size, cands.count) if sizes is None else sizes
+    size = chain_size[ids]
     pid = chains.parts[ragged_arange(chains.ptr[ids], size)]  # a part is in one chain
     sub = PartLines(np.take(parts.xy, ragged_arange(start[pid], parts.count[pid]), axis=0),
                     parts.count[pid], parts.length[pid])
     regions, pair = np.unique(chains.pair[ids], return_inverse=True)
     rows, reg_of = reg
     used, reg_local = np.unique(reg_of[regions], return_inverse=True)
-    ccount = cands.count[ids]
+    ccount = cand_count[ids]
     crow = ragged_arange(cands.ptr[ids], ccount)
     sptr, ssrc = srcs
     scount = sptr[ids + 1] - sptr[ids]
