@@ -120,17 +120,24 @@ class FollowRun:
         return out
 
 
+# two free arcs whose widths differ by less than this (rad) are equally wide
+WIDEST_TIE = 1e-9
+
+
 def start_observer(env: Environment, p: np.ndarray, lss: float) -> np.ndarray:
     """The observer at ``lss`` from ``p`` in the middle of the widest free rod arc there (along
-    +x when every orientation is free)."""
+    +x when every orientation is free). Arcs within ``WIDEST_TIE`` rad of the widest tie (a
+    symmetric corridor gives two equal arcs): the one whose middle is nearest +x wins, so the
+    start does not depend on the order the arcs come in."""
     fa = free_arcs(env, p, lss)
     if fa.empty:
         raise OutsideFreeSpaceError(f"no free rod of length {lss:g} at the track's start "
                                     f"({p[0]:g}, {p[1]:g})")
     a = 0.0
     if not fa.full:
-        arc = max(fa.arcs, key=lambda x: x.length)
-        a = arc.start + 0.5 * arc.length
+        widest = max(x.length for x in fa.arcs)
+        mids = [x.start + 0.5 * x.length for x in fa.arcs if x.length >= widest - WIDEST_TIE]
+        a = min(mids, key=lambda m: abs(math.remainder(m, 2.0 * math.pi)))
     return p + lss * np.array([math.cos(a), math.sin(a)])
 
 
