@@ -100,7 +100,8 @@ def main() -> None:
                 print(f"      core {e['core']:.2f}: {e['rounds']} rounds, slack "
                       f"{e['slack']:.4g}, {e['releases']} releases, {e['failing']} failing, "
                       f"stuck at "
-                      f"{e.get('stuck') or '-'}", flush=True)
+                      f"{e.get('stuck') or '-'}{', kept' if e.get('kept') else ''}",
+                      flush=True)
     if args.doc:
         _write_doc(Path(args.doc), rows, load0, os.getloadavg()[0])
 

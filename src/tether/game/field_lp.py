@@ -675,15 +675,18 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
                 progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
                 start: ArcField | None = None, plateau: int = PLATEAU_ROUNDS,
                 release_rounds: int = RELEASE_ROUNDS) -> tuple[ArcField, Checks | None, list]:
-    """The first field :func:`~tether.game.certificate.certify` passes, searched from
+    """The best field the search finds, the first :func:`~tether.game.certificate.certify`
+    passes if any, searched from
     :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel of
     the same game) with the core at each of ``tries`` times :func:`vortex_radius` from the
     gaps (0: every whole-circle vertex, released where needed; above ``vt/vo = 1/√2``, where
     :func:`vortex_radius` is negative, every size gives that same core and the same search,
     which runs once). Returns ``(field, checks,
-    log)``: the last field tried and its checks (``checks.passed`` when certified; None when
-    the first field already has a closed arc, which no search can open), and one record per
-    try.
+    log)``: the best field tried (:func:`_best_try`: fewest failing triangles, then the
+    widest; a certified one ends the search) and its checks (``checks.passed`` when
+    certified; None when the first field already has a closed arc, which no search can open
+    and nothing else was tried), and one record per try, the kept one marked ``"kept":
+    True``.
 
     ``grow`` (map units, ``vt·d``): the sensing delay of :func:`certify`. ``start``: a field
     on the same mesh to try first (one certified at a shorter delay: it is checked at this
@@ -696,36 +699,47 @@ def solve_field(env: Environment, kern: Any, lss: float, vt: float, vo: float,
     if r_v < 0:  # above vt/vo = 1/√2 every core size is the whole-circle set: one try
         tries = tries[:1]
     f = first_field(kern, grow)
-    checks = None
+    tried: list = []  # (field, checks, record) per field certify checked
     if start is not None and np.array_equal(start.points, f.points) \
             and np.array_equal(start.tri, f.tri):
         g = ArcField(f.points, f.tri, start.lo.copy(), start.w.copy())
         checks = certify(g, env, lss, vt, vo, grow)
-        log.append({"start": "given", "failing": int(checks.bad.sum())})
-        if checks.passed:
-            return g, checks, log
-        g, checks = _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow, log,
-                            plateau, release_rounds)
-        if checks.passed:
-            return g, checks, log
+        log.append({"start": "given", "failing": int(checks.bad.sum()),
+                    "mean_w": float(np.mean(g.w) / _TAU)})
+        tried.append((g, checks, log[-1]))
+        if not checks.passed:
+            tried += _search(env, g, lss, vt, vo, tries[:1], r_v, rounds, progress, grow,
+                             log, plateau, release_rounds)
+        if tried[-1][1].passed:
+            return _best_try(tried) + (log,)
     if (f.w <= 0).any():
         log.append({"core": None, "closed_arcs": int((f.w <= 0).sum())})
-        return f, None, log
-    f, checks = _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log,
-                        plateau, release_rounds)
-    return f, checks, log
+        return _best_try(tried) + (log,) if tried else (f, None, log)
+    tried += _search(env, f, lss, vt, vo, tries, r_v, rounds, progress, grow, log, plateau,
+                     release_rounds)
+    return _best_try(tried) + (log,)
+
+
+def _best_try(tried: list) -> tuple[ArcField, Checks]:
+    """Of ``tried`` (``(field, checks, record)`` per field checked), the one with the fewest
+    failing triangles, then the widest (largest mean width, fraction of 2π, ``"mean_w"``),
+    then the earliest; its record is marked ``"kept": True``."""
+    i = min(range(len(tried)),
+            key=lambda j: (int(tried[j][1].bad.sum()), -tried[j][2]["mean_w"], j))
+    tried[i][2]["kept"] = True
+    return tried[i][0], tried[i][1]
 
 
 def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
             tries: tuple[float, ...], r_v: float, rounds: int,
             progress: Callable[[dict], Any] | None, grow: float, log: list,
             plateau: int = PLATEAU_ROUNDS, release_rounds: int = RELEASE_ROUNDS
-            ) -> tuple[ArcField, Checks]:
+            ) -> list:
     """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
-    field passes :func:`certify`: the last field and its checks (records appended to
+    field passes :func:`certify`: ``(field, checks, record)`` per try (records appended to
     ``log``)."""
     start = (f.lo.copy(), f.w.copy())
-    checks = None
+    tried = []
     for q in tries:
         r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
                      core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau,
@@ -737,10 +751,11 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
         log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
                     "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
                     "releases": sum(1 for e in r.log if "released" in e),
-                    "failing": int(checks.bad.sum()),
+                    "failing": int(checks.bad.sum()), "mean_w": float(np.mean(f.w) / _TAU),
                     "t_windows": sum(e["t_windows"] for e in rec),
                     "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
                     "t_certify": time.perf_counter() - t0})
+        tried.append((f, checks, log[-1]))
         if checks.passed:
             break
-    return f, checks
+    return tried
