@@ -646,8 +646,10 @@ def partner_entries(slot_a: np.ndarray, slot_b: np.ndarray, nslot: int
     entry_t = index_dtype(2 * ne + 1)
     partner_ptr = np.zeros(nslot + 1, dtype=entry_t)
     count = partner_ptr[1:]  # each slot's entries, counted in place, then summed
-    one = count.dtype.type(1)  # in the counts' own type: ``ufunc.at`` with a cast (of a
-    for lo in range(0, ne, PARTNER_CHUNK):  # Python int into int32) is ~15x slower
+    # a one in the counts' own type: ``ufunc.at`` casting a Python int into int32 is ~50x
+    # slower (1 M entries: 56 ms against 1 ms; into int64 there is no cast)
+    one = count.dtype.type(1)
+    for lo in range(0, ne, PARTNER_CHUNK):
         np.add.at(count, slot_a[lo:lo + PARTNER_CHUNK], one)
         np.add.at(count, slot_b[lo:lo + PARTNER_CHUNK], one)
     np.cumsum(partner_ptr, out=partner_ptr)
