@@ -73,7 +73,8 @@ from tether.game.certificate import (
 )
 
 __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
-           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "WIDTH_REL",
+           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "STALL_MOVE",
+           "WIDTH_REL",
            "aligned_radius", "free_windows", "initial_core", "lp_field", "lp_rounds",
            "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
 
@@ -137,6 +138,11 @@ PROXIMAL = 0.01
 #: its worst value over a wide range); a move that leaves the range is corrected in the next
 #: round, and :func:`~tether.game.certificate.certify` has the last word.
 A_WIDEN = 0.02
+#: A round that adds no cutting plane and moves no end by this much (radians) is a *stall*:
+#: every end stayed inside the orientation range its end rows' bound ``S`` was taken over
+#: (the reference's range widened by :data:`A_WIDEN`), so the LP's rows held where it moved
+#: and the next LP, with the same rows and nearly the same bounds, finds the same field.
+STALL_MOVE = A_WIDEN
 _TAU = math.tau
 #: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
 #: met for the solver
@@ -448,17 +454,19 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     one end adds the rows of its heading for both ends (the search as tuned; False: only for
     that end, half the rows).
 
-    The search is *stuck* when a round adds no cutting plane and moves no end by 1e-3 rad
-    or more (a stall), or when its slack has not fallen by :data:`PLATEAU_REL` of its best
-    within ``plateau`` rounds (a plateau, :data:`PLATEAU_ROUNDS`; 0: never; a search that
-    cycles between two fields never stalls). Stuck with slack, it releases the core vertices
-    near the slack (below) and goes on; with none to release, it stops. The round's record
-    then says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
-    (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
-    within ``plateau`` rounds. A release must pay: when the slack has not fallen by
-    :data:`RELEASE_REL` of its best before the release within ``release_rounds`` rounds of it
-    (:data:`RELEASE_ROUNDS`; 0: no such limit), and that round added cutting planes for more
-    than :data:`RELEASE_CUTS` of the LP's rows, the try ends there (``"stuck": "release"``).
+    The search is *stuck* when a round adds no cutting plane and moves no end by
+    :data:`STALL_MOVE` or more (a stall), or when its slack has not fallen by
+    :data:`PLATEAU_REL` of its best within ``plateau`` rounds (a plateau,
+    :data:`PLATEAU_ROUNDS`; 0: never; a search that cycles between two fields, or adds a
+    few cutting planes a round, never stalls).
+    Stuck with slack, it releases the core vertices near the slack (below) and goes on; with
+    none to release, it stops. The round's record then says ``"stuck": "stall"`` or
+    ``"plateau"``. Without slack it stops at a stall, or (``"stuck": "widths"``) when its mean
+    width has not grown by :data:`WIDTH_REL` of itself within ``plateau`` rounds. A release must
+    pay: when the slack has not fallen by :data:`RELEASE_REL` of its best before the release
+    within ``release_rounds`` rounds of it (:data:`RELEASE_ROUNDS`; 0: no such limit), and that
+    round added cutting planes for more than :data:`RELEASE_CUTS` of the LP's rows, the try ends
+    there (``"stuck": "release"``).
     The record of a round that released says how many vertices (``"released"``); the LP
     keeps its model and basis across a release (:meth:`_RoundLP.release`).
 
@@ -702,7 +710,7 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
             progress(entry)
         if slack_sum < (1.0 - PLATEAU_REL) * best:
             best, best_round = slack_sum, r
-        stalled = added == 0 and move < 1e-3
+        stalled = added == 0 and move < STALL_MOVE
         if slack_sum > 0.0:
             widest, widest_round = 0.0, r
         elif entry["mean_w"] > (1.0 + WIDTH_REL) * widest:
@@ -826,25 +834,59 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
             ) -> list:
     """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
     field passes :func:`certify`: ``(field, checks, record)`` per try (records appended to
-    ``log``)."""
-    start = (f.lo.copy(), f.w.copy())
-    tried = []
+    ``log``, in the order the tries ran).
+
+    A core size whose core is an earlier one's is the same search and is skipped. With more
+    than one try, the first LP round of each runs first, and the tries are finished in the
+    order of that round's slack, least first (ties in the order of ``tries``): the slack the
+    first LP needs to move from ``f`` within one trust region is how far that core's problem
+    is from a field, and the try that needs least is tried first (``docs/certified.md``, "How
+    the field is found"). The other tries keep their state and go on from their first round
+    if they run."""
+    t_spans = time.perf_counter()
+    spans = triangle_spans(env, f.points[f.tri], lss, grow)
+    t_spans = time.perf_counter() - t_spans  # counted with the first try's windows
+    qs: list = []
+    cores: list = []
     for q in tries:
-        r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
-                     core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau,
-                     release_rounds=release_rounds)
-        f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
-        t0 = time.perf_counter()
-        checks = certify(f, env, lss, vt, vo, grow)
-        rec = [e for e in r.log if "t_lp" in e]
-        log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
-                    "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
-                    "releases": sum(1 for e in r.log if "released" in e),
-                    "failing": int(checks.bad.sum()), "mean_w": float(np.mean(f.w) / _TAU),
-                    "t_windows": sum(e["t_windows"] for e in rec),
-                    "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
-                    "t_certify": time.perf_counter() - t0})
-        tried.append((f, checks, log[-1]))
-        if checks.passed:
-            break
+        c = initial_core(f.points, f.w, q * r_v)
+        if not any(np.array_equal(c, d) for d in cores):
+            qs.append(q)
+            cores.append(c)
+    gens = [lp_rounds(env, f.points, f.tri, f.lo.copy(), f.w.copy(), lss, vt, vo,
+                      rounds=rounds, core_radius=q * r_v, core=c, progress=progress,
+                      grow=grow, plateau=plateau, release_rounds=release_rounds, spans=spans)
+            for q, c in zip(qs, cores, strict=True)]
+    first: list = []  # per try: its first round's slack, and its result if it ended there
+    for g in gens if len(gens) > 1 else ():
+        try:
+            first.append((float(next(g)["slack"]), None))
+        except StopIteration as stop:
+            first.append((float(stop.value.slack), stop.value))
+    order = sorted(range(len(gens)), key=lambda i: (first[i][0], i)) if first else [0]
+    tried = []
+    try:
+        for i in order:
+            r = (first[i][1] if first else None) or _finish(gens[i])
+            g = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
+            t0 = time.perf_counter()
+            checks = certify(g, env, lss, vt, vo, grow)
+            rec = [e for e in r.log if "t_lp" in e]
+            log.append({"core": qs[i], "rounds": r.rounds, "slack": r.slack,
+                        **({"first_slack": first[i][0]} if first else {}),
+                        "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
+                        "releases": sum(1 for e in r.log if "released" in e),
+                        "failing": int(checks.bad.sum()),
+                        "mean_w": float(np.mean(g.w) / _TAU),
+                        "t_windows": sum(e["t_windows"] for e in rec)
+                        + (t_spans if not tried else 0.0),
+                        "t_lp": sum(e["t_lp"] for e in rec),
+                        "t_ends": sum(e["t_ends"] for e in rec),
+                        "t_certify": time.perf_counter() - t0})
+            tried.append((g, checks, log[-1]))
+            if checks.passed:
+                break
+    finally:
+        for gen in gens:  # the tries not run to the end: their models go
+            gen.close()
     return tried

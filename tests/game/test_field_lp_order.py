@@ -1,0 +1,65 @@
+"""``solve_field`` runs the first LP round of every core size, then finishes the tries in the
+order of that round's slack (least first); a try finished after its probe must be the same
+search as one run alone. Checked on the 10 x 10 room's coarse mesh (h 1) against
+``lp_field`` run separately for each core size (its first round, and its whole search)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tether.examples import path as example_path
+from tether.game import surveillance_kernel
+from tether.game.certificate import certify, first_field
+from tether.game.field_lp import CORE_TRIES, initial_core, lp_field, solve_field, vortex_radius
+from tether.io import load_map
+
+ROUNDS = 6
+
+
+@pytest.fixture(scope="module", params=[0.3, pytest.param(0.6, marks=pytest.mark.slow)])
+def game(request):
+    vt = request.param
+    env = load_map(example_path("nonconvex_corner"))
+    space, s = env.internal, env.frame.scale
+    kern = surveillance_kernel(space, s, vt, 1.0, h=1.0 * s, orientations=90)
+    return space, s, vt, kern, first_field(kern)
+
+
+def test_tries_run_in_the_order_of_their_first_slack(game):
+    space, lss, vt, kern, f = game
+    r_v = vortex_radius(lss, vt, 1.0)
+    alone = {}
+    for q in CORE_TRIES:
+        core = initial_core(f.points, f.w, q * r_v)
+        if any(np.array_equal(core, c) for c, _ in alone.values()):
+            continue  # the same core: the same search, skipped
+        one = lp_field(space, f.points, f.tri, f.lo, f.w, lss, vt, 1.0, rounds=1,
+                       core_radius=q * r_v)
+        alone[q] = (core, one.slack)
+    _, _, log = solve_field(space, kern, lss, vt, 1.0, rounds=ROUNDS)
+    tries = [e for e in log if "core" in e]
+    if len(alone) == 1:
+        assert [e["core"] for e in tries] == list(alone)
+        return
+    want = sorted(alone, key=lambda q: (alone[q][1], CORE_TRIES.index(q)))
+    ran = [e["core"] for e in tries]
+    assert ran == want[:len(ran)]
+    for e in tries:
+        assert e["first_slack"] == pytest.approx(alone[e["core"]][1], rel=1e-9, abs=1e-9)
+    assert len(ran) == len(want) or tries[-1]["failing"] == 0
+
+
+def test_a_try_finished_after_the_probes_is_the_search_alone(game):
+    """The kept try's field is the one ``lp_field`` gives alone with its core size (the
+    other tries' first rounds, run in between, share nothing with it), and ``certify``
+    agrees with the verdict recorded."""
+    space, lss, vt, kern, f = game
+    g, checks, log = solve_field(space, kern, lss, vt, 1.0, rounds=ROUNDS)
+    kept = next(e for e in log if e.get("kept"))
+    r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, vt, 1.0, rounds=ROUNDS,
+                 core_radius=kept["core"] * vortex_radius(lss, vt, 1.0))
+    assert np.array_equal(g.lo, r.lo)
+    assert np.array_equal(g.w, np.minimum(r.hi - r.lo, 2 * np.pi))
+    again = certify(g, space, lss, vt, 1.0)
+    assert int(again.bad.sum()) == int(checks.bad.sum()) == kept["failing"]
