@@ -416,17 +416,10 @@ def _highs() -> Any:
 
 
 def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarray,
-             w: np.ndarray, lss: float, vt: float, vo: float, rho: float = 0.25,
-             margin: float = 0.03, rounds: int = 20, headings: int = 256,
-             core_radius: float = 0.0, core: np.ndarray | None = None,
-             release: float | None = None,
-             progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
-             fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
-             seed_cuts: bool = False, paired_ends: bool = True,
-             plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
-             release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None) -> LPResult:
+             w: np.ndarray, lss: float, vt: float, vo: float, **options: Any) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
-    ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
+    ``(points, tri)`` by sequential LP (see the module docstring), :func:`lp_rounds` run to
+    its end; ``options`` are its keywords (defaults there): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
     per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
     units): whole-circle vertices at least this far from every gap start in the core (or
@@ -499,13 +492,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     >>> np.flatnonzero((r.lo != lo) | (r.hi != lo + w)).tolist()
     [1]
     """
-    gen = lp_rounds(env, points, tri, lo, w, lss, vt, vo, rho=rho, margin=margin,
-                    rounds=rounds, headings=headings, core_radius=core_radius, core=core,
-                    release=release, progress=progress, grow=grow, fixed=fixed,
-                    base_headings=base_headings, seed_cuts=seed_cuts,
-                    paired_ends=paired_ends, plateau=plateau, protect=protect,
-                    release_rounds=release_rounds, spans=spans)
-    return _finish(gen)
+    return _finish(lp_rounds(env, points, tri, lo, w, lss, vt, vo, **options))
 
 
 def _finish(gen: Any) -> LPResult:
@@ -539,10 +526,11 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
               seed_cuts: bool = False, paired_ends: bool = True,
               plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
               release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None) -> Any:
-    """:func:`lp_field` one round at a time: a generator that yields each LP round's record
-    (the dict ``progress`` gets) and returns the :class:`LPResult` (``StopIteration.value``).
-    A caller may run several searches a round at a time (:func:`solve_field` runs the first
-    round of each core size before it chooses which to finish first)."""
+    """:func:`lp_field` (whose docstring describes the keywords) one round at a time: a
+    generator that yields each LP round's record (the dict ``progress`` gets) and returns the
+    :class:`LPResult` (``StopIteration.value``). A caller may run several searches a round at
+    a time (:func:`solve_field` runs the first round of each core size before it chooses
+    which to finish first)."""
     nv, nt = len(points), len(tri)
     xy = points[tri]
     if fixed is not None:
