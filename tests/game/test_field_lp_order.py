@@ -10,7 +10,7 @@ import pytest
 
 from tether.examples import path as example_path
 from tether.game import surveillance_kernel
-from tether.game.certificate import certify, first_field
+from tether.game.certificate import ArcField, certify, first_field
 from tether.game.field_lp import CORE_TRIES, initial_core, lp_field, solve_field, vortex_radius
 from tether.io import load_map
 
@@ -51,15 +51,22 @@ def test_tries_run_in_the_order_of_their_first_slack(game):
 
 
 def test_a_try_finished_after_the_probes_is_the_search_alone(game):
-    """The kept try's field is the one ``lp_field`` gives alone with its core size (the
-    other tries' first rounds, run in between, share nothing with it), and ``certify``
-    agrees with the verdict recorded."""
+    """Every try is the search ``lp_field`` gives alone with its core size, whether it went
+    on from its first round (the least first slack) or started again after its model was
+    dropped (the other tries' first rounds share nothing with it): the same width and the
+    same failing triangles, and the kept field is that search's, bit for bit; ``certify``
+    agrees with the verdicts recorded."""
     space, lss, vt, kern, f = game
     g, checks, log = solve_field(space, kern, lss, vt, 1.0, rounds=ROUNDS)
+    r_v = vortex_radius(lss, vt, 1.0)
+    for e in (e for e in log if "core" in e):
+        r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, vt, 1.0, rounds=ROUNDS,
+                     core_radius=e["core"] * r_v)
+        alone = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, 2 * np.pi))
+        assert e["mean_w"] == float(np.mean(alone.w) / (2 * np.pi))
+        assert e["failing"] == int(certify(alone, space, lss, vt, 1.0).bad.sum())
+        if e.get("kept"):
+            assert np.array_equal(g.lo, alone.lo) and np.array_equal(g.w, alone.w)
     kept = next(e for e in log if e.get("kept"))
-    r = lp_field(space, f.points, f.tri, f.lo, f.w, lss, vt, 1.0, rounds=ROUNDS,
-                 core_radius=kept["core"] * vortex_radius(lss, vt, 1.0))
-    assert np.array_equal(g.lo, r.lo)
-    assert np.array_equal(g.w, np.minimum(r.hi - r.lo, 2 * np.pi))
     again = certify(g, space, lss, vt, 1.0)
     assert int(again.bad.sum()) == int(checks.bad.sum()) == kept["failing"]

@@ -829,9 +829,11 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
     order of that round's slack, least first (ties in the order of ``tries``): the slack the
     first LP needs to move from ``f`` within one trust region is how far that core's problem
     is from a field, and the try that needs least is tried first (``docs/certified.md``, "How
-    the field is found"). The other tries keep their state and go on from their first round
-    if they run; those that do not run leave a record ``{"probes_not_run": [...]}`` (core,
-    first slack and seconds of each)."""
+    the field is found"). The first in that order goes on from its first round; the others'
+    LP models are dropped as soon as a try with less slack is found (at most two models at a
+    time: one model is the search's largest piece of memory), and a try run after a failing
+    one starts again from its first round. Those that do not run leave a record
+    ``{"probes_not_run": [...]}`` (core, first slack and seconds of each)."""
     t_spans = time.perf_counter()
     spans = triangle_spans(env, f.points[f.tri], lss, grow)
     t_spans = time.perf_counter() - t_spans  # counted with the first try's windows
@@ -842,25 +844,37 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
         if not any(np.array_equal(c, d) for d in cores):
             qs.append(q)
             cores.append(c)
-    gens = [lp_rounds(env, f.points, f.tri, f.lo.copy(), f.w.copy(), lss, vt, vo,
-                      rounds=rounds, core_radius=q * r_v, core=c, progress=progress,
-                      grow=grow, plateau=plateau, release_rounds=release_rounds, spans=spans)
-            for q, c in zip(qs, cores, strict=True)]
+
+    def start(i: int) -> Any:
+        return lp_rounds(env, f.points, f.tri, f.lo.copy(), f.w.copy(), lss, vt, vo,
+                         rounds=rounds, core_radius=qs[i] * r_v, core=cores[i],
+                         progress=progress, grow=grow, plateau=plateau,
+                         release_rounds=release_rounds, spans=spans)
+
+    gens: list = [None] * len(qs)  # the tries under way (at most two LP models at a time)
     first: list = []  # per try: its first round's slack, its result if it ended there, and
     # the first round's record
-    for g in gens if len(gens) > 1 else ():
+    lead = None  # the try of least first slack so far: the only one kept under way
+    for i in range(len(qs)) if len(qs) > 1 else ():
+        gens[i] = start(i)
         try:
-            e = next(g)
+            e = next(gens[i])
             first.append((float(e["slack"]), None, e))
         except StopIteration as stop:
             first.append((float(stop.value.slack), stop.value, {}))
-    order = sorted(range(len(gens)), key=lambda i: (first[i][0], i)) if first else [0]
+        drop = i
+        if lead is None or first[i][0] < first[lead][0]:
+            drop, lead = lead, i
+        if drop is not None:  # not the lead: its model goes (restarted if it is run)
+            gens[drop].close()
+            gens[drop] = None
+    order = sorted(range(len(qs)), key=lambda i: (first[i][0], i)) if first else [0]
     tried: list = []
     ran: list = []
     try:
         for i in order:
             ran.append(i)
-            r = (first[i][1] if first else None) or _finish(gens[i])
+            r = (first[i][1] if first else None) or _finish(gens[i] or start(i))
             g = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
             t0 = time.perf_counter()
             checks = certify(g, env, lss, vt, vo, grow)
@@ -881,7 +895,8 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
                 break
     finally:
         for gen in gens:  # the tries not run to the end: their models go
-            gen.close()
+            if gen is not None:
+                gen.close()
     if len(ran) < len(first):  # the first rounds of tries not run: their slack and seconds
         log.append({"probes_not_run": [
             {"core": qs[i], "first_slack": first[i][0],
