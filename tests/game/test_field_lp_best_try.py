@@ -25,19 +25,25 @@ def _checks(nt: int, failing: int) -> Checks:
 
 
 def _scripted(monkeypatch, f: ArcField, failing: list[int], widths: list[float]) -> None:
-    """The ``i``-th search (``lp_field`` call) returns the constant width ``widths[i + 1]``
+    """The ``i``-th search (``lp_rounds`` call) returns the constant width ``widths[i + 1]``
     (rad), ``widths[0]`` being a start field's; a field of width ``widths[i]`` fails on
     ``failing[i]`` triangles; the first field is ``f``."""
     nt = len(f.tri)
     by_w = dict(zip(widths, failing, strict=True))
     calls = iter(widths[1:])
 
-    def fake_lp(env, points, tri, lo, w, lss, vt, vo, **_):
+    def fake_rounds(env, points, tri, lo, w, lss, vt, vo, **_):
+        """A search that ends before its first round (a generator, as ``lp_rounds``), with
+        the same slack for every try: the tries then run in the order of ``CORE_TRIES``."""
         lo2 = np.zeros(len(points))
         return LPResult(lo2, lo2 + next(calls), 1.0, 2, [], np.zeros(len(points), bool))
+        yield  # pragma: no cover
 
     monkeypatch.setattr(field_lp, "first_field", lambda kern, grow=0.0: f)
-    monkeypatch.setattr(field_lp, "lp_field", fake_lp)
+    monkeypatch.setattr(field_lp, "lp_rounds", fake_rounds)
+    made = iter(range(1, 100))  # a distinct core per try: none is skipped as a repeat
+    monkeypatch.setattr(field_lp, "initial_core",
+                        lambda points, w, radius: np.arange(len(points)) < next(made))
     monkeypatch.setattr(field_lp, "certify",
                         lambda g, *a, **k: _checks(nt, by_w[float(g.w[0])]))
 

@@ -59,8 +59,8 @@ from tether.game.cells import (
 
 __all__ = ["MARGIN", "STAR_SPLITS", "W_MIN", "ArcField", "Checks", "bisect", "certify",
            "end_slack", "first_field", "free_mesh", "hat_gradients", "heading_window_min",
-           "lifted_ends", "longest_edge_first", "sight_widening", "window_min", "window_min_at",
-           "interpolate_field"]
+           "lifted_ends", "longest_edge_first", "sight_widening", "window_floor", "window_min",
+           "window_min_at", "interpolate_field"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -523,6 +523,15 @@ def heading_window_min(amin: np.ndarray, amax: np.ndarray, headings: int, vt: fl
     out = np.minimum(table[start], table[start + (length - (1 << lev))[:, None]])
     out[full] = f_min
     return out - lip * d / 2
+
+
+def window_floor(vt: float, vo: float, sgn: float, n: int = 4096) -> float:
+    """A lower bound (map units per second) of every value :func:`window_min_at` and
+    :func:`heading_window_min` return for these ``vt``, ``vo``, ``sgn`` and ``n``: the table's
+    minimum of ``f`` minus the same Lipschitz term (each of them is a table minimum over a
+    window minus that term, and a window's minimum is at least the whole table's)."""
+    _, f_min, _, lip = _min_table(float(vt), float(vo), float(sgn), int(n))
+    return f_min - lip * (_TAU / n) / 2
 
 
 @functools.lru_cache(maxsize=16)

@@ -28,11 +28,12 @@ is zero).
 
 **Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
 
-**Solver.** One HiGHS model (``highspy``) per search, kept across the rounds: the columns and
-most rows are the same every round; the trust region, the free windows, the widths and the
-end rows' bounds move, and cutting planes add end rows, so each round re-solves from the last
-basis instead of from scratch. The blocked spans behind the free windows depend on the mesh
-only and are computed once.
+**Solver.** One HiGHS model (``highspy``) per search, kept across the rounds and the
+releases of core vertices: the columns and most rows are the same every round; the trust
+region, the free windows, the widths and the end rows' bounds move, cutting planes add end
+rows, and a release frees core rows and adds the end rows of the triangles it makes
+end-checked, so each round re-solves from the last basis instead of from scratch. The
+blocked spans behind the free windows depend on the mesh only and are computed once.
 """
 
 from __future__ import annotations
@@ -67,13 +68,15 @@ from tether.game.certificate import (
     heading_window_min,
     lifted_ends,
     sight_widening,
+    window_floor,
     window_min_at,
 )
 
 __all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
-           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "WIDTH_REL",
-           "aligned_radius", "free_windows", "lp_field", "solve_field", "triangle_spans",
-           "vortex_radius", "windows_of_spans"]
+           "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "SETTLED",
+           "STALL_MOVE", "WIDTH_REL",
+           "aligned_radius", "free_windows", "initial_core", "lp_field", "lp_rounds",
+           "solve_field", "triangle_spans", "vortex_radius", "windows_of_spans"]
 
 #: The search's core sizes, in units of :func:`vortex_radius`, tried in this order (0: every
 #: whole-circle vertex in the core, released where needed)
@@ -107,6 +110,13 @@ RELEASE_REL = 0.25
 #: 0.3, ``h`` 0.5, whose release did not pay (slack 2.8) and which then added 0.1 %, is
 #: certified four rounds later, and would not be if it ended there.
 RELEASE_CUTS = 0.01
+#: With the plateau rule, a round that adds no cutting plane and does not improve on the
+#: best (the slack, or the mean width once the slack is zero) ends the wait at once
+#: (``"stuck": "settled"``): it solved the LP with every row the search has, and the next LP
+#: has the same rows. The gallery at N = 100 (core 2/3) then takes 15 rounds instead of 21,
+#: N = 64 (core 0) 16 instead of 19, the same fields' widths (``docs/kernel.md``). False: wait
+#: out :data:`PLATEAU_ROUNDS` as before (``tests/game/test_field_lp_order.py`` compares).
+SETTLED = True
 #: Relative growth of the mean width that counts as progress once the slack is zero: a
 #: search without slack whose mean width has not grown by this much within
 #: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
@@ -135,6 +145,12 @@ PROXIMAL = 0.01
 #: its worst value over a wide range); a move that leaves the range is corrected in the next
 #: round, and :func:`~tether.game.certificate.certify` has the last word.
 A_WIDEN = 0.02
+#: A round that adds no cutting plane and moves no end by this much (radians) is a *stall*.
+#: Not more: with ``A_WIDEN`` (0.02 rad, the range the end rows' bound ``S`` holds on) the
+#: gallery's search at N = 100 ran 16 rounds instead of 21, but the coarse search and the
+#: patches of ``tests/game/test_patches.py`` (a 6 x 5 room) stopped early, and the room was
+#: no longer certified: small moves still repair there.
+STALL_MOVE = 1e-3
 _TAU = math.tau
 #: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
 #: met for the solver
@@ -249,30 +265,32 @@ def _unmovable(x_lb: np.ndarray, x_ub: np.ndarray, y_lb: np.ndarray, y_ub: np.nd
 
 
 class _RoundLP:
-    """The LP of :func:`lp_field`'s rounds, kept in one HiGHS model from round to round: the
-    columns and the width, proximal and core rows are the same every round, only bounds
-    move (the trust region, the free windows, the widths, the end rows' right-hand sides),
-    and the end rows of new cutting planes are added; HiGHS re-solves from the last basis
-    (dual simplex: a bound change keeps the basis dual feasible). Rebuilt only when the
-    core, hence the set of end-checked triangles ``et``, changes.
+    """The LP of :func:`lp_field`'s rounds, kept in one HiGHS model for the whole search: the
+    columns and the width and proximal rows are the same every round, only bounds move (the
+    trust region, the free windows, the widths, the end rows' right-hand sides), the end rows
+    of new cutting planes are added, and a release of core vertices turns their core rows
+    into free rows and adds the end rows of the triangles it makes end-checked; HiGHS
+    re-solves from the last basis (dual simplex: a bound change keeps the basis dual
+    feasible; a new row's slack is basic), never from scratch after the first round.
 
-    Columns: ``x`` (nv), ``y`` (nv), the slacks (2 per triangle of ``et``: lower end, upper
-    end), the proximal ``p``, ``q`` (one per live vertex each). Rows: widths (2 per live
-    vertex), proximal (4 per live vertex), core (``x = y`` on live core vertices), then the
-    end rows in the order they were added. The *live* vertices (``live``, indices; default
-    all) are those the LP may move: a vertex held at its reference (``x``, ``y`` bounded to 0
-    by :meth:`solve`) needs no width, proximal or core row, its columns only enter the end
-    rows of the triangles it shares with live vertices."""
+    Columns: ``x`` (nv), ``y`` (nv), the slacks (2 per mesh triangle: lower end, upper end;
+    a triangle without end rows leaves its slack columns empty, hence at 0), the proximal
+    ``p``, ``q`` (one per live vertex each). Rows: widths (2 per live vertex), proximal (4
+    per live vertex), core (``x = y`` on live core vertices; free once released), then the end
+    rows in the order they were added. The *live* vertices (``live``, indices; default all)
+    are those the LP may move: a vertex held at its reference (``x``, ``y`` bounded to 0 by
+    :meth:`solve`) needs no width, proximal or core row, its columns only enter the end rows
+    of the triangles it shares with live vertices."""
 
-    def __init__(self, tri: np.ndarray, et: np.ndarray, hat: np.ndarray, core: np.ndarray,
+    def __init__(self, tri: np.ndarray, hat: np.ndarray, core: np.ndarray,
                  area_v: np.ndarray, k: float, headings: int,
                  live: np.ndarray | None = None) -> None:
-        nv = len(area_v)
-        self.nv, self.et, self.tri, self.hat, self.k = nv, et, tri, hat, k
+        nv, nt = len(area_v), len(tri)
+        self.nv, self.tri, self.hat, self.k = nv, tri, hat, k
         iv = np.arange(nv) if live is None else np.asarray(live, np.int64)
         nl = len(iv)
         self.live = iv
-        self.nx = 2 * nv + 2 * len(et)
+        self.nx = 2 * nv + 2 * nt
         ncol = self.nx + 2 * nl
         rows, cols, vals = [], [], []
         # widths: x − y <= W − W_MIN ; y − x <= 2π − W (right-hand sides set every round)
@@ -288,10 +306,12 @@ class _RoundLP:
                 cols += [off + iv, self.nx + poff + np.arange(nl)]
                 vals += [np.full(nl, sx), np.full(nl, -1.0)]
                 r0 += nl
-        # core vertices keep the whole circle: x − y = 0
+        # core vertices keep the whole circle: x − y = 0 (row core_row[i] of vertex i)
         on = np.zeros(nv, bool)
         on[iv] = True
         ci = np.flatnonzero(core & on)
+        self.core_row = np.full(nv, -1, np.int64)
+        self.core_row[ci] = r0 + np.arange(len(ci))
         rows += [r0 + np.arange(len(ci))] * 2
         cols += [ci, nv + ci]
         vals += [np.ones(len(ci)), -np.ones(len(ci))]
@@ -304,7 +324,7 @@ class _RoundLP:
         row_lo[r0:] = 0.0
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = ncol, self.n_fixed
-        lp.col_cost_ = np.concatenate([area_v, -area_v, np.full(2 * len(et), PENALTY),
+        lp.col_cost_ = np.concatenate([area_v, -area_v, np.full(2 * nt, PENALTY),
                                        PROXIMAL * area_v[iv], PROXIMAL * area_v[iv]])
         lp.col_lower_ = np.zeros(ncol)
         lp.col_upper_ = np.full(ncol, np.inf)
@@ -315,32 +335,57 @@ class _RoundLP:
         lp.a_matrix_.value_ = a.data.astype(float)
         self.h = _highs()
         self.h.passModel(lp)
-        self.have = np.zeros((len(et), headings, 2), bool)  # end rows in the model
-        self.row_t = np.zeros(0, np.int64)  # per end row: triangle (index into et),
+        self.have = np.zeros((nt, headings, 2), bool)  # end rows in the model
+        self.row_t = np.zeros(0, np.int64)  # per end row: triangle,
         self.row_h = np.zeros(0, np.int64)  # heading,
         self.row_s = np.zeros(0)  # and end (-1 lower, +1 upper)
         self.rhs = np.zeros(0)  # the end rows' right-hand sides in the model
-        self.ends = np.full((len(et), 6), np.nan)  # the lifted ends they were set for
+        self.ends = np.full((nt, 6), np.nan)  # the lifted ends they were set for
 
-    def add_cuts(self, cut: np.ndarray, u_all: np.ndarray) -> None:
-        """Add the end rows of the (triangle of ``et``, heading, end) triples of ``cut``
-        (``(len(et), headings, 2)``, end 0 the lower, 1 the upper) not in the model yet
-        (``u_all``: the headings' unit vectors): per triple,
-        ``−sgn·k·Σ_j (∇φ_j·u)·z_j − s <= rhs`` (the right-hand side set by :meth:`solve`)."""
-        for sgn, off, end in ((-1.0, 0, 0), (1.0, self.nv, 1)):
-            ti, hs = np.nonzero(cut[:, :, end] & ~self.have[:, :, end])
-            if not len(ti):
-                continue
-            self.have[ti, hs, end] = True
-            coef = np.einsum("rvk,rk->rv", self.hat[self.et[ti]], u_all[hs])
-            cols = np.column_stack([off + self.tri[self.et[ti]], 2 * self.nv + 2 * ti + end])
-            vals = np.column_stack([-sgn * self.k * coef, np.full(len(ti), -1.0)])
-            self.h.addRows(len(ti), np.full(len(ti), -np.inf), np.full(len(ti), np.inf),
-                           cols.size, (4 * np.arange(len(ti))).astype(np.int32),
-                           cols.ravel().astype(np.int32), vals.ravel())
-            self.row_t = np.concatenate([self.row_t, ti])
-            self.row_h = np.concatenate([self.row_h, hs])
-            self.row_s = np.concatenate([self.row_s, np.full(len(ti), sgn)])
+    def release(self, freed: np.ndarray) -> None:
+        """Vertices ``freed`` (indices) leave the core: their ``x = y`` rows become free."""
+        r = self.core_row[freed]
+        r = r[r >= 0]
+        self.core_row[freed] = -1
+        if len(r):
+            self.h.changeRowsBounds(len(r), r.astype(np.int32), np.full(len(r), -np.inf),
+                                    np.full(len(r), np.inf))
+
+    def add_cuts(self, cut: np.ndarray, u_all: np.ndarray,
+                 among: np.ndarray | None = None) -> None:
+        """Add the end rows of the (triangle, heading, end) triples of ``cut``
+        (``(triangles, headings, 2)`` over the mesh's triangles, end 0 the lower, 1 the upper)
+        not in the model yet, of the triangles ``among`` only (indices; default all)."""
+        sub = cut if among is None else cut[among]
+        have = self.have if among is None else self.have[among]
+        ti, hs, end = np.nonzero(sub & ~have)
+        self.add_rows(ti if among is None else np.asarray(among)[ti], hs, end, u_all)
+
+    def add_rows(self, ti: np.ndarray, hs: np.ndarray, end: np.ndarray,
+                 u_all: np.ndarray) -> None:
+        """Add the end rows of the triples ``(ti, hs, end)`` (triangle, heading, end 0 the
+        lower or 1 the upper) not in the model yet (``u_all``: the headings' unit vectors):
+        per triple, ``−sgn·k·Σ_j (∇φ_j·u)·z_j − s <= rhs`` (the right-hand side set by
+        :meth:`solve`)."""
+        new = ~self.have[ti, hs, end]
+        ti, hs, end = ti[new], hs[new], end[new]
+        nt, nh = self.have.shape[:2]  # duplicates once; the lower ends' rows first
+        key = np.unique((end * nt + ti) * nh + hs)
+        end, ti, hs = key // (nt * nh), (key // nh) % nt, key % nh
+        if not len(ti):
+            return
+        self.have[ti, hs, end] = True
+        sgn = np.where(end == 1, 1.0, -1.0)
+        coef = np.einsum("rvk,rk->rv", self.hat[ti], u_all[hs])
+        cols = np.column_stack([end[:, None] * self.nv + self.tri[ti],
+                                2 * self.nv + 2 * ti + end])
+        vals = np.column_stack([-sgn[:, None] * self.k * coef, np.full(len(ti), -1.0)])
+        self.h.addRows(len(ti), np.full(len(ti), -np.inf), np.full(len(ti), np.inf),
+                       cols.size, (4 * np.arange(len(ti))).astype(np.int32),
+                       cols.ravel().astype(np.int32), vals.ravel())
+        self.row_t = np.concatenate([self.row_t, ti])
+        self.row_h = np.concatenate([self.row_h, hs])
+        self.row_s = np.concatenate([self.row_s, sgn])
 
     def solve(self, x_b: tuple[np.ndarray, np.ndarray], y_b: tuple[np.ndarray, np.ndarray],
               width: np.ndarray, end_rhs: np.ndarray) -> tuple[str | None, np.ndarray]:
@@ -378,17 +423,10 @@ def _highs() -> Any:
 
 
 def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarray,
-             w: np.ndarray, lss: float, vt: float, vo: float, rho: float = 0.25,
-             margin: float = 0.03, rounds: int = 20, headings: int = 256,
-             core_radius: float = 0.0, core: np.ndarray | None = None,
-             release: float | None = None,
-             progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
-             fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
-             seed_cuts: bool = False, paired_ends: bool = True,
-             plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
-             release_rounds: int = RELEASE_ROUNDS) -> LPResult:
+             w: np.ndarray, lss: float, vt: float, vo: float, **options: Any) -> LPResult:
     """The widest arc field near the reference ``(lo, w)`` (radians per vertex) on the mesh
-    ``(points, tri)`` by sequential LP (see the module docstring): at most ``rounds`` LPs,
+    ``(points, tri)`` by sequential LP (see the module docstring), :func:`lp_rounds` run to
+    its end; ``options`` are its keywords (defaults there): at most ``rounds`` LPs,
     each move within ``rho`` radians, the end rows kept ``margin`` (``lss·rate``, map units
     per second) inside their bound, over ``headings`` target headings. ``core_radius`` (map
     units): whole-circle vertices at least this far from every gap start in the core (or
@@ -401,10 +439,13 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     (per round: ``t_windows``, ``t_lp``, ``t_ends``, the seconds spent on the free windows,
     the LP, and the end rows' bounds with the cutting planes).
 
-    The blocked spans of the free windows are computed once (:func:`triangle_spans`); the LP
-    is one HiGHS model re-solved from its last basis (:class:`_RoundLP`); the cutting-plane
-    search looks again only at the triangles whose ends moved (the others' worst heading is
-    already a row or not violated).
+    The blocked spans of the free windows are computed once (:func:`triangle_spans`, or
+    ``spans``, those of every triangle of this mesh, given: a caller running several searches
+    on one mesh computes them once); the LP is one HiGHS model re-solved from its last basis
+    (:class:`_RoundLP`); the cutting-plane search looks again only at the triangles whose
+    ends moved (the others' worst heading is already a row or not violated), and there only
+    at those whose gradient is steep enough for some heading to violate
+    (:func:`~tether.game.certificate.window_floor`).
 
     ``base_headings``: the evenly spaced headings whose end rows every end-checked triangle
     has from the start, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
@@ -414,19 +455,21 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     one end adds the rows of its heading for both ends (the search as tuned; False: only for
     that end, half the rows).
 
-    The search is *stuck* when a round adds no cutting plane and moves no end by 1e-3 rad
-    or more (a stall), or when its slack has not fallen by :data:`PLATEAU_REL` of its best
-    within ``plateau`` rounds (a plateau, :data:`PLATEAU_ROUNDS`; 0: never; a search that
-    cycles between two fields never stalls). Stuck with slack, it releases the core vertices
-    near the slack (below) and goes on; with none to release, it stops. The round's record
-    then says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
+    The search is *stuck* when a round adds no cutting plane and moves no end by
+    :data:`STALL_MOVE` or more (a stall), or when its slack has not fallen by
+    :data:`PLATEAU_REL` of its best within ``plateau`` rounds (a plateau,
+    :data:`PLATEAU_ROUNDS`; 0: never; a search that cycles between two fields never stalls), or,
+    with the plateau rule, when a round adds no cutting plane and does not improve on the best
+    (:data:`SETTLED`, ``"stuck": "settled"``). Stuck with slack, it releases the core vertices
+    near the slack (below) and goes on; with none to release, it stops. The round's record then
+    says ``"stuck": "stall"`` or ``"plateau"``. Without slack it stops at a stall, or
     (``"stuck": "widths"``) when its mean width has not grown by :data:`WIDTH_REL` of itself
     within ``plateau`` rounds. A release must pay: when the slack has not fallen by
     :data:`RELEASE_REL` of its best before the release within ``release_rounds`` rounds of it
     (:data:`RELEASE_ROUNDS`; 0: no such limit), and that round added cutting planes for more
     than :data:`RELEASE_CUTS` of the LP's rows, the try ends there (``"stuck": "release"``).
-    The record of a round that released says how many vertices (``"released"``); each
-    release rebuilds the LP, which is then solved cold.
+    The record of a round that released says how many vertices (``"released"``); the LP
+    keeps its model and basis across a release (:meth:`_RoundLP.release`).
 
     ``fixed`` (bool per vertex, optional): vertices that keep their reference ends, for a
     search local to the rest (:func:`tether.game.refine.refine_certified` frees only where it
@@ -457,6 +500,45 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     >>> np.flatnonzero((r.lo != lo) | (r.hi != lo + w)).tolist()
     [1]
     """
+    return _finish(lp_rounds(env, points, tri, lo, w, lss, vt, vo, **options))
+
+
+def _finish(gen: Any) -> LPResult:
+    """Run the rounds of :func:`lp_rounds` ``gen`` to the end: its result."""
+    while True:
+        try:
+            next(gen)
+        except StopIteration as stop:
+            return stop.value
+
+
+def initial_core(points: np.ndarray, w: np.ndarray, core_radius: float) -> np.ndarray:
+    """The core :func:`lp_field` starts from: the whole-circle vertices (``w`` radians per
+    vertex) at least ``core_radius`` (map units) from every vertex with a gap."""
+    full0 = w >= FULL
+    core = full0.copy()
+    if (~full0).any() and full0.any():
+        from scipy.spatial import cKDTree
+        dist, _ = cKDTree(points[~full0]).query(points[full0])
+        core[full0] = dist >= core_radius
+    return core
+
+
+def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarray,
+              w: np.ndarray, lss: float, vt: float, vo: float, rho: float = 0.25,
+              margin: float = 0.03, rounds: int = 20, headings: int = 256,
+              core_radius: float = 0.0, core: np.ndarray | None = None,
+              release: float | None = None,
+              progress: Callable[[dict], Any] | None = None, grow: float = 0.0,
+              fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
+              seed_cuts: bool = False, paired_ends: bool = True,
+              plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
+              release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None) -> Any:
+    """:func:`lp_field` (whose docstring describes the keywords) one round at a time: a
+    generator that yields each LP round's record (the dict ``progress`` gets) and returns the
+    :class:`LPResult` (``StopIteration.value``). A caller may run several searches a round at
+    a time (:func:`solve_field` runs the first round of each core size before it chooses
+    which to finish first)."""
     nv, nt = len(points), len(tri)
     xy = points[tri]
     if fixed is not None:
@@ -480,14 +562,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     k = lss * vt
     L = lo.astype(float).copy()
     H = L + w
-    full0 = w >= FULL
-    if core is None:  # whole-circle vertices at least core_radius from every gap
-        core = full0.copy()
-        if (~full0).any() and full0.any():
-            from scipy.spatial import cKDTree
-            dist, _ = cKDTree(points[~full0]).query(points[full0])
-            core[full0] = dist >= core_radius
-    core = core.copy()
+    core = initial_core(points, w, core_radius) if core is None else core.copy()
     if protect is None:
         protect = vortex_radius(lss, vt, vo)
     protected = _vortex_vertices(points, L, H - L, tri, core, protect)
@@ -498,27 +573,38 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     if base_headings:
         cut[:, ::max(headings // base_headings, 1)] = True
     seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
+    # no heading can violate an end whose smallest bound over every window, less the largest
+    # rate its gradient asks for, keeps half the margin (window_floor)
+    floor = {sgn: window_floor(vt, vo, sgn) - margin / 2 for sgn in (-1.0, 1.0)}
 
-    def search_cuts(L: np.ndarray, H: np.ndarray, et: np.ndarray) -> int:
+    def search_cuts(L: np.ndarray, H: np.ndarray, et: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Cutting planes for the field ``(L, H)``: per triangle of ``et`` whose ends moved
         since it was last searched, and per end, the heading that violates most (if it does
-        and has no row yet). Returns how many were added."""
-        added = 0
+        and has no row yet). Returns the new (triangle, heading, end) triples."""
         Lt, Ht, _ = lifted_ends(L, H - L, tri)
         now = np.concatenate([Lt[et], Ht[et]], axis=1)
         moved = ~(now == seen[et]).all(axis=1)
         em = et[moved]
         seen[em] = now[moved]
+        found = []
         for end, (sgn, Z) in enumerate(((-1.0, Lt), (1.0, Ht))):
-            S = heading_window_min(Z[em].min(1), Z[em].max(1), headings, vt, vo, sgn)
             G = np.einsum("nvk,nv->nk", hat[em], Z[em])
-            F = S + sgn * k * (G @ U_all.T) - margin / 2
+            # F >= floor − k·|G| at every heading: only where that is below 0 can one violate
+            can = floor[sgn] - k * (1 + 1e-9) * np.hypot(G[:, 0], G[:, 1]) < 1e-12
+            ec, Gc = em[can], G[can]
+            S = heading_window_min(Z[ec].min(1), Z[ec].max(1), headings, vt, vo, sgn)
+            F = S + sgn * k * (Gc[:, 0:1] * U_all[:, 0] + Gc[:, 1:2] * U_all[:, 1]) \
+                - margin / 2
             worst = np.argmin(F, axis=1)
-            viol = F[np.arange(len(em)), worst] < 0
-            new = viol & ~cut[em, worst, end]
-            cut[em[new], worst[new], slice(None) if paired_ends else end] = True
-            added += int(new.sum())
-        return added
+            viol = F[np.arange(len(ec)), worst] < 0
+            new = viol & ~cut[ec, worst, end]
+            tn, hn = ec[new], worst[new]
+            cut[tn, hn, slice(None) if paired_ends else end] = True
+            found.append((tn, hn, np.full(len(tn), end)))
+            if paired_ends:
+                found.append((tn, hn, np.full(len(tn), 1 - end)))
+        return tuple(np.concatenate(x) for x in zip(*found, strict=True))
 
     # triangles with a vertex the LP may move (all without ``fixed``), and those vertices
     live_t = np.ones(nt, bool) if fixed is None else ~fixed[tri].all(axis=1)
@@ -533,9 +619,12 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         return et, idle
 
     et, idle = ends_checked()
-    model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
+    model = _RoundLP(tri, hat, core, area_v, k, headings, live)
+    model.add_cuts(cut, U_all, et)
     t_spans = time.perf_counter()
-    if fixed is None:
+    if spans is not None:
+        pass
+    elif fixed is None:
         spans = triangle_spans(env, xy, lss, grow)
     else:  # the spans of triangles with a free vertex, numbered in the whole mesh
         at = np.flatnonzero(live_t)
@@ -544,7 +633,7 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     t_spans = time.perf_counter() - t_spans  # counted with the first round's windows
     log = []
     if seed_cuts:  # the reference's own violated headings, before the first LP
-        search_cuts(L, H, et)
+        model.add_rows(*search_cuts(L, H, et), U_all)
     slack_sum = np.inf
     best, best_round = np.inf, 0  # the plateau's reference: the best slack, and its round
     widest, widest_round = 0.0, 0  # without slack: the widest mean width, and its round
@@ -573,9 +662,8 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         # the end rows' right-hand sides: lower end k·(G + Σ x_j ∇φ_j)·u − s <= S − m,
         # upper end −k·(…)·u − s <= S − m, S at the row's triangle and heading
         # (recomputed only for the rows of triangles whose ends moved, and new rows)
-        model.add_cuts(cut[et], U_all)
         ti, hs, sg = model.row_t, model.row_h, model.row_s
-        now = np.concatenate([Lt[et], Ht[et]], axis=1)
+        now = np.concatenate([Lt, Ht], axis=1)
         fresh = ~(now == model.ends).all(axis=1)
         model.ends = now
         rhs = np.empty(len(ti))
@@ -584,9 +672,9 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         redo[len(model.rhs):] = True
         for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
             m = redo & (sg == sgn)
-            amin, amax = Z[et].min(1) - A_WIDEN, Z[et].max(1) + A_WIDEN
-            G = np.einsum("nvk,nv->nk", hat[et], Z[et])
             tm, hm = ti[m], hs[m]
+            amin, amax = Z.min(1) - A_WIDEN, Z.max(1) + A_WIDEN
+            G = np.einsum("nvk,nv->nk", hat, Z)
             S = window_min_at(th_all[hm] - amax[tm], th_all[hm] - amin[tm], vt, vo, sgn)
             rhs[m] = S - margin + sgn * k * (G[tm] * U_all[hm]).sum(1)
         t2 = time.perf_counter()
@@ -595,34 +683,42 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
         if status is not None:
             log.append({"round": r, "status": status})
             break
-        nx_ = 2 * nv + 2 * len(et)
+        nx_ = 2 * nv + 2 * nt
         x, y, s = z[:nv], z[nv:2 * nv], z[2 * nv:nx_]
         L = L + x
         H = H + y
         slack_sum = float(s.sum())
         # cutting planes: for the new field, the headings that violate most per triangle
         # and end (only where the ends moved since this triangle was last searched)
-        added = search_cuts(L, H, et)
+        new_cuts = search_cuts(L, H, et)
+        added = len(new_cuts[0]) // (2 if paired_ends else 1)
+        model.add_rows(*new_cuts, U_all)
         t4 = time.perf_counter()
         move = float(max(np.abs(x).max(), np.abs(y).max()))
         entry = {"round": r, "slack": slack_sum, "move": move, "cuts_added": added,
-                 "mean_w": float(np.mean(H - L) / _TAU), "rows": 6 * nv + len(ti),
+                 "mean_w": float(np.mean(H - L) / _TAU), "rows": 6 * nv + len(model.row_t),
                  "t_windows": t1 - t0 + (t_spans if r == 1 else 0.0), "t_lp": t3 - t2,
                  "t_ends": t2 - t1 + t4 - t3}
-        entry["slack_at"] = [points[tri[et[j // 2]]].mean(0).round(2).tolist()
+        entry["slack_at"] = [points[tri[j // 2]].mean(0).round(2).tolist()
                              for j in np.argsort(-s)[:5] if s[j] > 1e-9]
         log.append(entry)
         if progress is not None:
             progress(entry)
         if slack_sum < (1.0 - PLATEAU_REL) * best:
             best, best_round = slack_sum, r
-        stalled = added == 0 and move < 1e-3
+        stalled = added == 0 and move < STALL_MOVE
         if slack_sum > 0.0:
             widest, widest_round = 0.0, r
         elif entry["mean_w"] > (1.0 + WIDTH_REL) * widest:
             widest, widest_round = entry["mean_w"], r
-        if slack_sum <= 0.0 and (stalled or 0 < plateau <= r - widest_round):
-            entry["stuck"] = "stall" if stalled else "widths"
+        # settled: a round that added no cutting plane solved the LP with every row the
+        # search has, and did not improve on the best (slack, or width without slack): the
+        # next LP has the same rows (only the trust region and the bounds S move); a
+        # plateau without waiting out its rounds (with the plateau rule only)
+        settled = SETTLED and 0 < plateau and added == 0 \
+            and r > (best_round if slack_sum > 0.0 else widest_round)
+        if slack_sum <= 0.0 and (stalled or settled or 0 < plateau <= r - widest_round):
+            entry["stuck"] = "stall" if stalled else "settled" if settled else "widths"
             break
         since = min(since, slack_sum)
         if released_at and 0 < release_rounds == r - released_at \
@@ -630,11 +726,11 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
                 and added > RELEASE_CUTS * entry["rows"]:
             entry["stuck"] = "release"  # the last release did not pay: the try ends
             break
-        if slack_sum > 0.0 and (stalled or 0 < plateau <= r - best_round):
-            entry["stuck"] = "stall" if stalled else "plateau"
+        if slack_sum > 0.0 and (stalled or settled or 0 < plateau <= r - best_round):
+            entry["stuck"] = "stall" if stalled else "settled" if settled else "plateau"
             # stuck with slack: the core vertices near the triangles that need it give up
             # the whole circle (their gap may open), and the search goes on
-            hot = cen[et[np.flatnonzero(s.reshape(-1, 2).max(axis=1) > 1e-9)]]
+            hot = cen[np.flatnonzero(s.reshape(-1, 2).max(axis=1) > 1e-9)]
             from scipy.spatial import cKDTree
             near = cKDTree(hot).query_ball_point(points[core], release)
             freed = np.flatnonzero(core)[np.array([len(q) > 0 for q in near], bool)]
@@ -644,11 +740,14 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
             if not len(freed):
                 break
             core[freed] = False
+            et_before = et
             et, idle = ends_checked()
-            model = _RoundLP(tri, et, hat, core, area_v, k, headings, live)
+            model.release(freed)  # the same model: the freed vertices' x = y rows go,
+            model.add_cuts(cut, U_all, np.setdiff1d(et, et_before))  # new triangles' rows
             entry["released"] = int(len(freed))
             released_at, before, since = r, min(best, slack_sum), np.inf
-            best, best_round = np.inf, r  # a new LP: its slack is measured afresh
+            best, best_round = np.inf, r  # the slack is measured afresh after a release
+        yield entry
     return LPResult(L, H, slack_sum, r, log, core)
 
 
@@ -737,25 +836,84 @@ def _search(env: Environment, f: ArcField, lss: float, vt: float, vo: float,
             ) -> list:
     """The sequential LP from ``f`` with the core at each of ``tries`` times ``r_v``, until a
     field passes :func:`certify`: ``(field, checks, record)`` per try (records appended to
-    ``log``)."""
-    start = (f.lo.copy(), f.w.copy())
-    tried = []
+    ``log``, in the order the tries ran).
+
+    A core size whose core is an earlier one's is the same search and is skipped. With more
+    than one try, the first LP round of each runs first, and the tries are finished in the
+    order of that round's slack, least first (ties in the order of ``tries``): the slack the
+    first LP needs to move from ``f`` within one trust region is how far that core's problem
+    is from a field, and the try that needs least is tried first (``docs/certified.md``, "How
+    the field is found"). The first in that order goes on from its first round; the others'
+    LP models are dropped as soon as a try with less slack is found (at most two models at a
+    time: one model is the search's largest piece of memory), and a try run after a failing
+    one starts again from its first round. Those that do not run leave a record
+    ``{"probes_not_run": [...]}`` (core, first slack and seconds of each)."""
+    t_spans = time.perf_counter()
+    spans = triangle_spans(env, f.points[f.tri], lss, grow)
+    t_spans = time.perf_counter() - t_spans  # counted with the first try's windows
+    qs: list = []
+    cores: list = []
     for q in tries:
-        r = lp_field(env, f.points, f.tri, start[0], start[1], lss, vt, vo, rounds=rounds,
-                     core_radius=q * r_v, progress=progress, grow=grow, plateau=plateau,
-                     release_rounds=release_rounds)
-        f = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
-        t0 = time.perf_counter()
-        checks = certify(f, env, lss, vt, vo, grow)
-        rec = [e for e in r.log if "t_lp" in e]
-        log.append({"core": q, "rounds": r.rounds, "slack": r.slack,
-                    "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
-                    "releases": sum(1 for e in r.log if "released" in e),
-                    "failing": int(checks.bad.sum()), "mean_w": float(np.mean(f.w) / _TAU),
-                    "t_windows": sum(e["t_windows"] for e in rec),
-                    "t_lp": sum(e["t_lp"] for e in rec), "t_ends": sum(e["t_ends"] for e in rec),
-                    "t_certify": time.perf_counter() - t0})
-        tried.append((f, checks, log[-1]))
-        if checks.passed:
-            break
+        c = initial_core(f.points, f.w, q * r_v)
+        if not any(np.array_equal(c, d) for d in cores):
+            qs.append(q)
+            cores.append(c)
+
+    def start(i: int) -> Any:
+        return lp_rounds(env, f.points, f.tri, f.lo.copy(), f.w.copy(), lss, vt, vo,
+                         rounds=rounds, core_radius=qs[i] * r_v, core=cores[i],
+                         progress=progress, grow=grow, plateau=plateau,
+                         release_rounds=release_rounds, spans=spans)
+
+    gens: list = [None] * len(qs)  # the tries under way (at most two LP models at a time)
+    first: list = []  # per try: its first round's slack, its result if it ended there, and
+    # the first round's record
+    lead = None  # the try of least first slack so far: the only one kept under way
+    for i in range(len(qs)) if len(qs) > 1 else ():
+        gens[i] = start(i)
+        try:
+            e = next(gens[i])
+            first.append((float(e["slack"]), None, e))
+        except StopIteration as stop:
+            first.append((float(stop.value.slack), stop.value, {}))
+        drop = i
+        if lead is None or first[i][0] < first[lead][0]:
+            drop, lead = lead, i
+        if drop is not None:  # not the lead: its model goes (restarted if it is run)
+            gens[drop].close()
+            gens[drop] = None
+    order = sorted(range(len(qs)), key=lambda i: (first[i][0], i)) if first else [0]
+    tried: list = []
+    ran: list = []
+    try:
+        for i in order:
+            ran.append(i)
+            r = (first[i][1] if first else None) or _finish(gens[i] or start(i))
+            g = ArcField(f.points, f.tri, r.lo, np.minimum(r.hi - r.lo, _TAU))
+            t0 = time.perf_counter()
+            checks = certify(g, env, lss, vt, vo, grow)
+            rec = [e for e in r.log if "t_lp" in e]
+            log.append({"core": qs[i], "rounds": r.rounds, "slack": r.slack,
+                        **({"first_slack": first[i][0]} if first else {}),
+                        "stuck": [(e["round"], e["stuck"]) for e in r.log if "stuck" in e],
+                        "releases": sum(1 for e in r.log if "released" in e),
+                        "failing": int(checks.bad.sum()),
+                        "mean_w": float(np.mean(g.w) / _TAU),
+                        "t_windows": sum(e["t_windows"] for e in rec)
+                        + (t_spans if not tried else 0.0),
+                        "t_lp": sum(e["t_lp"] for e in rec),
+                        "t_ends": sum(e["t_ends"] for e in rec),
+                        "t_certify": time.perf_counter() - t0})
+            tried.append((g, checks, log[-1]))
+            if checks.passed:
+                break
+    finally:
+        for gen in gens:  # the tries not run to the end: their models go
+            if gen is not None:
+                gen.close()
+    if len(ran) < len(first):  # the first rounds of tries not run: their slack and seconds
+        log.append({"probes_not_run": [
+            {"core": qs[i], "first_slack": first[i][0],
+             **{key: first[i][2].get(key, 0.0) for key in ("t_windows", "t_lp", "t_ends")}}
+            for i in range(len(first)) if i not in ran]})
     return tried
