@@ -24,6 +24,7 @@ from collections import Counter
 import numpy as np
 
 from tether import Environment
+from tether.errors import InvalidParameterError
 from tether.examples import load
 from tether.game.wall_band import wall_band_field
 
@@ -52,11 +53,14 @@ def where(env, ck, mask: np.ndarray, depth: float) -> str:
 def row(env, lss: float, h: float, direction: str, profile: str, save: str | None = None
         ) -> str:
     """Build, check and describe one field (a table row)."""
-    kw = {"alpha_wall": math.pi / 5} if profile == "corner" else {}
+    kw = {"alpha_wall": math.pi / 5, "reach": 0.95} if profile == "corner" else {}
     if direction == "saddle":
         kw.update(z0=Z0, smooth=0.5, tilt=0.9)
     t, w = time.process_time(), time.perf_counter()
-    ck = wall_band_field(env, lss, 0.9, 1.0, h, direction=direction, profile=profile, **kw)
+    try:
+        ck = wall_band_field(env, lss, 0.9, 1.0, h, direction=direction, profile=profile, **kw)
+    except InvalidParameterError as e:  # the band is deeper than the map holds
+        return f"| {lss:g} | {h:g} | {direction} | {profile} | | no field: {e} | | | |"
     cpu, wall = time.process_time() - t, time.perf_counter() - w
     if save:
         ck.save(save)

@@ -39,7 +39,14 @@ from scipy.spatial import cKDTree
 
 from tether.environment import Environment
 from tether.errors import InvalidParameterError
-from tether.game.certificate import ArcField, certify, end_slack, free_mesh, hat_gradients
+from tether.game.certificate import (
+    ArcField,
+    _wrap,
+    certify,
+    end_slack,
+    free_mesh,
+    hat_gradients,
+)
 from tether.game.certified import CertifiedKernel
 from tether.game.radial import radial_profile
 
@@ -51,11 +58,6 @@ _TAU = math.tau
 #: is constant along each segment and turns in fans at its vertices, so the segments must be
 #: much shorter than the mesh's edges for the interpolated direction to turn smoothly.
 _SEGS = 1024
-
-
-def _wrap(x: np.ndarray) -> np.ndarray:
-    """Angles into ``[-π, π)``."""
-    return np.mod(x + math.pi, _TAU) - math.pi
 
 
 def wall_loops(env: Environment, h: float, points: np.ndarray
