@@ -39,14 +39,7 @@ from scipy.spatial import cKDTree
 
 from tether.environment import Environment
 from tether.errors import InvalidParameterError
-from tether.game.certificate import (
-    ArcField,
-    _wrap,
-    certify,
-    end_slack,
-    free_mesh,
-    hat_gradients,
-)
+from tether.game.certificate import ArcField, certify, end_slack, free_mesh, hat_gradients
 from tether.game.certified import CertifiedKernel
 from tether.game.radial import radial_profile
 
@@ -58,6 +51,11 @@ _TAU = math.tau
 #: is constant along each segment and turns in fans at its vertices, so the segments must be
 #: much shorter than the mesh's edges for the interpolated direction to turn smoothly.
 _SEGS = 1024
+
+
+def _wrap(x: np.ndarray) -> np.ndarray:
+    """Angles (radians) into ``(-π, π]``, by the complex argument."""
+    return np.angle(np.exp(1j * np.asarray(x)))
 
 
 def wall_loops(env: Environment, h: float, points: np.ndarray
