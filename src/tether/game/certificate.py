@@ -600,7 +600,10 @@ def certify(field: ArcField, env: Environment, lss: float, vt: float, vo: float,
     w = field.w[tri]
     lo, hi, winds = lifted_ends(field.lo, field.w, tri)
     partial = (w < FULL).any(axis=1)
-    bad_open = (w < W_MIN).any(axis=1) | (winds & partial)
+    # written so that NaN fails: a NaN width or end compares False everywhere below, and
+    # would otherwise pass every check
+    finite = np.isfinite(field.lo)[tri].all(axis=1) & np.isfinite(w).all(axis=1)
+    bad_open = ~((w >= W_MIN).all(axis=1) & finite) | (winds & partial)
     bad_lo = np.zeros(len(tri), dtype=bool)
     bad_hi = np.zeros(len(tri), dtype=bool)
     sel = np.flatnonzero(partial & ~bad_open)

@@ -69,8 +69,8 @@ def _slack(rho: float, alpha: float, n: np.ndarray, vt: float, vo: float,
 
 
 def radial_profile(vt: float, vo: float, span: float = 1.0, need: float = NEED,
-                   alpha_wall: float = ALPHA_WALL, rho_max: float = 200.0
-                   ) -> tuple[np.ndarray, np.ndarray]:
+                   alpha_wall: float = ALPHA_WALL, rho_max: float = 200.0,
+                   rho_start: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """The half-width ``α(ρ)`` of a radial field, for ``lss`` = 1.
 
     Parameters
@@ -86,6 +86,8 @@ def radial_profile(vt: float, vo: float, span: float = 1.0, need: float = NEED,
         Half-width (radians) where the profile stops falling.
     rho_max : float
         Give up beyond this radius (lss).
+    rho_start : float
+        The smallest radius (lss) tried for ``ρ1``.
 
     Returns
     -------
@@ -105,7 +107,7 @@ def radial_profile(vt: float, vo: float, span: float = 1.0, need: float = NEED,
     >>> float(rho[0]), float(alpha[0]), float(alpha[-1])  # doctest: +SKIP
     (0.5, 3.141592653589793, 2.5)
     """
-    rho = 0.5
+    rho = rho_start
     while _slack(rho, math.pi, np.zeros(1), vt, vo, span)[0] < need:
         rho += _STEP
         if rho > rho_max:
