@@ -181,3 +181,24 @@ def test_lp_rate_bound_is_a_lower_bound(sgn):
             dense = np.minimum(dense, np.sqrt(1 - (vt * np.cos(x)) ** 2) + sgn * vt * np.sin(x))
         assert (bound <= dense + 1e-12).all()
         assert (dense - bound).max() < 0.01
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+@pytest.mark.parametrize("bad_lo, bad_w", [(np.nan, 0.5), (0.0, np.nan), (np.inf, 0.5),
+                                           (0.0, np.inf)])
+def test_certify_fails_non_finite_arcs(bad_lo, bad_w):
+    """A NaN end or width compares False everywhere and would pass every check: ``certify``
+    fails exactly the triangles that hold such a vertex (as not open); with finite arcs no
+    triangle fails that check."""
+    env = _room(10.0, 10.0)
+    h = 1.0
+    xs = np.arange(0.0, 10.0 + h / 2, h)
+    pts, tri, _ = C.free_mesh(env, h, np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2))
+    lo, w = np.zeros(len(pts)), np.full(len(pts), 0.5)
+    assert not C.certify(C.ArcField(pts, tri, lo, w), env, 0.5, 0.3, 1.0).open.any()
+    k = int(np.argmin(np.hypot(*(pts - [5, 5]).T)))
+    lo[k], w[k] = bad_lo, bad_w
+    checks = C.certify(C.ArcField(pts, tri, lo, w), env, 0.5, 0.3, 1.0)
+    holds = (tri == k).any(axis=1)
+    assert not checks.passed
+    assert np.array_equal(checks.open, holds)
