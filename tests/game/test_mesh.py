@@ -45,3 +45,27 @@ def test_office_map_meshes_at_its_own_resolution():
     h = 0.05 * load_map(path("office", ".yaml")).frame.scale
     pts, tri, source = free_mesh(env, h, _lattice(env, h))
     assert len(tri) > 10_000
+
+
+@pytest.mark.slow
+def test_a_mesh_of_more_than_46341_points():
+    """The wall-piece check keyed edges as ``i·n + j`` on qhull's int32 indices: past 46,340
+    points the key overflowed, no wall piece matched, and every big mesh was refused (the
+    gallery at h = 0.05 "does not follow the wall near (0, 0)"). A 12 x 12 room at h = 0.05
+    (about 58,000 points): meshed, every wall piece an edge (checked here on Python ints), the
+    triangles tiling the room."""
+    env = Environment([(0.0, 0.0), (12.0, 0.0), (12.0, 12.0), (0.0, 12.0)])
+    h = 0.05
+    pts, tri, source = free_mesh(env, h, _lattice(env, h))
+    assert len(pts) > 46_341
+    edges = {tuple(sorted((int(a), int(b)))) for t in tri.tolist()
+             for a, b in ((t[0], t[1]), (t[1], t[2]), (t[0], t[2]))}
+    wall = np.flatnonzero(source < 0)
+    bottom = wall[pts[wall, 1] == 0.0]
+    bottom = bottom[np.argsort(pts[bottom, 0])]
+    assert len(bottom) == 12 / (h / 2) + 1
+    pairs = zip(bottom[:-1], bottom[1:], strict=True)
+    assert all(tuple(sorted((int(a), int(b)))) in edges for a, b in pairs)
+    e1, e2 = pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    assert abs(area - env.polygon.area) < 1e-9 * env.polygon.area

@@ -178,8 +178,10 @@ def free_mesh(env: Environment, h: float, lattice: np.ndarray
     at = np.concatenate([f + np.arange(len(q) - 1) for f, q in zip(first, pieces, strict=True)])
     need = np.sort(np.stack([ends[at], ends[at + 1]], axis=1), axis=1)
     have = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]), axis=1)
-    key = len(pts)
-    missing = ~np.isin(need[:, 0] * key + need[:, 1], have[:, 0] * key + have[:, 1])
+    # int64 keys (_edge_keys): qhull's int32 indices times len(pts) overflowed past 46,340
+    # points, and every big mesh was refused
+    missing = ~np.isin(_edge_keys(need[:, 0], need[:, 1], len(pts)),
+                       _edge_keys(have[:, 0], have[:, 1], len(pts)))
     if missing.any():
         x, y = pts[need[np.argmax(missing), 0]]
         raise ValueError(f"the mesh at h = {h:g} does not follow the wall near ({x:.6g}, "
