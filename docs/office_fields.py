@@ -1,0 +1,89 @@
+"""Certify the bundled office map with a rod short enough for its doors (issue #22;
+``docs/certified.md``, "Big maps") and save the field for ``docs/evidence_runs.py
+--field-file`` and ``docs/certified_table.py --field-file``.
+
+The recipe of the gallery at 0.6 (``docs/gallery_fields.py``, whose ``search`` and ``repair``
+are used here): the search of :func:`~tether.game.certified.certified_kernel` with one core
+size (``--core``, units of :func:`~tether.game.field_lp.vortex_radius`) on the mesh of
+spacing ``--h``, then rounds of :func:`~tether.game.refine.refine_certified` with a local
+search (``search_ring=2``) until the field is certified (at most ``--rounds``). With
+``--fine H``, the certified field is then read on the uniform mesh of spacing ``H``
+(:func:`~tether.game.certificate.interpolate_field`) and repaired there in patches
+(:func:`~tether.game.patches.repair_patches`). Whatever is printed as certified was passed by
+:func:`~tether.game.certificate.certify`; the file is certified again when read
+(:func:`~tether.game.certified.load_certified`). Every step is deterministic (HiGHS, fixed
+orders), so the same command writes the same field bit for bit.
+
+Usage::
+
+    python docs/office_fields.py --lss 0.4 --h 0.2 --core 2/3 --rounds 8 \\
+        --save docs/evidence/fields/file_office_0.3_0.2_0.4_refined.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from dataclasses import replace
+from fractions import Fraction
+from pathlib import Path
+
+from tether.examples import load
+from tether.game.certificate import free_mesh, interpolate_field
+from tether.game.certified import CertifiedKernel
+from tether.game.patches import lattice_points, repair_patches
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from gallery_fields import repair, search  # noqa: E402
+
+
+def to_fine(ck: CertifiedKernel, h: float, seconds: float | None) -> CertifiedKernel:
+    """``ck``'s field read on the uniform mesh of spacing ``h`` (map units) and repaired
+    there in patches (at most ``seconds`` of patches); its ``certify`` is the result's."""
+    s = ck.frame.scale
+    pts, tri, _ = free_mesh(ck.space, h * s, lattice_points(ck.space, h * s))
+    f0 = interpolate_field(ck.field, pts, tri)
+    f, checks, log = repair_patches(ck.space, f0, ck.lss * s, ck.vt / ck.vo, 1.0,
+                                    seconds=seconds,
+                                    progress=lambda r: print(f"patches {r}", flush=True))
+    return replace(ck, h=h, field=f, checks=checks, log=[*ck.log, *log], refined=0,
+                   refine_log=[])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lss", type=float, default=0.4, help="rod length (m)")
+    ap.add_argument("--ratio", type=float, default=0.3, help="vt/vo (vo = 1)")
+    ap.add_argument("--h", type=float, default=0.2, help="mesh spacing of the search (m)")
+    ap.add_argument("--core", default="2/3",
+                    help="core size in units of vortex_radius, exactly (a fraction; 2/3)")
+    ap.add_argument("--rounds", type=int, default=8, help="local refinement rounds at most")
+    ap.add_argument("--fine", type=float, help="then read the field at this spacing (m)")
+    ap.add_argument("--seconds", type=float, help="patch budget at --fine (s)")
+    ap.add_argument("--save", help="write the field here (CertifiedKernel.save)")
+    args = ap.parse_args()
+    c0, w0 = time.process_time(), time.perf_counter()
+    env = load("office", ".yaml")
+    ck = search(env, args.lss, args.ratio, 1.0, args.h, float(Fraction(args.core)))
+    if ck.checks is None:
+        raise SystemExit(f"no first field: {ck.log[-1]}")
+    print(f"search: {len(ck.field.points)} vertices, failing {ck.checks.counts()}, "
+          f"{time.process_time() - c0:.0f} CPU s", flush=True)
+    ck = repair(ck, args.rounds)
+    if args.fine is not None and ck.certified:
+        ck = to_fine(ck, args.fine, args.seconds)
+        print(f"fine {args.fine}: {len(ck.field.points)} vertices, failing "
+              f"{ck.checks.counts()}", flush=True)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    print(f"certified {ck.certified}, {len(ck.field.points)} vertices, {cpu:.0f} CPU s, "
+          f"{wall:.0f} s wall")
+    if ck.certified:
+        frac, err = ck.safe_fraction(20_000)
+        print(f"certified share of the free states {100 * frac:.1f} ± {100 * err:.1f} %")
+    if args.save:
+        ck.save(args.save)
+
+
+if __name__ == "__main__":
+    main()
