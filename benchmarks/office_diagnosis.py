@@ -14,9 +14,16 @@ lss 0.8, ``vt/vo`` 0.3) beside ``floor_plan(20, seed=0)`` at lss 0.15 (certified
    office's regions from its coordinates: the corridor ``y < 1.85``, three rooms, and the
    three doors, 0.9 m wide in 0.15 m walls, within 0.6 m of a door's centre).
 
+``--rooms`` prints instead the numbers of the door argument (``docs/certified.md``, "Big
+maps"): per part of the free space cut at its doors, its largest clearance and whether a
+whole-circle core fits, and per rod length the shortest half and whole turn of an arc end
+(:func:`~tether.game.end_turn.turn_length`) and the passages a core fits in; ``--docs``
+writes them into ``docs/certified.md``.
+
 Usage::
 
     python benchmarks/office_diagnosis.py
+    python benchmarks/office_diagnosis.py --rooms [--docs]
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import shapely
@@ -154,14 +162,32 @@ def rooms_tables(sizes: tuple[float, ...] = (0.8, 0.5, 0.3, 0.25, 0.24)) -> str:
     return "\n".join(out)
 
 
+def write_docs(tables: str) -> None:
+    """Put ``tables`` between the ``office_diagnosis --rooms`` markers of
+    ``docs/certified.md``."""
+    doc = Path(__file__).resolve().parents[1] / "docs" / "certified.md"
+    mark = "<!-- office_diagnosis --rooms: {} -->"
+    begin, end = mark.format("begin"), mark.format("end")
+    text = doc.read_text()
+    if begin not in text or end not in text:
+        raise SystemExit(f"no {begin} ... {end} block in {doc}")
+    head, rest = text.split(begin, 1)
+    doc.write_text(f"{head}{begin}\n{tables}\n{end}{rest.split(end, 1)[1]}")
+
+
 def main() -> None:
     """Print the tables (``--rooms``: the door argument's two only)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rooms", action="store_true", help="the per-room tables only")
+    ap.add_argument("--docs", action="store_true",
+                    help="with --rooms: write them into docs/certified.md (\"Big maps\")")
     args = ap.parse_args()
     t0, w0 = time.process_time(), time.perf_counter()
     if args.rooms:
-        print(rooms_tables())
+        tables = rooms_tables()
+        print(tables)
+        if args.docs:
+            write_docs(tables)
         print(f"\n{time.process_time() - t0:.1f} CPU s, {time.perf_counter() - w0:.1f} wall s")
         return
     office = load("office", ".yaml")
