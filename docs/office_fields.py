@@ -73,19 +73,22 @@ def to_fine(ck: CertifiedKernel, h: float, seconds: float | None) -> CertifiedKe
                    refine_log=[])
 
 
+#: The options: (name, type, default, help); the rest are flags.
+OPTIONS = (("--lss", float, 0.24, "rod length (m)"), ("--ratio", float, 0.3, "vt/vo (vo = 1)"),
+           ("--h", float, 0.1, "mesh spacing of the search (m)"),
+           ("--core", str, "2/3", "core size in units of vortex_radius, a fraction (2/3)"),
+           ("--rounds", int, 0, "local refinement rounds at most"),
+           ("--fine", float, None, "then read the field at this spacing (m)"),
+           ("--seconds", float, None, "patch budget at --fine (s)"),
+           ("--save", str, None, "write the field here (CertifiedKernel.save)"))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--lss", type=float, default=0.4, help="rod length (m)")
-    ap.add_argument("--ratio", type=float, default=0.3, help="vt/vo (vo = 1)")
-    ap.add_argument("--h", type=float, default=0.2, help="mesh spacing of the search (m)")
-    ap.add_argument("--core", default="2/3",
-                    help="core size in units of vortex_radius, exactly (a fraction; 2/3)")
-    ap.add_argument("--rounds", type=int, default=0, help="local refinement rounds at most")
+    for name, kind, default, text in OPTIONS:
+        ap.add_argument(name, type=kind, default=default, help=text)
     ap.add_argument("--patches", action="store_true",
                     help="repair the search's field in patches on its own mesh first")
-    ap.add_argument("--fine", type=float, help="then read the field at this spacing (m)")
-    ap.add_argument("--seconds", type=float, help="patch budget at --fine (s)")
-    ap.add_argument("--save", help="write the field here (CertifiedKernel.save)")
     args = ap.parse_args()
     c0, w0 = time.process_time(), time.perf_counter()
     env = load("office", ".yaml")
@@ -101,14 +104,20 @@ def main() -> None:
         ck = to_fine(ck, args.fine, args.seconds)
         print(f"fine {args.fine}: {len(ck.field.points)} vertices, failing "
               f"{ck.checks.counts()}", flush=True)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    print(f"certified {ck.certified}, {len(ck.field.points)} vertices, {cpu:.0f} CPU s, "
-          f"{wall:.0f} s wall")
-    if ck.certified:
-        frac, err = ck.safe_fraction(20_000)
-        print(f"certified share of the free states {100 * frac:.1f} ± {100 * err:.1f} %")
+    summary(ck, time.process_time() - c0, time.perf_counter() - w0)
     if args.save:
         ck.save(args.save)
+
+
+def summary(ck: CertifiedKernel, cpu: float, wall: float) -> None:
+    """Print whether ``ck`` is certified, its size, the seconds spent and, if certified,
+    its share of the free states (20,000 samples)."""
+    share = ""
+    if ck.certified:
+        frac, err = ck.safe_fraction(20_000)
+        share = f"; {100 * frac:.1f} ± {100 * err:.1f} % of the free states"
+    print(f"certified {ck.certified}: {len(ck.field.points)} vertices, {cpu:.0f} CPU s, "
+          f"{wall:.0f} s wall{share}")
 
 
 if __name__ == "__main__":
