@@ -19,6 +19,10 @@ process (its own peak memory), and ``--docs`` writes the table into ``docs/certi
 
     python benchmarks/bench_kernel.py --office [--ratios 0.3,0.6] [--seconds 300] [--docs]
     python benchmarks/bench_kernel.py --office --rows ROWS.jsonl --docs  # a former run's rows
+    python benchmarks/bench_kernel.py --office --lss 0.24 --coarse 0.1 --ratios 0.3 --maps office
+
+(``--lss`` and ``--coarse`` replace the office's rod length and coarse spacing; ``--maps``
+picks the rows.)
 """
 
 from __future__ import annotations
@@ -50,11 +54,15 @@ def _big_map(name: str):
     return load("office", ".yaml") if name == "office" else floor_plan(20, seed=0)
 
 
-def _one_big(name: str, ratio: float, seconds: float, save: str | None) -> dict:
-    """One row, in this process: the certified kernel of a big map, timed by stage."""
+def _one_big(name: str, ratio: float, seconds: float, save: str | None,
+             lss: float | None = None, coarse: float | None = None) -> dict:
+    """One row, in this process: the certified kernel of a big map, timed by stage (``lss``,
+    ``coarse``: the office's rod length and coarse spacing instead of :data:`BIG_MAPS`')."""
     from tether.game.certified import certified_kernel
 
-    lss, h, coarse = next((b[1], b[2], b[3]) for b in BIG_MAPS if b[0] == name)
+    lss0, h, coarse0 = next((b[1], b[2], b[3]) for b in BIG_MAPS if b[0] == name)
+    lss = lss0 if lss is None or name != "office" else lss
+    coarse = coarse0 if coarse is None or name != "office" else coarse
     env = _big_map(name)
     t0, c0 = time.perf_counter(), time.process_time()
     ck = certified_kernel(env, lss, ratio, 1.0, h=h, coarse_h=coarse, repair_seconds=seconds)
@@ -77,7 +85,7 @@ def _one_big(name: str, ratio: float, seconds: float, save: str | None) -> dict:
     return row
 
 
-_COLS = (("map", "{}"), ("vt/vo", "{:g}"), ("h", "{:g}"), ("coarse h", "{:g}"),
+_COLS = (("map", "{}"), ("lss", "{:g}"), ("vt/vo", "{:g}"), ("h", "{:g}"), ("coarse h", "{:g}"),
          ("triangles", "{:,}"), ("coarse failing", "{:,}"), ("first failing", "{:,}"),
          ("failing", "{:,}"), ("safe %", "{:.1f}"), ("t coarse search", "{:.0f}"),
          ("t fine mesh", "{:.0f}"), ("t patches", "{:.0f}"), ("wall s", "{:.0f}"),
@@ -93,18 +101,23 @@ def _table(rows: list[dict]) -> str:
 
 
 def big_maps(ratios: list[float], seconds: float, docs: bool, save: str | None,
-             rows_file: str | None = None) -> None:
-    """Every big map at every ratio, each in a child process (or the rows a former run wrote
-    to ``rows_file``, one JSON object a line: its stderr); the table printed (and written
-    into the docs with ``docs``)."""
+             rows_file: str | None = None, maps: tuple[str, ...] | None = None,
+             extra: tuple[str, ...] = ()) -> None:
+    """Every big map (of ``maps``; default all) at every ratio, each in a child process (or
+    the rows a former run wrote to ``rows_file``, one JSON object a line: its stderr); the
+    table printed (and written into the docs with ``docs``). ``extra``: more arguments for
+    the children (``--lss``, ``--coarse``)."""
     rows = []
     if rows_file is not None:
         rows = [json.loads(line) for line in Path(rows_file).read_text().splitlines()
                 if line.startswith("{")]
     for name, _, h, _ in BIG_MAPS if rows_file is None else ():
+        if maps is not None and name.split("(")[0] not in maps:
+            continue
         for ratio in ratios if name == "office" else [0.3]:
             out = subprocess.run(
-                [sys.executable, __file__, "--one", name, str(ratio), "--seconds", str(seconds)]
+                [sys.executable, __file__, "--one", name, str(ratio), "--seconds", str(seconds),
+                 *extra]
                 + (["--save", save.format(map=name.split("(")[0], ratio=ratio, h=h)] if save
                    else []), capture_output=True, text=True, check=True)
             rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
@@ -124,7 +137,11 @@ def big_maps(ratios: list[float], seconds: float, docs: bool, save: str | None,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ratio", type=float, default=0.6, help="vt/vo (vo = 1)")
-    ap.add_argument("--lss", type=float, default=1.0)
+    ap.add_argument("--lss", type=float,
+                    help="rod length (default 1; with --office: the office's, default 0.8)")
+    ap.add_argument("--coarse", type=float,
+                    help="with --office: the office's coarse mesh spacing (default 0.2)")
+    ap.add_argument("--maps", help="with --office: comma-separated rows (office, floor_plan)")
     ap.add_argument("--grids", default="50:90,100:180,141:256",
                     help="comma-separated N:n_a (h = size/N)")
     ap.add_argument("--office", action="store_true",
@@ -141,12 +158,17 @@ def main() -> None:
     ap.add_argument("--one", nargs=2, metavar=("MAP", "RATIO"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
-        print(json.dumps(_one_big(args.one[0], float(args.one[1]), args.seconds, args.save)))
+        print(json.dumps(_one_big(args.one[0], float(args.one[1]), args.seconds, args.save,
+                                  args.lss, args.coarse)))
         return
     if args.office:
+        extra = [*(["--lss", str(args.lss)] if args.lss is not None else []),
+                 *(["--coarse", str(args.coarse)] if args.coarse is not None else [])]
         big_maps([float(r) for r in args.ratios.split(",")], args.seconds, args.docs,
-                 args.save, args.rows)
+                 args.save, args.rows, tuple(args.maps.split(",")) if args.maps else None,
+                 tuple(extra))
         return
+    args.lss = 1.0 if args.lss is None else args.lss
     env = load_map(example_path("gallery"))
     x0, y0, x1, y1 = env.bounds
     size = max(x1 - x0, y1 - y0)

@@ -14,27 +14,46 @@ lss 0.8, ``vt/vo`` 0.3) beside ``floor_plan(20, seed=0)`` at lss 0.15 (certified
    office's regions from its coordinates: the corridor ``y < 1.85``, three rooms, and the
    three doors, 0.9 m wide in 0.15 m walls, within 0.6 m of a door's centre).
 
+``--rooms`` prints instead the numbers of the door argument (``docs/certified.md``, "Big
+maps"): per part of the free space cut at its doors, its largest clearance and whether a
+whole-circle core fits, and per rod length the shortest half and whole turn of an arc end
+(:func:`~tether.game.end_turn.turn_length`) and the passages a core fits in; ``--docs``
+writes them into ``docs/certified.md``.
+
 Usage::
 
     python benchmarks/office_diagnosis.py
+    python benchmarks/office_diagnosis.py --rooms [--docs]
 """
 
 from __future__ import annotations
 
+import argparse
+import math
 import time
+from pathlib import Path
 
 import numpy as np
+import shapely
 from shapely import distance, points
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
 
 from tether.examples import floor_plan, load
 from tether.game.certificate import certify, first_field
+from tether.game.end_turn import turn_length
 from tether.game.field_lp import aligned_radius, vortex_radius
 from tether.game.kernel import surveillance_kernel
 
 VT, VO = 0.3, 1.0
 #: the office's door centres (office.yaml: gaps x 1.0-1.9, 5.4-6.3, 9.6-10.5 in y 1.85-2.0)
 DOORS = np.array([[1.45, 1.925], [5.85, 1.925], [10.05, 1.925]])
+#: The door openings (office.yaml), cut out of the free space to split it into its parts.
+DOOR_BOXES = [box(1.0, 1.85, 1.9, 2.0), box(5.4, 1.85, 6.3, 2.0), box(9.6, 1.85, 10.5, 2.0)]
+#: The office's narrow passages (m): the doors, the gaps beside the table (room 2) and the
+#: pillar (corridor), ``(name, width)`` from office.yaml's coordinates.
+PASSAGES = (("doors", 0.9), ("table to room 2's west wall", 4.6 - 3.65),
+            ("pillar to the corridor's south wall", 0.5 + 0.35),
+            ("pillar to the corridor's north wall", 1.85 - 0.9))
 
 
 def free_polygon(env) -> Polygon:
@@ -91,9 +110,86 @@ def first_field_rows(env, lss: float, coarse_h: float = 0.2) -> list[str]:
     return rows
 
 
+def part_name(part: Polygon) -> str:
+    """The office region holding ``part``'s representative point."""
+    return str(office_regions(np.array(part.representative_point().coords))[0])
+
+
+def room_rows(env, sizes: tuple[float, ...], step: float = 0.02) -> list[str]:
+    """Per part of the free space cut at its doors: area, holes, the largest clearance (the
+    distance to the walls, door openings not counted, at the points of a ``step`` grid, so
+    within ``step/√2`` below the exact value) and whether a whole-circle core of
+    ``vortex_radius`` fits (clearance >= lss + r_v) at each rod length of ``sizes``."""
+    poly = free_polygon(env)
+    parts = poly.difference(shapely.union_all(DOOR_BOXES))
+    rows = []
+    for part in sorted(parts.geoms, key=lambda q: q.bounds[0] + 10 * q.bounds[1]):
+        x0, y0, x1, y1 = part.bounds
+        gx, gy = np.meshgrid(np.arange(x0, x1, step), np.arange(y0, y1, step))
+        pts = points(np.c_[gx.ravel(), gy.ravel()])
+        d = distance(pts[shapely.contains(part, pts)], poly.boundary).max()
+        fits = " | ".join("yes" if d >= lss + vortex_radius(lss, VT, VO) else "no"
+                          for lss in sizes)
+        rows.append(f"| {part_name(part)} | {part.area:.1f} | {len(part.interiors)} | "
+                    f"{d:.2f} | {fits} |")
+    return rows
+
+
+def turn_rows(sizes: tuple[float, ...]) -> list[str]:
+    """Per rod length: ``r_v``, the core's clearance, the shortest turns of an arc end by π
+    and 2π (:func:`~tether.game.end_turn.turn_length`) and the passages whose half width
+    holds a whole core (``lss + r_v``)."""
+    rows = []
+    for lss in sizes:
+        rv = vortex_radius(lss, VT, VO)
+        fit = [f"{w:g}" for _, w in PASSAGES if w / 2 >= lss + rv]
+        rows.append(f"| {lss:g} | {rv:.3f} | {lss + rv:.3f} | "
+                    f"{turn_length(math.pi, lss, VT, VO):.3f} | "
+                    f"{turn_length(math.tau, lss, VT, VO):.3f} | "
+                    f"{', '.join(sorted(set(fit))) or 'none'} |")
+    return rows
+
+
+def rooms_tables(sizes: tuple[float, ...] = (0.8, 0.5, 0.3, 0.25, 0.24)) -> str:
+    """The two tables of the door argument (``docs/certified.md``, "Big maps")."""
+    env = load("office", ".yaml")
+    head = " | ".join(f"core fits at {lss:g}" for lss in sizes)
+    out = [f"| part | area m² | holes | largest clearance m | {head} |",
+           "|---|---:|---:|---:|" + "---|" * len(sizes), *room_rows(env, sizes), "",
+           "| lss | r_v | lss + r_v | π turn needs m | 2π turn needs m "
+           "| passages (m wide) whose half width holds lss + r_v |",
+           "|---:|---:|---:|---:|---:|---|", *turn_rows(sizes)]
+    return "\n".join(out)
+
+
+def write_docs(tables: str) -> None:
+    """Put ``tables`` between the ``office_diagnosis --rooms`` markers of
+    ``docs/certified.md``."""
+    doc = Path(__file__).resolve().parents[1] / "docs" / "certified.md"
+    mark = "<!-- office_diagnosis --rooms: {} -->"
+    begin, end = mark.format("begin"), mark.format("end")
+    text = doc.read_text()
+    if begin not in text or end not in text:
+        raise SystemExit(f"no {begin} ... {end} block in {doc}")
+    head, rest = text.split(begin, 1)
+    doc.write_text(f"{head}{begin}\n{tables}\n{end}{rest.split(end, 1)[1]}")
+
+
 def main() -> None:
-    """Print the three tables."""
+    """Print the tables (``--rooms``: the door argument's two only)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rooms", action="store_true", help="the per-room tables only")
+    ap.add_argument("--docs", action="store_true",
+                    help="with --rooms: write them into docs/certified.md (\"Big maps\")")
+    args = ap.parse_args()
     t0, w0 = time.process_time(), time.perf_counter()
+    if args.rooms:
+        tables = rooms_tables()
+        print(tables)
+        if args.docs:
+            write_docs(tables)
+        print(f"\n{time.process_time() - t0:.1f} CPU s, {time.perf_counter() - w0:.1f} wall s")
+        return
     office = load("office", ".yaml")
     plan = floor_plan(20, 0)
     print("| map | lss | max clearance | median | r_v | % >= lss | % >= r_a+lss | % >= r_v+lss |")
