@@ -72,7 +72,7 @@ from tether.game.certificate import (
     window_min_at,
 )
 
-__all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
+__all__ = ["BASE_HEADINGS", "BASE_STEEP", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
            "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "SETTLED",
            "STALL_MOVE", "WIDTH_REL",
            "aligned_radius", "free_windows", "initial_core", "lp_field", "lp_rounds",
@@ -127,6 +127,13 @@ WIDTH_REL = 1e-4
 #: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
 #: or with unpaired ends, the gallery at N = 100 needs a second core size or is not certified).
 BASE_HEADINGS = 8
+#: A triangle gets the end rows of its base headings once the gradient ``G`` of one of its
+#: ends asks for this share of the least bound any heading can have: ``lss·vt·|G| >=
+#: BASE_STEEP·(window_floor − margin/2)`` (at the reference, or at any later round's field;
+#: they are kept from then on). A gentler triangle's rows cannot bind while its gradient
+#: stays below the floor (no heading violates); the cutting planes of every round catch one
+#: that grows steeper within a trust region. 0: every end-checked triangle from the start.
+BASE_STEEP = 1.0
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
 #: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
@@ -151,6 +158,10 @@ A_WIDEN = 0.02
 #: patches of ``tests/game/test_patches.py`` (a 6 x 5 room) stopped early, and the room was
 #: no longer certified: small moves still repair there.
 STALL_MOVE = 1e-3
+#: HiGHS's dual simplex pricing (``simplex_dual_edge_weight_strategy``): 1, devex. The
+#: default (steepest edge) took 12 % more CPU in the LP of the gallery's search at N = 100,
+#: the same rounds and field (``docs/kernel.md``, "The certified kernel's search").
+DUAL_PRICING = 1
 _TAU = math.tau
 #: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
 #: met for the solver
@@ -419,6 +430,7 @@ def _highs() -> Any:
     subclass installs a logging callback that prints a banner on stdout)."""
     h = getattr(highspy, "_Highs", highspy.Highs)()
     h.setOptionValue("output_flag", False)
+    h.setOptionValue("simplex_dual_edge_weight_strategy", DUAL_PRICING)
     return h
 
 
@@ -533,7 +545,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
               fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
               seed_cuts: bool = False, paired_ends: bool = True,
               plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
-              release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None) -> Any:
+              release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None,
+              base_steep: float = BASE_STEEP) -> Any:
     """:func:`lp_field` (whose docstring describes the keywords) one round at a time: a
     generator that yields each LP round's record (the dict ``progress`` gets) and returns the
     :class:`LPResult` (``StopIteration.value``). A caller may run several searches a round at
@@ -570,12 +583,31 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
     # the (heading, end) pairs whose end rows each triangle has: base_headings evenly
     # spaced ones from the start, and the cutting planes (end 0 the lower, 1 the upper)
     cut = np.zeros((nt, headings, 2), bool)
+    base = np.zeros(headings, bool)  # the base headings
     if base_headings:
-        cut[:, ::max(headings // base_headings, 1)] = True
+        base[::max(headings // base_headings, 1)] = True
+    based = np.zeros(nt, bool)  # triangles whose base headings' rows are in ``cut``
     seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
     # no heading can violate an end whose smallest bound over every window, less the largest
     # rate its gradient asks for, keeps half the margin (window_floor)
     floor = {sgn: window_floor(vt, vo, sgn) - margin / 2 for sgn in (-1.0, 1.0)}
+
+    def steep(ts: np.ndarray, Lt: np.ndarray, Ht: np.ndarray) -> np.ndarray:
+        """Those of the triangles ``ts`` (indices) not yet based whose lower or upper end
+        (lifted ends ``Lt``, ``Ht``) has a gradient that asks for at least ``base_steep``
+        times the floor (``k·|G| >= base_steep·floor``): their base headings go into
+        ``cut``; returned as new (triangle, heading, end) triples."""
+        ts = ts[~based[ts]]
+        go = np.zeros(len(ts), bool)
+        for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
+            G = np.einsum("nvk,nv->nk", hat[ts], Z[ts])
+            go |= k * np.hypot(G[:, 0], G[:, 1]) >= base_steep * floor[sgn]
+        tn = ts[go]
+        based[tn] = True
+        fresh = cut[tn][:, base]
+        cut[np.ix_(tn, np.flatnonzero(base))] = True
+        ti, hi, ei = np.nonzero(~fresh)
+        return tn[ti], np.flatnonzero(base)[hi], ei
 
     def search_cuts(L: np.ndarray, H: np.ndarray, et: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -604,6 +636,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
             found.append((tn, hn, np.full(len(tn), end)))
             if paired_ends:
                 found.append((tn, hn, np.full(len(tn), 1 - end)))
+        if base_steep > 0:  # triangles grown steep since: their base headings
+            found.append(steep(em, Lt, Ht))
         return tuple(np.concatenate(x) for x in zip(*found, strict=True))
 
     # triangles with a vertex the LP may move (all without ``fixed``), and those vertices
@@ -619,6 +653,10 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
         return et, idle
 
     et, idle = ends_checked()
+    if base_steep > 0:  # the base headings of the triangles steep at the reference
+        steep(et, *lifted_ends(L, H - L, tri)[:2])
+    else:
+        cut[:, base] = True
     model = _RoundLP(tri, hat, core, area_v, k, headings, live)
     model.add_cuts(cut, U_all, et)
     t_spans = time.perf_counter()
@@ -742,6 +780,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
             core[freed] = False
             et_before = et
             et, idle = ends_checked()
+            if base_steep > 0:  # the steep ones of the triangles it makes end-checked
+                steep(np.setdiff1d(et, et_before), *lifted_ends(L, H - L, tri)[:2])
             model.release(freed)  # the same model: the freed vertices' x = y rows go,
             model.add_cuts(cut, U_all, np.setdiff1d(et, et_before))  # new triangles' rows
             entry["released"] = int(len(freed))
