@@ -158,10 +158,6 @@ A_WIDEN = 0.02
 #: patches of ``tests/game/test_patches.py`` (a 6 x 5 room) stopped early, and the room was
 #: no longer certified: small moves still repair there.
 STALL_MOVE = 1e-3
-#: HiGHS's dual simplex pricing (``simplex_dual_edge_weight_strategy``): 1, devex. The
-#: default (steepest edge) took 12 % more CPU in the LP of the gallery's search at N = 100,
-#: the same rounds and field (``docs/kernel.md``, "The certified kernel's search").
-DUAL_PRICING = 1
 _TAU = math.tau
 #: HiGHS's default primal feasibility tolerance (radians here): bounds violated by less are
 #: met for the solver
@@ -430,7 +426,6 @@ def _highs() -> Any:
     subclass installs a logging callback that prints a banner on stdout)."""
     h = getattr(highspy, "_Highs", highspy.Highs)()
     h.setOptionValue("output_flag", False)
-    h.setOptionValue("simplex_dual_edge_weight_strategy", DUAL_PRICING)
     return h
 
 
