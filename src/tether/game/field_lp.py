@@ -23,8 +23,9 @@ is zero).
   where ``G`` is the (linear) gradient and ``S(θ)`` the smallest of ``sqrt(vo² − vt²cos²(θ − a))
   ∓ vt·sin(θ − a)`` over the orientations ``a`` the end can take on ``T`` within the trust
   region (sampled, minus its Lipschitz bound). The headings: :data:`BASE_HEADINGS` evenly
-  spaced ones from the start, and per round and end the one that violates most (a cutting
-  plane; by default its rows are added for both ends).
+  spaced ones on every *steep* triangle (:data:`BASE_STEEP`: one whose end some heading
+  can violate, at the reference or a later round's field), and per round and end the one
+  that violates most (a cutting plane; by default its rows are added for both ends).
 
 **Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
 
@@ -454,9 +455,13 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     at those whose gradient is steep enough for some heading to violate
     (:func:`~tether.game.certificate.window_floor`).
 
-    ``base_headings``: the evenly spaced headings whose end rows every end-checked triangle
-    has from the start, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
+    ``base_headings``: the evenly spaced headings whose end rows every steep end-checked
+    triangle has, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
     one heading per triangle, end and round at most, the one that violates most).
+    ``base_steep``: the share of :func:`~tether.game.certificate.window_floor` (less half
+    the margin) that ``lss·vt·|G|`` of one end must reach for its triangle to be steep and
+    get the base rows, from the reference or the first round's field that steep on
+    (:data:`BASE_STEEP`; 0: every end-checked triangle from the start, as before).
     ``seed_cuts``: add the reference field's own cutting planes before the first LP (else
     the first LP sees the base headings only). ``paired_ends``: a cutting plane found for
     one end adds the rows of its heading for both ends (the search as tuned; False: only for
