@@ -123,10 +123,11 @@ SETTLED = True
 #: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
 #: the stall's move)
 WIDTH_REL = 1e-4
-#: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
-#: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
-#: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
-#: or with unpaired ends, the gallery at N = 100 needs a second core size or is not certified).
+#: Evenly spaced headings whose end rows every steep end-checked triangle has
+#: (:data:`BASE_STEEP`), per end (the rest are cutting planes). Fewer make each LP smaller
+#: but the search slower to converge or stuck (``docs/kernel.md``, "The certified kernel's
+#: search": with 2, or with unpaired ends, the gallery at N = 100 needs a second core size or
+#: is not certified).
 BASE_HEADINGS = 8
 #: A triangle gets the end rows of its base headings once the gradient ``G`` of one of its
 #: ends asks for this share of the least bound any heading can have: ``lss·vt·|G| >=
