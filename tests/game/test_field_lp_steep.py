@@ -92,9 +92,12 @@ def test_steep_rows_give_the_verdict_of_every_row(monkeypatch, vt):
     for steep in (field_lp.BASE_STEEP, 0.0):
         monkeypatch.setattr(field_lp, "lp_rounds",
                             lambda *a, _b=steep, **kw: orig(*a, base_steep=_b, **kw))
-        g, checks, log = solve_field(space, kern, s, vt, 1.0)
-        runs[steep] = (checks.passed, float(np.mean(g.w)), int(checks.bad.sum()))
+        rows = []
+        g, checks, log = solve_field(space, kern, s, vt, 1.0,
+                                     progress=lambda e, rows=rows: rows.append(e["rows"]))
+        runs[steep] = (checks.passed, float(np.mean(g.w)), int(checks.bad.sum()), rows[0])
     assert field_lp.BASE_STEEP > 0
-    assert runs[field_lp.BASE_STEEP][0] == runs[0.0][0]
+    assert runs[field_lp.BASE_STEEP][0] == runs[0.0][0] is True  # both certified
     assert runs[field_lp.BASE_STEEP][2] == runs[0.0][2]
     assert runs[field_lp.BASE_STEEP][1] == pytest.approx(runs[0.0][1], rel=5e-3)
+    assert runs[field_lp.BASE_STEEP][3] < runs[0.0][3]  # the first LP has fewer rows
