@@ -51,7 +51,8 @@ def test_the_skip_changes_no_row(monkeypatch):
             m.setattr(field_lp._RoundLP, "solve", solve)
             m.setattr(field_lp, "window_floor", lambda *a: orig_floor(*a) - floor_shift)
             m.setattr(field_lp, "heading_window_min", counted)
-            field_lp.lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.6, 1.0, rounds=4)
+            field_lp.lp_field(space, f.points, f.tri, f.lo, f.w, lss, 0.6, 1.0, rounds=4,
+                              base_steep=0.0)  # every base row: the skip alone
         return seen, searched[0]
 
     (with_skip, n_skip), (without, n_all) = rows(0.0), rows(1e3)

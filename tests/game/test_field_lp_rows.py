@@ -67,15 +67,15 @@ def test_unmovable_vertices_are_those_without_a_feasible_move():
 
 @pytest.mark.parametrize("base", [0, 2, 8])
 def test_rows_are_base_headings_and_cuts_per_end(mesh, monkeypatch, base):
-    """The first round's model holds exactly ``base`` evenly spaced headings per triangle
-    and end, plus (with ``seed_cuts``) the reference's most violated heading per end where
-    it violates: counted independently here with the end bound of the docstring."""
+    """With ``base_steep`` 0 the first round's model holds exactly ``base`` evenly spaced
+    headings per triangle and end (``tests/game/test_field_lp_steep.py``: the default, only
+    the steep triangles')."""
     pts, tri = mesh
     lo = np.full(len(pts), 1.0)
     w = np.full(len(pts), 2.0)
     seen = _rows(monkeypatch)
     field_lp.lp_field(ROOM4, pts, tri, lo, w, LSS, VT, VO, rounds=1, base_headings=base,
-                      seed_cuts=False)
+                      seed_cuts=False, base_steep=0.0)
     have = seen[0]
     headings = have.shape[1]
     per = have.sum(axis=1)  # (triangles, 2): rows per end

@@ -23,10 +23,12 @@ is zero).
   where ``G`` is the (linear) gradient and ``S(θ)`` the smallest of ``sqrt(vo² − vt²cos²(θ − a))
   ∓ vt·sin(θ − a)`` over the orientations ``a`` the end can take on ``T`` within the trust
   region (sampled, minus its Lipschitz bound). The headings: :data:`BASE_HEADINGS` evenly
-  spaced ones from the start, and per round and end the one that violates most (a cutting
-  plane; by default its rows are added for both ends).
+  spaced ones on every *steep* triangle (:data:`BASE_STEEP`: one whose end some heading
+  can violate, at the reference or a later round's field), and per round and end the one
+  that violates most (a cutting plane; by default its rows are added for both ends).
 
-**Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks.
+**Objective.** The largest area-weighted width ``Σ area_i·(hi_i − lo_i)``, minus the slacks
+and a small proximal price of the moves ``|x|``, ``|y|`` (:data:`PROXIMAL`).
 
 **Solver.** One HiGHS model (``highspy``) per search, kept across the rounds and the
 releases of core vertices: the columns and most rows are the same every round; the trust
@@ -72,7 +74,7 @@ from tether.game.certificate import (
     window_min_at,
 )
 
-__all__ = ["BASE_HEADINGS", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
+__all__ = ["BASE_HEADINGS", "BASE_STEEP", "CORE_TRIES", "LPResult", "PLATEAU_REL", "PLATEAU_ROUNDS",
            "RELEASE_CUTS", "RELEASE_REL", "RELEASE_ROUNDS", "SEARCH_ROUNDS", "SETTLED",
            "STALL_MOVE", "WIDTH_REL",
            "aligned_radius", "free_windows", "initial_core", "lp_field", "lp_rounds",
@@ -105,10 +107,12 @@ RELEASE_ROUNDS = 3
 #: bring within :data:`RELEASE_ROUNDS` rounds
 RELEASE_REL = 0.25
 #: A release that has not paid ends the try only if the round that judges it added cutting
-#: planes for more than this share of the LP's rows (the LP still growing: the room at 0.9
-#: added 3 % at round 9). A try that is settling goes on to its stall: the 6 x 6 room at
-#: 0.3, ``h`` 0.5, whose release did not pay (slack 2.8) and which then added 0.1 %, is
-#: certified four rounds later, and would not be if it ended there.
+#: planes for more than this share of the LP's rows (counted as the end rows plus six per
+#: vertex, the LP's rows before ``x`` and ``y`` were split, which the rule was tuned on;
+#: the LP still growing: the room at 0.9 added 3 % at round 9). A try that is settling goes
+#: on to its stall: the 6 x 6 room at 0.3, ``h`` 0.5, whose release did not pay (slack 2.8)
+#: and which then added 0.1 %, is certified four rounds later, and would not be if it ended
+#: there (counted against the split LP's own rows, it did end there: not certified).
 RELEASE_CUTS = 0.01
 #: With the plateau rule, a round that adds no cutting plane and does not improve on the
 #: best (the slack, or the mean width once the slack is zero) ends the wait at once
@@ -122,11 +126,19 @@ SETTLED = True
 #: :data:`PLATEAU_ROUNDS` rounds has converged (it can cycle there too, by a little more than
 #: the stall's move)
 WIDTH_REL = 1e-4
-#: Evenly spaced headings whose end rows every end-checked triangle has from the first round,
-#: per end (the rest are cutting planes). Fewer rows make each LP smaller but the search
-#: slower to converge or stuck (``docs/kernel.md``, "The certified kernel's search": with 2,
-#: or with unpaired ends, the gallery at N = 100 needs a second core size or is not certified).
+#: Evenly spaced headings whose end rows every steep end-checked triangle has
+#: (:data:`BASE_STEEP`), per end (the rest are cutting planes). Fewer make each LP smaller
+#: but the search slower to converge or stuck (``docs/kernel.md``, "The certified kernel's
+#: search": with 2, or with unpaired ends, the gallery at N = 100 needs a second core size or
+#: is not certified).
 BASE_HEADINGS = 8
+#: A triangle gets the end rows of its base headings once the gradient ``G`` of one of its
+#: ends asks for this share of the least bound any heading can have: ``lss·vt·|G| >=
+#: BASE_STEEP·(window_floor − margin/2)`` (at the reference, or at any later round's field;
+#: they are kept from then on). A gentler triangle's rows cannot bind while its gradient
+#: stays below the floor (no heading violates); the cutting planes of every round catch one
+#: that grows steeper within a trust region. 0: every end-checked triangle from the start.
+BASE_STEEP = 1.0
 #: Price of one unit of elastic slack (per triangle end) against one radian of width at a
 #: vertex of mean area (the widths are priced by area relative to the mean, times
 #: :data:`WIDTH_PRICE`: scale-free, so that a map scaled or normalized gets the same LP).
@@ -273,14 +285,20 @@ class _RoundLP:
     re-solves from the last basis (dual simplex: a bound change keeps the basis dual
     feasible; a new row's slack is basic), never from scratch after the first round.
 
-    Columns: ``x`` (nv), ``y`` (nv), the slacks (2 per mesh triangle: lower end, upper end;
-    a triangle without end rows leaves its slack columns empty, hence at 0), the proximal
-    ``p``, ``q`` (one per live vertex each). Rows: widths (2 per live vertex), proximal (4
-    per live vertex), core (``x = y`` on live core vertices; free once released), then the end
-    rows in the order they were added. The *live* vertices (``live``, indices; default all)
-    are those the LP may move: a vertex held at its reference (``x``, ``y`` bounded to 0 by
-    :meth:`solve`) needs no width, proximal or core row, its columns only enter the end rows
-    of the triangles it shares with live vertices."""
+    Columns: ``x⁺``, ``x⁻``, ``y⁺``, ``y⁻`` (nv each; ``x = x⁺ − x⁻``, ``y = y⁺ − y⁻``), the
+    slacks (2 per mesh triangle: lower end, upper end; a triangle without end rows leaves its
+    slack columns empty, hence at 0). The proximal price of ``|x|`` and ``|y|`` is that of
+    ``x⁺ + x⁻`` and ``y⁺ + y⁻``: at an optimum one of each pair is 0 (raising both by the
+    same amount only adds their positive price), so the optimum is that of the module
+    docstring's LP with ``p >= ±x``, ``q >= ±y`` rows, without its 4 rows per vertex (the
+    gallery at N = 100: a cold first round of 2,400 dual simplex iterations instead of
+    11,300; ``tests/game/test_field_lp_split.py`` compares the two). Rows: widths (2 per live
+    vertex), core (``x = y`` on live core vertices; free once released), then the end rows in
+    the order they were added. The *live* vertices (``live``, indices; default all) are
+    those the LP may move: a vertex held at its reference (``x``, ``y`` bounded to 0 by
+    :meth:`solve`) needs no width or core row and no proximal price, its columns only enter
+    the end rows of the triangles it shares with live vertices. :meth:`solve` returns
+    ``x``, ``y`` and the slacks."""
 
     def __init__(self, tri: np.ndarray, hat: np.ndarray, core: np.ndarray,
                  area_v: np.ndarray, k: float, headings: int,
@@ -290,31 +308,29 @@ class _RoundLP:
         iv = np.arange(nv) if live is None else np.asarray(live, np.int64)
         nl = len(iv)
         self.live = iv
-        self.nx = 2 * nv + 2 * nt
-        ncol = self.nx + 2 * nl
+        self.nx = 4 * nv + 2 * nt
+        ncol = self.nx
         rows, cols, vals = [], [], []
+        # x = x⁺ − x⁻ and y = y⁺ − y⁻ (columns x⁺, x⁻, y⁺, y⁻): u = x − y has the columns
+        # +x⁺, −x⁻, −y⁺, +y⁻
+        pm = np.array([1.0, -1.0, -1.0, 1.0])
         # widths: x − y <= W − W_MIN ; y − x <= 2π − W (right-hand sides set every round)
         for r0, sx in ((0, 1.0), (nl, -1.0)):
-            rows += [r0 + np.arange(nl)] * 2
-            cols += [iv, nv + iv]
-            vals += [np.full(nl, sx), np.full(nl, -sx)]
-        # proximal: ±x − p <= 0, ±y − q <= 0 (p, q priced PROXIMAL·area)
+            for j in range(4):
+                rows.append(r0 + np.arange(nl))
+                cols.append(j * nv + iv)
+                vals.append(np.full(nl, sx * pm[j]))
         r0 = 2 * nl
-        for off, poff in ((0, 0), (nv, nl)):
-            for sx in (1.0, -1.0):
-                rows += [r0 + np.arange(nl)] * 2
-                cols += [off + iv, self.nx + poff + np.arange(nl)]
-                vals += [np.full(nl, sx), np.full(nl, -1.0)]
-                r0 += nl
         # core vertices keep the whole circle: x − y = 0 (row core_row[i] of vertex i)
         on = np.zeros(nv, bool)
         on[iv] = True
         ci = np.flatnonzero(core & on)
         self.core_row = np.full(nv, -1, np.int64)
         self.core_row[ci] = r0 + np.arange(len(ci))
-        rows += [r0 + np.arange(len(ci))] * 2
-        cols += [ci, nv + ci]
-        vals += [np.ones(len(ci)), -np.ones(len(ci))]
+        for j in range(4):
+            rows.append(r0 + np.arange(len(ci)))
+            cols.append(j * nv + ci)
+            vals.append(np.full(len(ci), pm[j]))
         self.n_fixed = r0 + len(ci)
         a = sparse.csc_matrix((np.concatenate(vals), (np.concatenate(rows),
                                                       np.concatenate(cols))),
@@ -324,8 +340,10 @@ class _RoundLP:
         row_lo[r0:] = 0.0
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = ncol, self.n_fixed
-        lp.col_cost_ = np.concatenate([area_v, -area_v, np.full(2 * nt, PENALTY),
-                                       PROXIMAL * area_v[iv], PROXIMAL * area_v[iv]])
+        prox = np.zeros(nv)  # |x| and |y| priced PROXIMAL·area at live vertices
+        prox[iv] = PROXIMAL * area_v[iv]
+        lp.col_cost_ = np.concatenate([area_v + prox, -area_v + prox, -area_v + prox,
+                                       area_v + prox, np.full(2 * nt, PENALTY)])
         lp.col_lower_ = np.zeros(ncol)
         lp.col_upper_ = np.full(ncol, np.inf)
         lp.row_lower_, lp.row_upper_ = row_lo, row_hi
@@ -377,11 +395,13 @@ class _RoundLP:
         self.have[ti, hs, end] = True
         sgn = np.where(end == 1, 1.0, -1.0)
         coef = np.einsum("rvk,rk->rv", self.hat[ti], u_all[hs])
-        cols = np.column_stack([end[:, None] * self.nv + self.tri[ti],
-                                2 * self.nv + 2 * ti + end])
-        vals = np.column_stack([-sgn[:, None] * self.k * coef, np.full(len(ti), -1.0)])
+        off = 2 * end[:, None] * self.nv  # x⁺ (lower end) or y⁺ (upper end), then x⁻, y⁻
+        cols = np.column_stack([off + self.tri[ti], off + self.nv + self.tri[ti],
+                                4 * self.nv + 2 * ti + end])
+        c = -sgn[:, None] * self.k * coef
+        vals = np.column_stack([c, -c, np.full(len(ti), -1.0)])
         self.h.addRows(len(ti), np.full(len(ti), -np.inf), np.full(len(ti), np.inf),
-                       cols.size, (4 * np.arange(len(ti))).astype(np.int32),
+                       cols.size, (7 * np.arange(len(ti))).astype(np.int32),
                        cols.ravel().astype(np.int32), vals.ravel())
         self.row_t = np.concatenate([self.row_t, ti])
         self.row_h = np.concatenate([self.row_h, hs])
@@ -393,9 +413,12 @@ class _RoundLP:
         and the end rows' right-hand sides, and re-solve. Returns ``(None, z)`` (the
         columns' values) when optimal, else ``(status, empty)``."""
         nv, h, iv = self.nv, self.h, self.live
-        idx = np.arange(2 * nv, dtype=np.int32)
-        h.changeColsBounds(2 * nv, idx, np.concatenate([x_b[0], y_b[0]]),
-                           np.concatenate([x_b[1], y_b[1]]))
+        idx = np.arange(4 * nv, dtype=np.int32)
+        lo, hi = [], []
+        for lb, ub in (x_b, y_b):  # z in [lb, ub]: z⁺ in [lb⁺, ub⁺], z⁻ in [ub⁻, lb⁻]
+            lo += [np.maximum(lb, 0.0), np.maximum(-ub, 0.0)]
+            hi += [np.maximum(ub, 0.0), np.maximum(-lb, 0.0)]
+        h.changeColsBounds(4 * nv, idx, np.concatenate(lo), np.concatenate(hi))
         nw = 2 * len(iv)
         h.changeRowsBounds(nw, np.arange(nw, dtype=np.int32), np.full(nw, -np.inf),
                            np.concatenate([width[iv] - W_MIN, _TAU - width[iv]]))
@@ -411,7 +434,9 @@ class _RoundLP:
         status = h.getModelStatus()
         if status != highspy.HighsModelStatus.kOptimal:
             return h.modelStatusToString(status), np.zeros(0)
-        return None, np.asarray(h.getSolution().col_value)
+        z = np.asarray(h.getSolution().col_value)
+        return None, np.concatenate([z[:nv] - z[nv:2 * nv], z[2 * nv:3 * nv] - z[3 * nv:4 * nv],
+                                     z[4 * nv:]])
 
 
 def _highs() -> Any:
@@ -447,9 +472,13 @@ def lp_field(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndarr
     at those whose gradient is steep enough for some heading to violate
     (:func:`~tether.game.certificate.window_floor`).
 
-    ``base_headings``: the evenly spaced headings whose end rows every end-checked triangle
-    has from the start, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
+    ``base_headings``: the evenly spaced headings whose end rows every steep end-checked
+    triangle has, per end (:data:`BASE_HEADINGS`; the other rows are cutting planes,
     one heading per triangle, end and round at most, the one that violates most).
+    ``base_steep``: the share of :func:`~tether.game.certificate.window_floor` (less half
+    the margin) that ``lss·vt·|G|`` of one end must reach for its triangle to be steep and
+    get the base rows, from the reference or the first round's field that steep on
+    (:data:`BASE_STEEP`; 0: every end-checked triangle from the start, as before).
     ``seed_cuts``: add the reference field's own cutting planes before the first LP (else
     the first LP sees the base headings only). ``paired_ends``: a cutting plane found for
     one end adds the rows of its heading for both ends (the search as tuned; False: only for
@@ -533,7 +562,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
               fixed: np.ndarray | None = None, base_headings: int = BASE_HEADINGS,
               seed_cuts: bool = False, paired_ends: bool = True,
               plateau: int = PLATEAU_ROUNDS, protect: float | None = None,
-              release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None) -> Any:
+              release_rounds: int = RELEASE_ROUNDS, spans: tuple | None = None,
+              base_steep: float = BASE_STEEP) -> Any:
     """:func:`lp_field` (whose docstring describes the keywords) one round at a time: a
     generator that yields each LP round's record (the dict ``progress`` gets) and returns the
     :class:`LPResult` (``StopIteration.value``). A caller may run several searches a round at
@@ -570,12 +600,31 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
     # the (heading, end) pairs whose end rows each triangle has: base_headings evenly
     # spaced ones from the start, and the cutting planes (end 0 the lower, 1 the upper)
     cut = np.zeros((nt, headings, 2), bool)
+    base = np.zeros(headings, bool)  # the base headings
     if base_headings:
-        cut[:, ::max(headings // base_headings, 1)] = True
+        base[::max(headings // base_headings, 1)] = True
+    based = np.zeros(nt, bool)  # triangles whose base headings' rows are in ``cut``
     seen = np.full((nt, 6), np.nan)  # the ends each triangle's cut search last saw
     # no heading can violate an end whose smallest bound over every window, less the largest
     # rate its gradient asks for, keeps half the margin (window_floor)
     floor = {sgn: window_floor(vt, vo, sgn) - margin / 2 for sgn in (-1.0, 1.0)}
+
+    def steep(ts: np.ndarray, Lt: np.ndarray, Ht: np.ndarray) -> np.ndarray:
+        """Those of the triangles ``ts`` (indices) not yet based whose lower or upper end
+        (lifted ends ``Lt``, ``Ht``) has a gradient that asks for at least ``base_steep``
+        times the floor (``k·|G| >= base_steep·floor``): their base headings go into
+        ``cut``; returned as new (triangle, heading, end) triples."""
+        ts = ts[~based[ts]]
+        go = np.zeros(len(ts), bool)
+        for sgn, Z in ((-1.0, Lt), (1.0, Ht)):
+            G = np.einsum("nvk,nv->nk", hat[ts], Z[ts])
+            go |= k * np.hypot(G[:, 0], G[:, 1]) >= base_steep * floor[sgn]
+        tn = ts[go]
+        based[tn] = True
+        fresh = cut[tn][:, base]
+        cut[np.ix_(tn, np.flatnonzero(base))] = True
+        ti, hi, ei = np.nonzero(~fresh)
+        return tn[ti], np.flatnonzero(base)[hi], ei
 
     def search_cuts(L: np.ndarray, H: np.ndarray, et: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -604,6 +653,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
             found.append((tn, hn, np.full(len(tn), end)))
             if paired_ends:
                 found.append((tn, hn, np.full(len(tn), 1 - end)))
+        if base_steep > 0:  # triangles grown steep since: their base headings
+            found.append(steep(em, Lt, Ht))
         return tuple(np.concatenate(x) for x in zip(*found, strict=True))
 
     # triangles with a vertex the LP may move (all without ``fixed``), and those vertices
@@ -619,6 +670,10 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
         return et, idle
 
     et, idle = ends_checked()
+    if base_steep > 0:  # the base headings of the triangles steep at the reference
+        steep(et, *lifted_ends(L, H - L, tri)[:2])
+    else:
+        cut[:, base] = True
     model = _RoundLP(tri, hat, core, area_v, k, headings, live)
     model.add_cuts(cut, U_all, et)
     t_spans = time.perf_counter()
@@ -696,7 +751,7 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
         t4 = time.perf_counter()
         move = float(max(np.abs(x).max(), np.abs(y).max()))
         entry = {"round": r, "slack": slack_sum, "move": move, "cuts_added": added,
-                 "mean_w": float(np.mean(H - L) / _TAU), "rows": 6 * nv + len(model.row_t),
+                 "mean_w": float(np.mean(H - L) / _TAU), "rows": model.h.getNumRow(),
                  "t_windows": t1 - t0 + (t_spans if r == 1 else 0.0), "t_lp": t3 - t2,
                  "t_ends": t2 - t1 + t4 - t3}
         entry["slack_at"] = [points[tri[j // 2]].mean(0).round(2).tolist()
@@ -723,7 +778,7 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
         since = min(since, slack_sum)
         if released_at and 0 < release_rounds == r - released_at \
                 and since > (1.0 - RELEASE_REL) * before \
-                and added > RELEASE_CUTS * entry["rows"]:
+                and added > RELEASE_CUTS * (6 * nv + len(model.row_t)):
             entry["stuck"] = "release"  # the last release did not pay: the try ends
             break
         if slack_sum > 0.0 and (stalled or settled or 0 < plateau <= r - best_round):
@@ -742,6 +797,8 @@ def lp_rounds(env: Environment, points: np.ndarray, tri: np.ndarray, lo: np.ndar
             core[freed] = False
             et_before = et
             et, idle = ends_checked()
+            if base_steep > 0:  # the steep ones of the triangles it makes end-checked
+                steep(np.setdiff1d(et, et_before), *lifted_ends(L, H - L, tri)[:2])
             model.release(freed)  # the same model: the freed vertices' x = y rows go,
             model.add_cuts(cut, U_all, np.setdiff1d(et, et_before))  # new triangles' rows
             entry["released"] = int(len(freed))
