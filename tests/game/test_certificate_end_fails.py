@@ -56,3 +56,13 @@ def test_certify_gives_the_verdicts_of_end_slack(monkeypatch, vt):
     for name in ("free", "open", "lo", "hi", "meets"):
         assert np.array_equal(getattr(fast, name), getattr(slow, name))
     assert fast.lo.any() and fast.hi.any() and not (fast.lo | fast.hi).all()
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_a_non_finite_gradient_fails():
+    """A NaN or infinite gradient (a degenerate triangle's) is not proven to pass: it fails,
+    where a comparison ``end_slack < MARGIN`` would have let NaN through."""
+    G = np.array([[np.nan, 0.0], [np.inf, 0.0], [0.0, 0.0]])
+    a = np.zeros(3)
+    for upper in (False, True):
+        assert end_fails(G, a, a, 1.0, 0.3, 1.0, upper).tolist() == [True, True, False]

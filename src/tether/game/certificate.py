@@ -608,9 +608,12 @@ def end_fails(G: np.ndarray, a_lo: np.ndarray, a_hi: np.ndarray, lss: float, vt:
     g = k * np.hypot(G[:, 0], G[:, 1])
     floor = window_floor(vt, vo, sgn) - g - (r + vt + g) * (_TAU / THETA_SAMPLES) / 2
     out = np.zeros(len(G), bool)
-    near = np.flatnonzero(floor < MARGIN + _FLOOR_ROOM)
+    # written so that NaN fails (a NaN gradient, e.g. of a degenerate triangle, compares
+    # False everywhere): "not proven to pass", never "< MARGIN"
+    near = np.flatnonzero(~(floor >= MARGIN + _FLOOR_ROOM))
     if len(near):
-        out[near] = end_slack(G[near], a_lo[near], a_hi[near], lss, vt, vo, upper) < MARGIN
+        out[near] = ~(end_slack(G[near], a_lo[near], a_hi[near], lss, vt, vo, upper)
+                      >= MARGIN)
     return out
 
 
