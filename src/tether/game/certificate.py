@@ -345,21 +345,8 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     grid = kern.grid
     env = grid.env
     nv = len(pts)
-    lo_xy = np.full((nv, 2), np.inf)
-    hi_xy = np.full((nv, 2), -np.inf)
     corners = pts[tri]
-    grown = grow_triangles(corners, grow) if grow > 0 else corners
-    for j in range(3):
-        np.minimum.at(lo_xy, tri[:, j], grown.min(axis=1))
-        np.maximum.at(hi_xy, tri[:, j], grown.max(axis=1))
-    star_free, _ = cell_free_bins(env, np.column_stack([lo_xy, hi_xy]), kern.lss + grow,
-                                  grid.n_a)
-    if grow > 0:  # a bin is kept when every bin within the widening is free
-        m = math.ceil(sight_widening(grow, kern.lss) / grid.delta)
-        star_free = np.logical_and.reduce([np.roll(star_free, k, axis=1)
-                                           for k in range(-m, m + 1)])
-    near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
-    bins = kern.kernel[near] & star_free
+    bins, star_free = star_bins(kern, pts, tri, src, grow)
     centre = np.zeros((nv, 2))
     count = np.zeros(nv)
     for j in range(3):
@@ -381,6 +368,31 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     edges = np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
                               axis=1), axis=0)
     return ArcField(pts, tri, _smooth_gaps(lo, w, edges), w)
+
+
+def star_bins(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: float = 0.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex of the mesh ``(pts, tri)``, the orientation bins of ``kern``'s grid free from
+    every point of the vertex's star (``star_free``, (n, n_a) bool; with a sensing delay as in
+    :func:`first_field`) and those also in ``kern`` at its lattice point (``src``, -1: the
+    nearest one): ``(bins, star_free)``."""
+    grid = kern.grid
+    nv = len(pts)
+    lo_xy = np.full((nv, 2), np.inf)
+    hi_xy = np.full((nv, 2), -np.inf)
+    corners = pts[tri]
+    grown = grow_triangles(corners, grow) if grow > 0 else corners
+    for j in range(3):
+        np.minimum.at(lo_xy, tri[:, j], grown.min(axis=1))
+        np.maximum.at(hi_xy, tri[:, j], grown.max(axis=1))
+    star_free, _ = cell_free_bins(grid.env, np.column_stack([lo_xy, hi_xy]), kern.lss + grow,
+                                  grid.n_a)
+    if grow > 0:  # a bin is kept when every bin within the widening is free
+        m = math.ceil(sight_widening(grow, kern.lss) / grid.delta)
+        star_free = np.logical_and.reduce([np.roll(star_free, k, axis=1)
+                                           for k in range(-m, m + 1)])
+    near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
+    return kern.kernel[near] & star_free, star_free
 
 
 def _runs_toward(kernel: np.ndarray, pref: np.ndarray

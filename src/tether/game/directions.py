@@ -1,0 +1,231 @@
+"""A first field for the search whose singularities sit where a whole-circle core fits
+(``docs/certified.md``, "Where no field is certified", floor plans).
+
+An arc field's gap direction winds: near a wall the gap holds the direction into the wall, so
+its singularities carry a total index of ``1 − holes`` (Poincaré–Hopf), and each needs a
+whole-circle core of radius about :func:`~tether.game.field_lp.vortex_radius` beyond the
+``lss`` a whole-circle vertex keeps from the walls. :func:`~tether.game.certificate.first_field`
+points each arc at the direction away from the nearest wall, which puts a saddle in every
+passage narrower than about ``2·lss`` (no core fits there). Here the arcs' *run direction*
+``d`` (a unit complex number per vertex, the gap at ``−d``) is a harmonic interpolation in the
+spirit of Knöppel, Crane, Pinkall and Schröder ("Globally optimal direction fields", 2013):
+
+- a vertex whose free orientations (:func:`~tether.game.certificate.star_bins`) form one run
+  has ``d`` fixed at the run's middle (near a wall: away from it);
+- a vertex with two or more runs (a passage, where the rods along it are free and those across
+  it are not) is left free in a first solve, then fixed at the middle of the run nearest the
+  direction that solve gives it (a *line* constraint whose sign the field chooses);
+- whole-circle vertices are free: ``d`` there minimizes ``Σ w_e·|d_i − d_j|²`` over the mesh's
+  edges, with ``w_e = (ℓ/c_e)²`` (``c_e`` the clearance at the edge's middle, ``ℓ`` the mean
+  edge length; both map units, so the weights are scale-free). Turning is dear near walls and
+  cheap in the open, so the zeros of ``d`` (its singularities) move to the largest clear
+  regions, where a core fits.
+
+The arcs are then the runs holding ``d`` (as :func:`~tether.game.certificate.first_field`
+takes the run holding its direction), and the gap of a whole-circle vertex is at ``−d``. The
+mesh is :func:`~tether.game.certificate.first_field`'s, so the field can be handed to
+:func:`~tether.game.field_lp.solve_field` as ``start`` or to
+:func:`~tether.game.field_lp.lp_field`. Like any first field it proves nothing:
+:func:`~tether.game.certificate.certify` decides.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.csgraph import breadth_first_order, connected_components
+from scipy.sparse.linalg import spsolve
+from scipy.spatial import cKDTree
+
+from tether.game.certificate import ArcField, _runs_toward, first_field, star_bins
+
+__all__ = ["CLEARANCE_POWER", "PIN_PULL", "RUN_MARGIN", "UNIT_PULL", "UNIT_STEPS",
+           "direction_field",
+           "harmonic_directions", "run_middles", "singularities"]
+
+#: Power of the clearance in the edge weights ``(ℓ/c)^p`` of the harmonic solve
+CLEARANCE_POWER = 4.0
+#: Steps of the iteration that pulls the free vertices' directions towards unit length, and
+#: the pull's weight against the smoothness (per vertex, relative to its edge weights): a
+#: harmonic field between opposite walls passes through zero along the whole strip, a unit
+#: one turns across it
+UNIT_STEPS = 30
+UNIT_PULL = 1.0
+#: The pull of a vertex with free orientations on one run (or a chosen run of a passage)
+#: into that run, less :data:`RUN_MARGIN`: the run's middle is only where the iteration starts
+PIN_PULL = 100.0
+#: How far inside its run (radians, at most a quarter of the run) a vertex's direction is
+#: pulled
+RUN_MARGIN = math.radians(20)
+_TAU = math.tau
+
+
+def run_middles(bins: np.ndarray, delta: float) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Per row of ``bins`` ((n, n_a) bool, bin ``k`` the orientation ``k·delta`` radians): the
+    number of circular runs of ``True`` (0 for a full or an empty row) and, per row, the
+    middles of its runs (radians)."""
+    n_a = bins.shape[1]
+    starts = bins & ~np.roll(bins, 1, axis=1)
+    count = starts.sum(axis=1)
+    mids = []
+    for row, st in zip(bins, starts, strict=True):
+        ks = np.flatnonzero(st)
+        m = []
+        for k in ks:
+            length = int(np.argmin(np.roll(row, -k))) if not row.all() else n_a
+            m.append((k + (length - 1) / 2) * delta)
+        mids.append(np.array(m))
+    return count, mids
+
+
+def _edges(tri: np.ndarray) -> np.ndarray:
+    return np.unique(np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]]),
+                             axis=1), axis=0)
+
+
+def harmonic_directions(points: np.ndarray, tri: np.ndarray, clearance: np.ndarray,
+                        fixed: np.ndarray, value: np.ndarray,
+                        power: float = CLEARANCE_POWER, pull: float | np.ndarray = 0.0,
+                        target: np.ndarray | None = None) -> np.ndarray:
+    """The complex field ``z`` (one per vertex) equal to ``value`` where ``fixed`` and
+    minimizing ``Σ w_e·|z_i − z_j|²`` elsewhere, ``w_e = (ℓ/c_e)^power`` (``c_e`` the
+    ``clearance``, map units, at the middle of edge ``e``, interpolated from its two vertices
+    and at least a quarter of the mean edge length ``ℓ``). A free component without a fixed
+    vertex gets 0. With a ``target``, ``pull`` (a number or one per vertex) adds
+    ``pull_i·d_i·|z_i − target_i|²`` at the free vertices (``d_i`` the vertex's total edge
+    weight): a step of the projected iteration of :func:`direction_field`."""
+    e = _edges(tri)
+    length = np.hypot(*(points[e[:, 0]] - points[e[:, 1]]).T)
+    ell = float(length.mean())
+    c = np.maximum((clearance[e[:, 0]] + clearance[e[:, 1]]) / 2, ell / 4)
+    w = (ell / c) ** power
+    n = len(points)
+    free = ~fixed
+    fi = np.flatnonzero(free)
+    if not len(fi):
+        return value.astype(complex)
+    idx = np.full(n, -1)
+    idx[fi] = np.arange(len(fi))
+    rows, cols, vals = [], [], []
+    diag = np.zeros(len(fi))
+    rhs = np.zeros(len(fi), dtype=complex)
+    for u, v in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
+        at = free[u]
+        u, v, wu = u[at], v[at], w[at]
+        np.add.at(diag, idx[u], wu)
+        both = free[v]
+        rows.append(idx[u[both]])
+        cols.append(idx[v[both]])
+        vals.append(-wu[both])
+        np.add.at(rhs, idx[u[~both]], wu[~both] * value[v[~both]])
+    rows.append(np.arange(len(fi)))
+    cols.append(np.arange(len(fi)))
+    if target is not None:
+        k = np.broadcast_to(np.asarray(pull, float), (n,))[fi]
+        rhs = rhs + k * diag * target[fi]
+        diag = diag * (1 + k)
+    vals.append(diag + 1e-12 * max(float(diag.max()), 1.0))  # a component with no fixed vertex
+    m = sparse.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(len(fi), len(fi))).tocsc()
+    z = value.astype(complex).copy()
+    z[fi] = spsolve(m, rhs)
+    return z
+
+
+def singularities(z: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """The index of the direction field ``arg z`` around each triangle (an integer per
+    triangle: the wrapped turns along its three edges over 2π; 0 where it does not wind)."""
+    a = np.angle(z)[tri]
+    turn = sum(np.mod(a[:, (k + 1) % 3] - a[:, k] + math.pi, _TAU) - math.pi for k in range(3))
+    return np.rint(turn / _TAU).astype(int)
+
+
+def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
+                    ) -> tuple[ArcField, np.ndarray]:
+    """The first field of the module docstring on the mesh of
+    :func:`~tether.game.certificate.first_field` of ``kern`` (a conservative grid kernel;
+    ``grow``: a sensing delay's ``vt·d``, map units). Returns ``(field, z)``: the arcs and the
+    run direction per vertex (complex; the gap of a whole-circle vertex at ``−z``)."""
+    grid = kern.grid
+    f0 = first_field(kern, grow)
+    pts, tri = f0.points, f0.tri
+    dist, near = cKDTree(grid.points).query(pts)
+    src = np.where(dist == 0, near, -1)
+    bins, star_free = star_bins(kern, pts, tri, src, grow)
+    count, mids = run_middles(bins, grid.delta)
+    thin = ~(bins & np.roll(bins, 1, axis=1)).any(axis=1)  # no run of 2 bins
+    if thin.any():  # the free bins alone where the kernel leaves none
+        c2, m2 = run_middles(star_free[thin], grid.delta)
+        count[thin] = c2
+        for i, k in enumerate(np.flatnonzero(thin)):
+            mids[k] = m2[i]
+    clear = grid.env.boundary_distance(pts[:, 0], pts[:, 1])
+    one = count == 1
+    value = np.zeros(len(pts), dtype=complex)
+    value[one] = np.exp(1j * np.array([m[0] for m in np.asarray(mids, dtype=object)[one]]))
+    z = harmonic_directions(pts, tri, clear, one, value, power)
+    many = np.flatnonzero(count >= 2)
+    for order, pred in _passages(many, tri, z):  # along each passage, one way
+        for i in order:  # the run nearest the direction of the vertex it is reached from
+            toward = np.angle(z[i]) if pred[i] < 0 else np.angle(value[pred[i]])
+            value[i] = np.exp(1j * mids[i][np.argmax(np.cos(mids[i] - toward))])
+    fixed = one.copy()
+    fixed[many] = True
+    z = harmonic_directions(pts, tri, clear, fixed, value, power)
+    rows = np.where(thin[:, None], star_free, bins)
+    s0, n0, _ = _runs_toward(rows, np.mod(np.round(np.angle(value) / grid.delta),
+                                          grid.n_a).astype(int))
+    run_lo, run_w = s0 * grid.delta, np.maximum(n0 - 1, 0) * grid.delta
+    pull = np.where(fixed, PIN_PULL, UNIT_PULL)
+    free = np.zeros(len(pts), bool)
+    for _ in range(UNIT_STEPS):  # towards unit length, and into the runs (not their middle)
+        a = np.angle(z)
+        a = np.where(fixed, _clamp(a, run_lo, run_w), a)
+        target = np.where(fixed | (np.abs(z) > 0), np.exp(1j * a), 0)
+        z = harmonic_directions(pts, tri, clear, free, value, power, pull, target)
+    pref = np.mod(np.round(np.angle(z) / grid.delta), grid.n_a).astype(int)
+    start, length, full = _runs_toward(bins, pref)
+    short = length <= 1
+    if short.any():
+        s2, l2, f2 = _runs_toward(star_free[short], pref[short])
+        start[short], length[short], full[short] = s2, l2, f2
+    lo = np.where(full, np.mod(np.angle(z) + math.pi, _TAU), start * grid.delta)
+    w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
+    return ArcField(pts, tri, lo, w), z
+
+
+
+def _clamp(a: np.ndarray, lo: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The angles ``a`` (radians) moved into the arcs ``[lo + m, lo + w − m]``,
+    ``m = min(RUN_MARGIN, w/4)``, to the nearer end where outside."""
+    m = np.minimum(RUN_MARGIN, w / 4)
+    rel = np.mod(a - lo, _TAU)
+    inside = (rel >= m) & (rel <= w - m)
+    d_lo = np.abs(np.mod(rel - m + math.pi, _TAU) - math.pi)
+    d_hi = np.abs(np.mod(rel - (w - m) + math.pi, _TAU) - math.pi)
+    return np.where(inside, a, lo + np.where(d_lo <= d_hi, m, w - m))
+
+
+def _passages(vertices: np.ndarray, tri: np.ndarray, z: np.ndarray
+              ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per connected component (by mesh edges) of the subgraph on ``vertices``: its vertices
+    in breadth-first order from the one where ``|z|`` is largest, and the predecessors
+    (per mesh vertex; -1 for that first one)."""
+    if not len(vertices):
+        return []
+    n = len(z)
+    inside = np.zeros(n, bool)
+    inside[vertices] = True
+    e = _edges(tri)
+    e = e[inside[e[:, 0]] & inside[e[:, 1]]]
+    g = sparse.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
+    _, label = connected_components(g, directed=False)
+    out = []
+    for q in np.unique(label[vertices]):
+        comp = vertices[label[vertices] == q]
+        seed = int(comp[np.argmax(np.abs(z[comp]))])
+        order, pred = breadth_first_order(g, seed, directed=False)
+        out.append((order, np.where(pred < 0, -1, pred)))
+    return out
