@@ -34,19 +34,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 from scipy import sparse
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.sparse.linalg import spsolve
 from scipy.spatial import cKDTree
 
 from tether.game.certificate import ArcField, _runs_toward, first_field, star_bins
+from tether.game.field_lp import aligned_radius, vortex_radius
 
-__all__ = ["CLEARANCE_POWER", "PIN_PULL", "RUN_MARGIN", "UNIT_PULL", "UNIT_STEPS",
-           "direction_field",
+__all__ = ["ALONG", "CLEARANCE_POWER", "PIN_PULL", "RUN_MARGIN", "UNIT_PULL", "UNIT_STEPS",
+           "core_clearance", "direction_field",
            "harmonic_directions", "run_middles", "singularities"]
 
 #: Power of the clearance in the edge weights ``(ℓ/c)^p`` of the harmonic solve
-CLEARANCE_POWER = 4.0
+CLEARANCE_POWER = 6
 #: Steps of the iteration that pulls the free vertices' directions towards unit length, and
 #: the pull's weight against the smoothness (per vertex, relative to its edge weights): a
 #: harmonic field between opposite walls passes through zero along the whole strip, a unit
@@ -56,6 +58,8 @@ UNIT_PULL = 1.0
 #: The pull of a vertex with free orientations on one run (or a chosen run of a passage)
 #: into that run, less :data:`RUN_MARGIN`: the run's middle is only where the iteration starts
 PIN_PULL = 100.0
+#: Half-width (radians) of the directions along a passage a vertex in one may take
+ALONG = math.radians(45)
 #: How far inside its run (radians, at most a quarter of the run) a vertex's direction is
 #: pulled
 RUN_MARGIN = math.radians(20)
@@ -162,6 +166,17 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
         for i, k in enumerate(np.flatnonzero(thin)):
             mids[k] = m2[i]
     clear = grid.env.boundary_distance(pts[:, 0], pts[:, 1])
+    along = _along_passages(grid.env, pts, clear, core_clearance(kern) + grid.h, grid.n_a)
+    rows = np.where(thin[:, None], star_free, bins)
+    narrowed = rows & along
+    keep = (narrowed & np.roll(narrowed, 1, axis=1)).any(axis=1) & along.any(axis=1) \
+        & ~along.all(axis=1)
+    if keep.any():  # in a passage too narrow for a core: the runs along it only
+        rows = np.where(keep[:, None], narrowed, rows)
+        c3, m3 = run_middles(rows[keep], grid.delta)
+        count[keep] = c3
+        for i, k in enumerate(np.flatnonzero(keep)):
+            mids[k] = m3[i]
     one = count == 1
     value = np.zeros(len(pts), dtype=complex)
     value[one] = np.exp(1j * np.array([m[0] for m in np.asarray(mids, dtype=object)[one]]))
@@ -174,7 +189,6 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
     fixed = one.copy()
     fixed[many] = True
     z = harmonic_directions(pts, tri, clear, fixed, value, power)
-    rows = np.where(thin[:, None], star_free, bins)
     s0, n0, _ = _runs_toward(rows, np.mod(np.round(np.angle(value) / grid.delta),
                                           grid.n_a).astype(int))
     run_lo, run_w = s0 * grid.delta, np.maximum(n0 - 1, 0) * grid.delta
@@ -193,8 +207,50 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
         start[short], length[short], full[short] = s2, l2, f2
     lo = np.where(full, np.mod(np.angle(z) + math.pi, _TAU), start * grid.delta)
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
+    into = np.mod(np.angle(z) - lo, _TAU)  # the arc centred on z where z lies in its run:
+    half = np.minimum(into, w - into)  # the gap then follows −z, as the singularities do
+    centred = ~full & (into <= w) & (half >= grid.delta)
+    lo = np.where(centred, np.angle(z) - half, lo)
+    w = np.where(centred, 2 * half, w)
     return ArcField(pts, tri, lo, w), z
 
+
+
+def core_clearance(kern) -> float:
+    """The clearance (map units) a singularity's core needs: ``lss`` (a whole-circle vertex's
+    own) plus :func:`~tether.game.field_lp.vortex_radius` (or, above ``vt/vo = 1/√2``, where
+    that is negative, :func:`~tether.game.field_lp.aligned_radius`)."""
+    r = vortex_radius(kern.lss, kern.vt, kern.vo)
+    return kern.lss + (r if r > 0 else aligned_radius(kern.lss, kern.vt, kern.vo))
+
+
+def _along_passages(env, pts: np.ndarray, clear: np.ndarray, need: float, n_a: int
+                    ) -> np.ndarray:
+    """Per vertex, the orientation bins (n, n_a) within :data:`ALONG` of the passage it lies
+    in, both ways: all True where the space across it (the clearance plus the free distance
+    straight away from the nearest wall) is at least ``2·need`` (no passage)."""
+    near = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts),
+                                                         env.polygon.boundary)).reshape(-1, 2, 2)
+    n = near[:, 0] - near[:, 1]
+    norm = np.hypot(n[:, 0], n[:, 1])
+    wall = norm < 1e-12  # a wall vertex: away from the wall is the inward normal there
+    if wall.any():
+        off = shapely.get_coordinates(shapely.shortest_line(
+            shapely.points(pts[wall]), env.polygon.buffer(-1e-6 * need).boundary)
+        ).reshape(-1, 2, 2)
+        n[wall] = off[:, 1] - off[:, 0]
+        norm[wall] = np.hypot(n[wall, 0], n[wall, 1])
+    u = n / np.maximum(norm, 1e-300)[:, None]
+    a = pts + u * (1e-6 * need)
+    b = pts + u * (2 * need)
+    hit = shapely.intersection(shapely.linestrings(np.stack([a, b], axis=1)),
+                               env.polygon.boundary)
+    far = np.where(shapely.is_empty(hit), np.inf, shapely.distance(shapely.points(pts), hit))
+    passage = clear + far < 2 * need
+    tangent = np.arctan2(u[:, 0], -u[:, 1])  # u turned by −90°
+    ang = np.arange(n_a) * (_TAU / n_a)
+    off = np.abs(np.mod(ang[None, :] - tangent[:, None] + math.pi / 2, math.pi) - math.pi / 2)
+    return np.where(passage[:, None], off <= ALONG, True)
 
 
 def _clamp(a: np.ndarray, lo: np.ndarray, w: np.ndarray) -> np.ndarray:
