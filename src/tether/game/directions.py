@@ -43,8 +43,8 @@ from scipy.spatial import cKDTree
 from tether.game.certificate import ArcField, _runs_toward, first_field, star_bins
 from tether.game.field_lp import aligned_radius, vortex_radius
 
-__all__ = ["ALONG", "CLEARANCE_POWER", "PIN_PULL", "RUN_MARGIN", "UNIT_PULL", "UNIT_STEPS",
-           "core_clearance", "direction_field",
+__all__ = ["ALONG", "CLEARANCE_POWER", "PIN_PULL", "PIN_START", "RUN_MARGIN", "STIFF",
+           "UNIT_PULL", "UNIT_STEPS", "core_clearance", "direction_field",
            "harmonic_directions", "run_middles", "singularities"]
 
 #: Power of the clearance in the edge weights ``(ℓ/c)^p`` of the harmonic solve
@@ -60,6 +60,12 @@ UNIT_PULL = 1.0
 PIN_PULL = 100.0
 #: Half-width (radians) of the directions along a passage a vertex in one may take
 ALONG = math.radians(45)
+#: Weight factor of the edges where no core fits (the clearance below the core's, plus the
+#: mesh spacing): a singularity costs that much more there
+STIFF = 1e4
+#: The pins' pull in the first step of the iteration, relative to :data:`PIN_PULL` (it
+#: grows geometrically to 1 by the last step)
+PIN_START = 1e-3
 #: How far inside its run (radians, at most a quarter of the run) a vertex's direction is
 #: pulled
 RUN_MARGIN = math.radians(20)
@@ -92,19 +98,23 @@ def _edges(tri: np.ndarray) -> np.ndarray:
 def harmonic_directions(points: np.ndarray, tri: np.ndarray, clearance: np.ndarray,
                         fixed: np.ndarray, value: np.ndarray,
                         power: float = CLEARANCE_POWER, pull: float | np.ndarray = 0.0,
-                        target: np.ndarray | None = None) -> np.ndarray:
+                        target: np.ndarray | None = None, stiff: float | None = None
+                        ) -> np.ndarray:
     """The complex field ``z`` (one per vertex) equal to ``value`` where ``fixed`` and
     minimizing ``Σ w_e·|z_i − z_j|²`` elsewhere, ``w_e = (ℓ/c_e)^power`` (``c_e`` the
     ``clearance``, map units, at the middle of edge ``e``, interpolated from its two vertices
     and at least a quarter of the mean edge length ``ℓ``). A free component without a fixed
     vertex gets 0. With a ``target``, ``pull`` (a number or one per vertex) adds
     ``pull_i·d_i·|z_i − target_i|²`` at the free vertices (``d_i`` the vertex's total edge
-    weight): a step of the projected iteration of :func:`direction_field`."""
+    weight): a step of the projected iteration of :func:`direction_field`. ``stiff`` (map
+    units): the edges whose clearance is below it weigh :data:`STIFF` times more."""
     e = _edges(tri)
     length = np.hypot(*(points[e[:, 0]] - points[e[:, 1]]).T)
     ell = float(length.mean())
     c = np.maximum((clearance[e[:, 0]] + clearance[e[:, 1]]) / 2, ell / 4)
     w = (ell / c) ** power
+    if stiff is not None:  # no singularity where no core fits
+        w = np.where(c < stiff, STIFF * w, w)
     n = len(points)
     free = ~fixed
     fi = np.flatnonzero(free)
@@ -166,7 +176,8 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
         for i, k in enumerate(np.flatnonzero(thin)):
             mids[k] = m2[i]
     clear = grid.env.boundary_distance(pts[:, 0], pts[:, 1])
-    along = _along_passages(grid.env, pts, clear, core_clearance(kern) + grid.h, grid.n_a)
+    stiff = core_clearance(kern) + grid.h
+    along = _along_passages(grid.env, pts, clear, stiff, grid.n_a)
     rows = np.where(thin[:, None], star_free, bins)
     narrowed = rows & along
     keep = (narrowed & np.roll(narrowed, 1, axis=1)).any(axis=1) & along.any(axis=1) \
@@ -180,7 +191,7 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
     one = count == 1
     value = np.zeros(len(pts), dtype=complex)
     value[one] = np.exp(1j * np.array([m[0] for m in np.asarray(mids, dtype=object)[one]]))
-    z = harmonic_directions(pts, tri, clear, one, value, power)
+    z = harmonic_directions(pts, tri, clear, one, value, power, stiff=stiff)
     many = np.flatnonzero(count >= 2)
     for order, pred in _passages(many, tri, z):  # along each passage, one way
         for i in order:  # the run nearest the direction of the vertex it is reached from
@@ -188,17 +199,19 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
             value[i] = np.exp(1j * mids[i][np.argmax(np.cos(mids[i] - toward))])
     fixed = one.copy()
     fixed[many] = True
-    z = harmonic_directions(pts, tri, clear, fixed, value, power)
+    free = np.zeros(len(pts), bool)
+    z = harmonic_directions(pts, tri, clear, free, value, power,  # the pins weak: the
+                            np.where(fixed, PIN_PULL * PIN_START, 0.0), value, stiff)  # open
     s0, n0, _ = _runs_toward(rows, np.mod(np.round(np.angle(value) / grid.delta),
                                           grid.n_a).astype(int))
     run_lo, run_w = s0 * grid.delta, np.maximum(n0 - 1, 0) * grid.delta
-    pull = np.where(fixed, PIN_PULL, UNIT_PULL)
-    free = np.zeros(len(pts), bool)
-    for _ in range(UNIT_STEPS):  # towards unit length, and into the runs (not their middle)
+    for k in range(UNIT_STEPS):  # towards unit length, and into the runs (not their middle),
+        ramp = PIN_START ** (1 - k / max(UNIT_STEPS - 1, 1))  # the pins weak at first: the
+        pull = np.where(fixed, PIN_PULL * ramp, UNIT_PULL)  # singularities move to the open
         a = np.angle(z)
         a = np.where(fixed, _clamp(a, run_lo, run_w), a)
         target = np.where(fixed | (np.abs(z) > 0), np.exp(1j * a), 0)
-        z = harmonic_directions(pts, tri, clear, free, value, power, pull, target)
+        z = harmonic_directions(pts, tri, clear, free, value, power, pull, target, stiff)
     pref = np.mod(np.round(np.angle(z) / grid.delta), grid.n_a).astype(int)
     start, length, full = _runs_toward(bins, pref)
     short = length <= 1
