@@ -79,7 +79,7 @@ def test_the_index_sum_is_the_euler_characteristic(holes):
     assert (f.w[f.tri[winds]] >= FULL).all()
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=8, deadline=None)
 @given(phi=st.floats(-math.pi, math.pi), seed=st.integers(0, 10_000))
 def test_the_harmonic_solve_turns_and_mirrors_with_its_data(phi, seed):
     pts, tri = _grid_mesh(6)
@@ -98,14 +98,27 @@ def test_the_harmonic_solve_turns_and_mirrors_with_its_data(phi, seed):
     assert (np.abs(z) <= 1 + 1e-9).all()
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(a=st.floats(-10, 10), lo=st.floats(-10, 10), w=st.floats(0.01, 6.2))
 def test_the_clamp_into_a_run_is_the_nearest_point_of_the_inner_arc(a, lo, w):
     got = float(_clamp(np.array([a]), np.array([lo]), np.array([w]))[0])
     m = min(math.radians(20), w / 4)
-    grid = lo + m + np.linspace(0, w - 2 * m, 20001)  # the inner arc, densely
+    grid = lo + m + np.linspace(0, w - 2 * m, 4001)  # the inner arc, densely
     dist = np.abs(np.mod(grid - a + math.pi, math.tau) - math.pi)
     d_got = abs((got - a + math.pi) % math.tau - math.pi)
-    assert d_got <= dist.min() + 1e-3
+    assert d_got <= dist.min() + 2e-3
     assert (got - lo - m) % math.tau <= w - 2 * m + 1e-9 or \
         abs((got - lo - m + math.pi) % math.tau - math.pi) < 1e-9
+
+
+@pytest.mark.slow
+def test_the_floor_plan_index_sum_is_its_euler_characteristic():
+    """With passages (the runs along them only) the sum still counts the holes: the gap keeps
+    to the walls on every wall the arcs are not along."""
+    from tether.examples.floorplan import floor_plan
+
+    env = floor_plan(20, seed=0)
+    s = env.frame.scale
+    kern = surveillance_kernel(env.internal, 0.3 * s, 0.3, 1.0, h=0.15 * s, orientations=180)
+    f, z = direction_field(kern)
+    assert singularities(z, f.tri).sum() == 1 - len(env.polygon.interiors) == -3
