@@ -32,14 +32,16 @@ from tether.game.kernel import surveillance_kernel
 from tether.game.refine import refine_certified
 
 
-def search(env, lss: float, vt: float, vo: float, h: float, core: float) -> CertifiedKernel:
-    """The search from the direction field with the one core size ``core``, in the map's
-    normalized frame as ``certified_kernel``'s."""
+def search(env, lss: float, vt: float, vo: float, h: float, core: float,
+           directions: bool = True) -> CertifiedKernel:
+    """The search from the direction field (``directions``; else from ``solve_field``'s own
+    first field alone, the control) with the one core size ``core``, in the map's normalized
+    frame as ``certified_kernel``'s."""
     t0 = time.perf_counter()
     frame, space = env.frame, env.internal
     s = frame.scale
     kern = surveillance_kernel(space, lss * s, vt / vo, 1.0, h=h * s, orientations=180)
-    start, _ = direction_field(kern)
+    start = direction_field(kern)[0] if directions else None
     f, checks, log = solve_field(space, kern, lss * s, vt / vo, 1.0, tries=(core,),
                                  start=start)
     for rec in log:
@@ -74,6 +76,8 @@ def main() -> None:
     ap.add_argument("--h", type=float, default=0.15, help="mesh spacing (m)")
     ap.add_argument("--core", default="0", help="core size, units of vortex_radius (exact)")
     ap.add_argument("--rounds", type=int, default=4, help="local refinement rounds at most")
+    ap.add_argument("--control", action="store_true",
+                    help="search from solve_field's own first field only (no direction field)")
     ap.add_argument("--save", help="write the field here (CertifiedKernel.save)")
     ap.add_argument("--singularities", action="store_true",
                     help="print where the direction field winds, only")
@@ -84,7 +88,8 @@ def main() -> None:
         print("\n".join(where_it_winds(env, args.lss, args.ratio, args.h)))
         return
     c0, w0 = time.process_time(), time.perf_counter()
-    ck = search(env, args.lss, args.ratio, 1.0, args.h, float(Fraction(args.core)))
+    ck = search(env, args.lss, args.ratio, 1.0, args.h, float(Fraction(args.core)),
+                not args.control)
     if ck.checks is None:
         raise SystemExit(f"no first field: {ck.log[-1]}")
     print(f"search: {len(ck.field.points)} vertices, failing {ck.checks.counts()}, "
