@@ -5,8 +5,8 @@ narrow passages) instead of :func:`~tether.game.certificate.first_field`'s (``do
 
 The search is :func:`~tether.game.field_lp.solve_field` with ``start`` the direction field and
 one core size (``--core``, units of :func:`~tether.game.field_lp.vortex_radius`); then rounds
-of :func:`~tether.game.refine.refine_certified` (``search_ring=2``) until it is certified (at
-most ``--rounds``). Whatever it prints as certified was passed by
+of :func:`~tether.game.refine.refine_certified` (``search_ring=2``, ``gallery_fields.repair``)
+until it is certified (at most ``--rounds``). Whatever it prints as certified was passed by
 :func:`~tether.game.certificate.certify`; a saved file is certified again when read.
 
 Usage::
@@ -23,13 +23,13 @@ from fractions import Fraction
 
 import numpy as np
 import shapely
+from gallery_fields import repair  # docs/, next to this script
 
 from tether.examples.floorplan import floor_plan
 from tether.game.certified import CertifiedKernel
 from tether.game.directions import direction_field, singularities
 from tether.game.field_lp import solve_field, vortex_radius
 from tether.game.kernel import surveillance_kernel
-from tether.game.refine import refine_certified
 
 
 def search(env, lss: float, vt: float, vo: float, h: float, core: float,
@@ -94,23 +94,15 @@ def main() -> None:
         raise SystemExit(f"no first field: {ck.log[-1]}")
     print(f"search: {len(ck.field.points)} vertices, failing {ck.checks.counts()}, "
           f"{time.process_time() - c0:.0f} CPU s", flush=True)
-    outer = surveillance_kernel(env, args.lss, args.ratio, 1.0, h=args.h, orientations=180,
-                                scheme="outer")
-    for k in range(args.rounds):
-        if ck.certified:
-            break
-        ck = refine_certified(ck, outer, max_rounds=1, search_ring=2)
-        print(f"round {k + 1}: {len(ck.field.points)} vertices, failing "
-              f"{ck.checks.counts()}, {time.process_time() - c0:.0f} CPU s", flush=True)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    print(f"certified {ck.certified}, {len(ck.field.points)} vertices, {cpu:.0f} CPU s, "
-          f"{wall:.0f} s wall")
+    ck = repair(ck, args.rounds)  # gallery_fields' rounds of local refinement
+    done = {"certified": ck.certified, "vertices": len(ck.field.points),
+            "cpu_s": round(time.process_time() - c0), "wall_s": round(time.perf_counter() - w0)}
     if ck.certified:
         frac, err = ck.safe_fraction(20_000)
-        print(f"certified share of the free states {100 * frac:.1f} ± {100 * err:.1f} %")
+        done["share_%"] = f"{100 * frac:.1f} ± {100 * err:.1f}"
+    print(done)
     if args.save:
         ck.save(args.save)
-
 
 if __name__ == "__main__":
     main()
