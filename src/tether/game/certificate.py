@@ -59,7 +59,8 @@ from tether.game.cells import (
 
 __all__ = ["MARGIN", "STAR_SPLITS", "W_MIN", "ArcField", "Checks", "bisect", "certify",
            "end_slack", "first_field", "free_mesh", "hat_gradients", "heading_window_min",
-           "lifted_ends", "longest_edge_first", "sight_widening", "window_min", "window_min_at",
+           "lifted_ends", "longest_edge_first", "runs_toward", "sight_widening", "star_bins",
+           "window_min", "window_min_at",
            "interpolate_field"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
@@ -358,10 +359,10 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     away = ends[:, 0] - ends[:, 1]
     pref = np.mod(np.round(np.arctan2(away[:, 1], away[:, 0]) / grid.delta),
                   grid.n_a).astype(int)
-    start, length, full = _runs_toward(bins, pref)
+    start, length, full = runs_toward(bins, pref)
     thin = length <= 1  # the grid kernel leaves no arc free from the whole star here: start
     if thin.any():  # from the free bins alone (the search and the checks decide)
-        s2, l2, f2 = _runs_toward(star_free[thin], pref[thin])
+        s2, l2, f2 = runs_toward(star_free[thin], pref[thin])
         start[thin], length[thin], full[thin] = s2, l2, f2
     lo = start * grid.delta
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
@@ -395,7 +396,7 @@ def star_bins(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: flo
     return kern.kernel[near] & star_free, star_free
 
 
-def _runs_toward(kernel: np.ndarray, pref: np.ndarray
+def runs_toward(kernel: np.ndarray, pref: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row of ``kernel`` (bins), the circular run of ``True`` holding bin ``pref`` or the
     first one counter-clockwise of it: ``(start, length, full)`` in bins (length 0: none)."""

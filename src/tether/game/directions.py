@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.sparse.linalg import spsolve
 from scipy.spatial import cKDTree
 
-from tether.game.certificate import ArcField, _runs_toward, first_field, star_bins
+from tether.game.certificate import ArcField, first_field, runs_toward, star_bins
 from tether.game.field_lp import aligned_radius, vortex_radius
 
 __all__ = ["ALONG", "CLEARANCE_POWER", "PIN_PULL", "PIN_START", "RUN_MARGIN", "STIFF",
@@ -202,7 +202,7 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
     free = np.zeros(len(pts), bool)
     z = harmonic_directions(pts, tri, clear, free, value, power,  # the pins weak: the
                             np.where(fixed, PIN_PULL * PIN_START, 0.0), value, stiff)  # open
-    s0, n0, _ = _runs_toward(rows, np.mod(np.round(np.angle(value) / grid.delta),
+    s0, n0, _ = runs_toward(rows, np.mod(np.round(np.angle(value) / grid.delta),
                                           grid.n_a).astype(int))
     run_lo, run_w = s0 * grid.delta, np.maximum(n0 - 1, 0) * grid.delta
     for k in range(UNIT_STEPS):  # towards unit length, and into the runs (not their middle),
@@ -213,10 +213,10 @@ def direction_field(kern, grow: float = 0.0, power: float = CLEARANCE_POWER
         target = np.where(fixed | (np.abs(z) > 0), np.exp(1j * a), 0)
         z = harmonic_directions(pts, tri, clear, free, value, power, pull, target, stiff)
     pref = np.mod(np.round(np.angle(z) / grid.delta), grid.n_a).astype(int)
-    start, length, full = _runs_toward(bins, pref)
+    start, length, full = runs_toward(bins, pref)
     short = length <= 1
     if short.any():
-        s2, l2, f2 = _runs_toward(star_free[short], pref[short])
+        s2, l2, f2 = runs_toward(star_free[short], pref[short])
         start[short], length[short], full[short] = s2, l2, f2
     lo = np.where(full, np.mod(np.angle(z) + math.pi, _TAU), start * grid.delta)
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
