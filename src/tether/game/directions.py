@@ -11,18 +11,28 @@ passage narrower than about ``2·lss`` (no core fits there). Here the arcs' *run
 spirit of Knöppel, Crane, Pinkall and Schröder ("Globally optimal direction fields", 2013):
 
 - a vertex whose free orientations (:func:`~tether.game.certificate.star_bins`) form one run
-  has ``d`` fixed at the run's middle (near a wall: away from it);
-- a vertex with two or more runs (a passage, where the rods along it are free and those across
-  it are not) is left free in a first solve, then fixed at the middle of the run nearest the
-  direction that solve gives it (a *line* constraint whose sign the field chooses);
-- whole-circle vertices are free: ``d`` there minimizes ``Σ w_e·|d_i − d_j|²`` over the mesh's
-  edges, with ``w_e = (ℓ/c_e)²`` (``c_e`` the clearance at the edge's middle, ``ℓ`` the mean
-  edge length; both map units, so the weights are scale-free). Turning is dear near walls and
-  cheap in the open, so the zeros of ``d`` (its singularities) move to the largest clear
-  regions, where a core fits.
+  is pinned into that run (:data:`RUN_MARGIN` inside its ends; its middle only starts the
+  iteration);
+- in a passage narrower than twice the clearance a core needs (:func:`core_clearance` plus
+  the mesh spacing, measured straight across from the nearest wall) a vertex keeps only the
+  runs *along* the passage (within :data:`ALONG`); where that leaves two runs (both ways
+  along), one is chosen per passage by a breadth-first walk through it from the direction a
+  first solve gives (a *line* constraint whose sign the field chooses once per passage);
+- whole-circle vertices are free.
+
+``d`` minimizes ``Σ w_e·|d_i − d_j|²`` over the mesh's edges, ``w_e = (ℓ/c_e)^p`` (``c_e``
+the clearance at the edge's middle, ``ℓ`` the mean edge length, ``p`` =
+:data:`CLEARANCE_POWER`; scale-free), :data:`STIFF` times more where no core fits, plus the
+pins, in :data:`UNIT_STEPS` steps: each pulls the free vertices towards unit length (a
+harmonic field between opposite walls passes through zero, a unit one turns) and each pin
+into its run, the pins weak at first (:data:`PIN_START`) and growing to :data:`PIN_PULL`.
+Turning is dear near walls and cheap in the open, so the zeros of ``d`` (its singularities)
+should move to the clear regions; ``docs/certified.md`` says where they do and where they do
+not (a saddle a passage forces stays at its mouth).
 
 The arcs are then the runs holding ``d`` (as :func:`~tether.game.certificate.first_field`
-takes the run holding its direction), and the gap of a whole-circle vertex is at ``−d``. The
+takes the run holding its direction), centred on ``d`` where it lies in its run, and the gap
+of a whole-circle vertex is at ``−d``: the gap follows the singularities. The
 mesh is :func:`~tether.game.certificate.first_field`'s, so the field can be handed to
 :func:`~tether.game.field_lp.solve_field` as ``start`` or to
 :func:`~tether.game.field_lp.lp_field`. Like any first field it proves nothing:
