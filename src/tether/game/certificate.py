@@ -59,8 +59,9 @@ from tether.game.cells import (
 
 __all__ = ["MARGIN", "STAR_SPLITS", "W_MIN", "ArcField", "Checks", "bisect", "certify",
            "end_fails", "end_slack", "first_field", "free_mesh", "hat_gradients",
-           "heading_window_min", "lifted_ends", "longest_edge_first", "sight_widening",
-           "window_floor", "window_min", "window_min_at", "interpolate_field"]
+           "heading_window_min", "lifted_ends", "longest_edge_first", "runs_toward",
+           "sight_widening", "star_bins", "window_floor", "window_min", "window_min_at",
+           "interpolate_field"]
 
 #: Slack every end condition must keep, in ``lss·rate`` (map units per second): room for the
 #: rounding of the checks' own arithmetic.
@@ -350,21 +351,8 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     grid = kern.grid
     env = grid.env
     nv = len(pts)
-    lo_xy = np.full((nv, 2), np.inf)
-    hi_xy = np.full((nv, 2), -np.inf)
     corners = pts[tri]
-    grown = grow_triangles(corners, grow) if grow > 0 else corners
-    for j in range(3):
-        np.minimum.at(lo_xy, tri[:, j], grown.min(axis=1))
-        np.maximum.at(hi_xy, tri[:, j], grown.max(axis=1))
-    star_free, _ = cell_free_bins(env, np.column_stack([lo_xy, hi_xy]), kern.lss + grow,
-                                  grid.n_a)
-    if grow > 0:  # a bin is kept when every bin within the widening is free
-        m = math.ceil(sight_widening(grow, kern.lss) / grid.delta)
-        star_free = np.logical_and.reduce([np.roll(star_free, k, axis=1)
-                                           for k in range(-m, m + 1)])
-    near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
-    bins = kern.kernel[near] & star_free
+    bins, star_free = star_bins(kern, pts, tri, src, grow)
     centre = np.zeros((nv, 2))
     count = np.zeros(nv)
     for j in range(3):
@@ -376,10 +364,10 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     away = ends[:, 0] - ends[:, 1]
     pref = np.mod(np.round(np.arctan2(away[:, 1], away[:, 0]) / grid.delta),
                   grid.n_a).astype(int)
-    start, length, full = _runs_toward(bins, pref)
+    start, length, full = runs_toward(bins, pref)
     thin = length <= 1  # the grid kernel leaves no arc free from the whole star here: start
     if thin.any():  # from the free bins alone (the search and the checks decide)
-        s2, l2, f2 = _runs_toward(star_free[thin], pref[thin])
+        s2, l2, f2 = runs_toward(star_free[thin], pref[thin])
         start[thin], length[thin], full[thin] = s2, l2, f2
     lo = start * grid.delta
     w = np.where(full, _TAU, np.maximum(length - 1, 0) * grid.delta)
@@ -388,7 +376,32 @@ def _first_arcs(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: f
     return ArcField(pts, tri, _smooth_gaps(lo, w, edges), w)
 
 
-def _runs_toward(kernel: np.ndarray, pref: np.ndarray
+def star_bins(kern, pts: np.ndarray, tri: np.ndarray, src: np.ndarray, grow: float = 0.0
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex of the mesh ``(pts, tri)``, the orientation bins of ``kern``'s grid free from
+    every point of the vertex's star (``star_free``, (n, n_a) bool; with a sensing delay as in
+    :func:`first_field`) and those also in ``kern`` at its lattice point (``src``, -1: the
+    nearest one): ``(bins, star_free)``."""
+    grid = kern.grid
+    nv = len(pts)
+    lo_xy = np.full((nv, 2), np.inf)
+    hi_xy = np.full((nv, 2), -np.inf)
+    corners = pts[tri]
+    grown = grow_triangles(corners, grow) if grow > 0 else corners
+    for j in range(3):
+        np.minimum.at(lo_xy, tri[:, j], grown.min(axis=1))
+        np.maximum.at(hi_xy, tri[:, j], grown.max(axis=1))
+    star_free, _ = cell_free_bins(grid.env, np.column_stack([lo_xy, hi_xy]), kern.lss + grow,
+                                  grid.n_a)
+    if grow > 0:  # a bin is kept when every bin within the widening is free
+        m = math.ceil(sight_widening(grow, kern.lss) / grid.delta)
+        star_free = np.logical_and.reduce([np.roll(star_free, k, axis=1)
+                                           for k in range(-m, m + 1)])
+    near = np.where(src >= 0, src, cKDTree(grid.points).query(pts)[1])
+    return kern.kernel[near] & star_free, star_free
+
+
+def runs_toward(kernel: np.ndarray, pref: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row of ``kernel`` (bins), the circular run of ``True`` holding bin ``pref`` or the
     first one counter-clockwise of it: ``(start, length, full)`` in bins (length 0: none)."""
