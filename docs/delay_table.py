@@ -16,10 +16,10 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import re
 from pathlib import Path
 
 import numpy as np
+from doc_tables import write_between  # docs/, next to this script
 
 from tether.examples import path as example_path
 from tether.game.controller import CertifiedController
@@ -98,11 +98,7 @@ def main() -> None:
         table(args.ratios, [0.0, 0.5], 1, 3.0)
         return
     body = table(args.ratios, parse_lss_range(args.delays), 3, 15.0)
-    doc = DOCS / "certified.md"
-    text = doc.read_text()
-    new = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END), lambda m: f"{BEGIN}\n{body}\n{END}",
-                 text, flags=re.S)
-    doc.write_text(new)
+    write_between(DOCS / "certified.md", BEGIN, END, body)
 
 
 if __name__ == "__main__":

@@ -21,11 +21,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import time
 from pathlib import Path
 
 import numpy as np
+from doc_tables import write_between  # docs/, next to this script
 
 from tether.analysis import analyze
 from tether.analysis import is_safe as paper_is_safe
@@ -106,12 +106,7 @@ def main() -> None:
     body = "\n".join(rows(args.samples, skip))
     if args.print_only:
         return
-    doc = DOCS / "certified.md"
-    text = doc.read_text()
-    if BEGIN not in text:
-        raise SystemExit(f"{doc}: no {BEGIN} marker")
-    doc.write_text(re.sub(re.escape(BEGIN) + ".*?" + re.escape(END),
-                          lambda m: f"{BEGIN}\n{body}\n{END}", text, flags=re.S))
+    write_between(DOCS / "certified.md", BEGIN, END, body)
 
 
 if __name__ == "__main__":
